@@ -1,0 +1,11 @@
+//! The coordinator: gradient estimation, virtual-body motion and formation design.
+//!
+//! [`planner::Planner::step`] is the whole decision of a tick (least squares + Kalman
+//! filter, speed law (IV.4), direction ±∇T_est, resolution adaptation dk/ds, formation
+//! redesign when the fleet changes) and never sees iceoryx2. [`record::Recorder`] turns
+//! ticks into the run-directory files and the summary, with ground truth the planner
+//! never sees. [`run`] wires the ports.
+
+pub mod planner;
+pub mod record;
+pub mod run;

@@ -1,0 +1,327 @@
+//! The coordinator's pure step.
+
+use shared::config::{Goal, Mission};
+use shared::math::adapt::{dk_ds, NoiseEstimator};
+use shared::math::body::{BodyRates, VirtualBody};
+use shared::math::estimate::least_squares;
+use shared::math::formation::{design_regular, FormationDesign, FormationError};
+use shared::math::kalman::GradientFilter;
+use shared::math::lyapunov::{lyapunov_terms, LyapunovTerms};
+use shared::math::optimal::optimal_scale;
+use shared::math::potential::PairPotential;
+use shared::math::speed::formation_speed;
+use shared::math::{Mat3, Vec3};
+
+/// One vehicle's report for a tick, as the coordinator received it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Report {
+    /// Vehicle id.
+    pub id: u32,
+    /// Position x_i at the tick, length unit.
+    pub position: Vec3,
+    /// Velocity, length unit/s.
+    pub velocity: Vec3,
+    /// Sensor reading T_m(x_i), field unit.
+    pub measurement: f64,
+}
+
+/// The planner's tunables, taken from the mission file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannerParams {
+    pub dim: usize,
+    pub goal: Goal,
+    pub radius: f64,
+    pub alpha: f64,
+    pub damping: f64,
+    pub adapt: bool,
+    pub adapt_gain: f64,
+    pub min_scale: f64,
+    pub max_scale: f64,
+    pub sigma_h: f64,
+    pub hessian_guess: Mat3,
+    pub v0: f64,
+    pub v_u: f64,
+    pub delta: f64,
+    pub grad_saturation: f64,
+    pub kalman_b: f64,
+    pub sigma_m: Option<f64>,
+    pub sigma_m_prior: f64,
+    pub initial_variance: f64,
+}
+
+impl PlannerParams {
+    /// The planner's view of a mission (no ground truth in here).
+    pub fn from_mission(m: &Mission) -> Self {
+        Self {
+            dim: m.mission.dim,
+            goal: m.mission.goal,
+            radius: m.formation.radius,
+            alpha: m.formation.alpha,
+            damping: m.vehicles.damping,
+            adapt: m.formation.adapt,
+            adapt_gain: m.formation.adapt_gain,
+            min_scale: m.formation.min_scale,
+            max_scale: m.formation.max_scale,
+            sigma_h: m.formation.sigma_h,
+            hessian_guess: m.hessian_guess_mat(),
+            v0: m.body.v0,
+            v_u: m.body.v_u,
+            delta: m.body.delta,
+            grad_saturation: m.body.grad_saturation,
+            kalman_b: m.estimator.kalman_b,
+            sigma_m: m.estimator.sigma_m,
+            sigma_m_prior: m.field.noise_std,
+            initial_variance: m.estimator.initial_variance,
+        }
+    }
+}
+
+/// What the planner decided for one tick: the virtual body the agents steer by for the
+/// step from this tick to the next, and what the run directory records.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Command {
+    /// The virtual body at this tick (s_k, r_k, R_k, k_k).
+    pub body: VirtualBody,
+    /// Formation speed ṡ (IV.4); 0 when holding.
+    pub sdot: f64,
+    /// Virtual leader positions b_l(s_k) (III.3).
+    pub leaders: Vec<Vec3>,
+    /// Scaled inter-vehicle potential.
+    pub inter: PairPotential,
+    /// Scaled vehicle–leader potential.
+    pub leader: PairPotential,
+    /// Damping gain of (II.1), 1/s.
+    pub damping: f64,
+    /// V, ∂V/∂s, (∂V/∂x)ᵀẋ at this tick.
+    pub terms: LyapunovTerms,
+    /// The filtered gradient estimate ∇T_KF at r_k (zero before the first estimate).
+    pub grad_est: Vec3,
+    /// True when the body holds position (fewer than dim + 1 vehicles).
+    pub holding: bool,
+    /// True when the least-squares estimate of this tick failed (rank, too few).
+    pub estimate_failed: bool,
+    /// True when the formation was redesigned at this tick.
+    pub reconfigured: bool,
+    /// Vehicles in the formation at this tick, ordered by id.
+    pub members: Vec<u32>,
+}
+
+/// Errors of the planner.
+#[derive(Debug, thiserror::Error)]
+pub enum PlannerError {
+    /// No formation could be designed for the vehicles left.
+    #[error("formation design for {n} vehicles: {source}")]
+    Design { n: usize, source: FormationError },
+}
+
+/// The coordinator's state: virtual body, formation design, filter.
+#[derive(Clone, Debug)]
+pub struct Planner {
+    params: PlannerParams,
+    design: FormationDesign,
+    members: Vec<u32>,
+    body: VirtualBody,
+    filter: Option<GradientFilter>,
+    noise: NoiseEstimator,
+    last_r: Vec3,
+    reconfigurations: usize,
+}
+
+impl Planner {
+    /// A planner with the virtual body at `start`, for the vehicles `ids`.
+    pub fn new(params: PlannerParams, start: Vec3, ids: &[u32]) -> Result<Self, PlannerError> {
+        let design = design_regular(
+            ids.len(),
+            params.dim,
+            params.radius,
+            params.alpha,
+            params.alpha,
+        )
+        .map_err(|source| PlannerError::Design {
+            n: ids.len(),
+            source,
+        })?;
+        let noise = NoiseEstimator::new(params.sigma_m_prior, 10.0);
+        Ok(Self {
+            params,
+            design,
+            members: ids.to_vec(),
+            body: VirtualBody {
+                s: 0.0,
+                r: start,
+                rotation: nalgebra::Rotation3::identity(),
+                scale: 1.0,
+            },
+            filter: None,
+            noise,
+            last_r: start,
+            reconfigurations: 0,
+        })
+    }
+
+    /// The current virtual body.
+    pub fn body(&self) -> &VirtualBody {
+        &self.body
+    }
+    /// The current formation design.
+    pub fn design(&self) -> &FormationDesign {
+        &self.design
+    }
+    /// The gradient filter, once the first estimate was made.
+    pub fn filter(&self) -> Option<&GradientFilter> {
+        self.filter.as_ref()
+    }
+    /// The σ_M in use (configured, or estimated online from residuals).
+    pub fn sigma_m(&self) -> f64 {
+        self.params.sigma_m.unwrap_or_else(|| self.noise.sigma())
+    }
+    /// How many times the formation was redesigned.
+    pub fn reconfigurations(&self) -> usize {
+        self.reconfigurations
+    }
+
+    /// One tick: `reports` are the vehicles in the formation at this tick, ordered by id,
+    /// with states and readings at this tick. `dt` is the tick length, s.
+    pub fn step(&mut self, reports: &[Report], dt: f64) -> Result<Command, PlannerError> {
+        let p = &self.params;
+        let dim = p.dim;
+        let ids: Vec<u32> = reports.iter().map(|r| r.id).collect();
+        let mut reconfigured = false;
+        if ids != self.members {
+            if !reports.is_empty() {
+                self.design = design_regular(ids.len(), dim, p.radius, p.alpha, p.alpha).map_err(
+                    |source| PlannerError::Design {
+                        n: ids.len(),
+                        source,
+                    },
+                )?;
+            }
+            self.members = ids.clone();
+            self.reconfigurations += 1;
+            reconfigured = true;
+        }
+
+        let r = self.body.r;
+        let rel: Vec<Vec3> = reports.iter().map(|q| q.position - r).collect();
+        let y: Vec<f64> = reports.iter().map(|q| q.measurement).collect();
+        let holding = reports.len() < dim + 1;
+
+        // Gradient estimate: least squares (Lemma 5.1) into the Kalman filter (Lemma 5.4,
+        // Remark 5.8: time-varying C, measurements at their true positions).
+        let mut estimate_failed = false;
+        let shift = r - self.last_r;
+        self.last_r = r;
+        if let Some(f) = self.filter.as_mut() {
+            f.predict(dt, p.kalman_b, &shift);
+        }
+        if holding {
+            estimate_failed = true;
+        } else {
+            match least_squares(dim, &rel, &y) {
+                Ok(ls) => {
+                    self.noise.observe(&ls);
+                    let sigma_m = p.sigma_m.unwrap_or_else(|| self.noise.sigma());
+                    let var: Vec<f64> = rel
+                        .iter()
+                        .map(|q| {
+                            let curv = 0.5 * q.dot(&(p.hessian_guess * q)) * p.sigma_h;
+                            sigma_m * sigma_m + curv * curv
+                        })
+                        .collect();
+                    match self.filter.as_mut() {
+                        None => {
+                            self.filter = Some(GradientFilter::new(dim, &ls, p.initial_variance))
+                        }
+                        Some(f) => {
+                            if f.update(&rel, &y, &var).is_err() {
+                                estimate_failed = true;
+                            }
+                        }
+                    }
+                }
+                Err(_) => estimate_failed = true,
+            }
+        }
+        let grad_est = self
+            .filter
+            .as_ref()
+            .map(|f| f.grad())
+            .unwrap_or_else(Vec3::zeros);
+
+        // Direction of motion (Sec. V): dr/ds = ±∇T_est, saturated to a unit vector above
+        // grad_saturation so v0 is a speed in length unit/s.
+        let sign = match p.goal {
+            Goal::Max => 1.0,
+            Goal::Min => -1.0,
+        };
+        let gnorm = grad_est.norm();
+        let dr_ds = if holding || gnorm == 0.0 {
+            Vec3::zeros()
+        } else {
+            grad_est * (sign / gnorm.max(p.grad_saturation))
+        };
+        // Resolution adaptation dk/ds = -a(k d̄0 - Δd), Δd = k* d̄0 from (V.7) at scale.
+        let dk = if p.adapt && !holding {
+            let sigma_m = self.sigma_m();
+            match optimal_scale(
+                &self.design.slots,
+                dim,
+                &p.hessian_guess,
+                p.sigma_h,
+                sigma_m,
+            ) {
+                Ok((k_star, _g)) if k_star.is_finite() => {
+                    let d0_bar = self.design.neighbour_spacing();
+                    let target = k_star.clamp(p.min_scale, p.max_scale) * d0_bar;
+                    dk_ds(self.body.scale, d0_bar, target, p.adapt_gain)
+                }
+                _ => 0.0,
+            }
+        } else {
+            0.0
+        };
+        let rates = BodyRates {
+            dr_ds,
+            omega_ds: Vec3::zeros(),
+            dk_ds: dk,
+        };
+
+        let positions: Vec<Vec3> = reports.iter().map(|q| q.position).collect();
+        let velocities: Vec<Vec3> = reports.iter().map(|q| q.velocity).collect();
+        let terms = lyapunov_terms(
+            &positions,
+            &velocities,
+            &self.body,
+            &rates,
+            &self.design,
+            p.damping,
+        );
+        let sdot = if holding {
+            0.0
+        } else {
+            formation_speed(&terms, p.v0, p.v_u, p.delta)
+        };
+
+        let command = Command {
+            body: self.body,
+            sdot,
+            leaders: self.body.leader_positions(&self.design),
+            inter: self.body.scaled_inter(&self.design),
+            leader: self.body.scaled_leader(&self.design),
+            damping: p.damping,
+            terms,
+            grad_est,
+            holding,
+            estimate_failed,
+            reconfigured,
+            members: ids,
+        };
+        let mut next = self.body.advance(&rates, sdot * dt);
+        next.scale = next.scale.clamp(p.min_scale, p.max_scale);
+        if dim == 2 {
+            next.r.z = 0.0;
+        }
+        self.body = next;
+        Ok(command)
+    }
+}

@@ -1,0 +1,368 @@
+//! The `vbap` command line (DESIGN §8). Exit codes: 0 success, 1 runtime failure,
+//! 2 invalid input.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::{Args, Parser, Subcommand};
+use shared::config::{Mission, Overrides, Pace};
+use shared::math::Mat3;
+use shared::process::{EXIT_FAILURE, EXIT_INVALID, EXIT_OK};
+use shared::rundir::{RunDir, Summary};
+
+/// Virtual bodies and artificial potentials: cooperative gradient climbing by a fleet of
+/// vehicles, one OS process each, over iceoryx2 shared memory.
+#[derive(Parser, Debug)]
+#[command(name = "vbap", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Run a mission as a multi-process system (field server, coordinator, N agents).
+    Run(RunArgs),
+    /// Run a mission in one process (the reference simulator).
+    Sim(RunArgs),
+    /// Validate a mission file (exit 0 valid, 2 invalid).
+    Check {
+        /// The mission file.
+        mission: PathBuf,
+    },
+    /// Optimal formation (V.7): g, positions, radius, second moments.
+    Formation(FormationArgs),
+    /// Timing analysis of a run from its tracing logs.
+    Analyze {
+        /// The run directory.
+        run_dir: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Args, Debug)]
+struct RunArgs {
+    /// The mission file.
+    mission: PathBuf,
+    /// Run directory (default: runs/<mission>-<UTC timestamp>/).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Override mission.seed.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Override vehicles.count.
+    #[arg(long)]
+    vehicles: Option<usize>,
+    /// Override mission.duration, s.
+    #[arg(long)]
+    duration: Option<f64>,
+    /// Override mission.pace: "lockstep" or a real-time factor (> 0).
+    #[arg(long)]
+    pace: Option<String>,
+    /// Do not show the progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+#[derive(Args, Debug)]
+struct FormationArgs {
+    /// Number of vehicles.
+    #[arg(long)]
+    n: usize,
+    /// Dimension, 2 or 3.
+    #[arg(long, default_value_t = 2)]
+    dim: usize,
+    /// σ_M, the sensor noise standard deviation.
+    #[arg(long, default_value_t = 1.0)]
+    sigma_m: f64,
+    /// σ_H, the standard deviation of the Hessian factor.
+    #[arg(long, default_value_t = 1.0)]
+    sigma_h: f64,
+    /// The Hessian guess H: h11,h12,h21,h22 (2-D) or 9 numbers row by row (3-D). Default I.
+    #[arg(long, allow_hyphen_values = true)]
+    hessian: Option<String>,
+    /// Seed of the multi-start search.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+/// An error that is the user's input (exit 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct InvalidInput(pub String);
+
+/// Runs the command line; returns the exit code.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() {
+                EXIT_INVALID
+            } else {
+                EXIT_OK
+            };
+            let _ = e.print();
+            return code;
+        }
+    };
+    let _log = shared::telemetry::init_with("vbap", None, "warn");
+    match dispatch(cli.command) {
+        Ok(code) => code,
+        Err(e) => {
+            if let Some(inv) = e.downcast_ref::<InvalidInput>() {
+                eprintln!("vbap: {inv}");
+                EXIT_INVALID
+            } else if let Some(cfg) = e.downcast_ref::<shared::config::ConfigError>() {
+                eprintln!("vbap: {cfg}");
+                EXIT_INVALID
+            } else {
+                eprintln!("vbap: {e:#}");
+                EXIT_FAILURE
+            }
+        }
+    }
+}
+
+fn dispatch(cmd: Cmd) -> Result<i32> {
+    match cmd {
+        Cmd::Check { mission } => {
+            let m = Mission::load(&mission)?;
+            println!(
+                "{}: valid ({} vehicles, {} ticks, dim {})",
+                mission.display(),
+                m.vehicles.count,
+                m.ticks(),
+                m.mission.dim
+            );
+            Ok(EXIT_OK)
+        }
+        Cmd::Sim(args) => {
+            let (mission, dir) = prepare(&args)?;
+            let show = !args.quiet && std::io::stderr().is_terminal();
+            let bar = indicatif::ProgressBar::new(mission.ticks());
+            if !show {
+                bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+            }
+            let mut progress = |k: u64, _n: u64, t: f64, d: Option<f64>| {
+                bar.set_position(k);
+                bar.set_message(format!(
+                    "t = {t:.1} s, distance {}",
+                    d.map_or("n/a".into(), |d| format!("{d:.3}"))
+                ));
+            };
+            let summary = crate::sim::simulate(&mission, &dir, &mut progress)?;
+            bar.finish_and_clear();
+            print_summary(&summary, &dir)?;
+            Ok(EXIT_OK)
+        }
+        Cmd::Run(args) => {
+            let (mission, dir) = prepare(&args)?;
+            let runtime = tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()?;
+            let outcome = runtime.block_on(crate::supervise::run(&mission, &dir, !args.quiet))?;
+            match (&outcome.summary, outcome.interrupted) {
+                (_, true) => {
+                    eprintln!(
+                        "vbap: interrupted; partial run directory {}",
+                        dir.root.display()
+                    );
+                    Ok(130)
+                }
+                (Some(s), false) if outcome.coordinator_ok => {
+                    print_summary(s, &dir)?;
+                    Ok(EXIT_OK)
+                }
+                _ => {
+                    eprintln!("vbap: the run failed; see {}/logs", dir.root.display());
+                    Ok(EXIT_FAILURE)
+                }
+            }
+        }
+        Cmd::Formation(args) => formation(&args),
+        Cmd::Analyze { run_dir, json } => {
+            if !run_dir.join("logs").is_dir() {
+                return Err(InvalidInput(format!(
+                    "{}: not a run directory (no logs/)",
+                    run_dir.display()
+                ))
+                .into());
+            }
+            let dir = RunDir { root: run_dir };
+            let report = crate::analyze::analyze(&dir)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                println!(
+                    "{:<14} {:>9} {:>10} {:>10} {:>10} {:>10}",
+                    "hop", "delivered", "p50 µs", "p90 µs", "p99 µs", "max µs"
+                );
+                for (hop, h) in &report.hops {
+                    let p = h.transport_us;
+                    println!(
+                        "{hop:<14} {:>9} {:>10.1} {:>10.1} {:>10.1} {:>10.1}",
+                        h.delivered, p.p50, p.p90, p.p99, p.max
+                    );
+                }
+                println!("late ticks: {}", report.late_ticks);
+            }
+            Ok(EXIT_OK)
+        }
+    }
+}
+
+/// Loads the mission with the command-line overrides, creates the run directory and
+/// writes the resolved `mission.toml` into it.
+fn prepare(args: &RunArgs) -> Result<(Mission, RunDir)> {
+    let pace = match args.pace.as_deref() {
+        None => None,
+        Some("lockstep") => Some(Pace::Lockstep),
+        Some(p) => match p.parse::<f64>() {
+            Ok(f) if f.is_finite() && f > 0.0 => Some(Pace::Factor(f)),
+            _ => {
+                return Err(InvalidInput(format!(
+                    "--pace {p}: must be \"lockstep\" or a number > 0"
+                ))
+                .into())
+            }
+        },
+    };
+    let overrides = Overrides {
+        seed: args.seed,
+        vehicles: args.vehicles,
+        duration: args.duration,
+        pace,
+    };
+    let mission = Mission::load(&args.mission)?.with_overrides(&overrides)?;
+    let root = match &args.out {
+        Some(p) => p.clone(),
+        None => default_run_dir(&mission.mission.name)?,
+    };
+    let dir = RunDir::create(&root)
+        .map_err(|e| InvalidInput(format!("--out {}: {e}", root.display())))?;
+    for existing in [dir.vehicles(), dir.body(), dir.summary()] {
+        if existing.exists() {
+            return Err(InvalidInput(format!(
+                "--out {}: already holds a run ({} exists); choose an empty directory",
+                root.display(),
+                existing.display()
+            ))
+            .into());
+        }
+    }
+    std::fs::write(dir.mission(), mission.to_toml_string()).context("writing mission.toml")?;
+    Ok((mission, dir))
+}
+
+fn default_run_dir(name: &str) -> Result<PathBuf> {
+    let now = time::OffsetDateTime::now_utc();
+    let stamp = now
+        .format(&time::format_description::parse_borrowed::<2>(
+            "[year][month][day]T[hour][minute][second]Z",
+        )?)
+        .context("formatting the timestamp")?;
+    Ok(Path::new("runs").join(format!("{name}-{stamp}")))
+}
+
+fn print_summary(summary: &Summary, dir: &RunDir) -> Result<()> {
+    println!("{}", serde_json::to_string_pretty(summary)?);
+    eprintln!("run directory: {}", dir.root.display());
+    Ok(())
+}
+
+fn parse_hessian(text: &str, dim: usize) -> Result<Mat3> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| InvalidInput(format!("--hessian {text}: {e}")))?;
+    if values.len() != dim * dim || values.iter().any(|v| !v.is_finite()) {
+        return Err(InvalidInput(format!(
+            "--hessian {text}: needs {} finite numbers for dim {dim}",
+            dim * dim
+        ))
+        .into());
+    }
+    let mut h = Mat3::zeros();
+    for i in 0..dim {
+        for j in 0..dim {
+            h[(i, j)] = values[i * dim + j];
+        }
+    }
+    Ok(h)
+}
+
+fn formation(args: &FormationArgs) -> Result<i32> {
+    if args.dim != 2 && args.dim != 3 {
+        return Err(InvalidInput(format!("--dim {}: must be 2 or 3", args.dim)).into());
+    }
+    if args.n < args.dim + 1 || args.n > shared::msg::MAX_VEHICLES {
+        return Err(InvalidInput(format!(
+            "--n {}: must be between dim + 1 = {} and {}",
+            args.n,
+            args.dim + 1,
+            shared::msg::MAX_VEHICLES
+        ))
+        .into());
+    }
+    for (name, v) in [("--sigma-m", args.sigma_m), ("--sigma-h", args.sigma_h)] {
+        if !v.is_finite() || v < 0.0 {
+            return Err(InvalidInput(format!("{name} {v}: must be finite and >= 0")).into());
+        }
+    }
+    let h = match &args.hessian {
+        Some(text) => parse_hessian(text, args.dim)?,
+        None => {
+            let mut h = Mat3::zeros();
+            for i in 0..args.dim {
+                h[(i, i)] = 1.0;
+            }
+            h
+        }
+    };
+    let f = shared::math::optimal::optimal_formation(
+        args.n,
+        args.dim,
+        &h,
+        args.sigma_h,
+        args.sigma_m,
+        args.seed,
+    )
+    .map_err(|e| InvalidInput(format!("optimal formation: {e}")))?;
+    let d = args.dim;
+    let positions: Vec<Vec<f64>> = f
+        .positions
+        .iter()
+        .map(|p| p.iter().take(d).copied().collect())
+        .collect();
+    let moments: Vec<Vec<f64>> = (0..d)
+        .map(|i| (0..d).map(|j| f.second_moments[(i, j)]).collect())
+        .collect();
+    if args.json {
+        let out = serde_json::json!({ "g": f.g, "radius": f.radius, "positions": positions, "second_moments": moments });
+        println!("{}", serde_json::to_string(&out)?);
+    } else {
+        println!(
+            "N = {}, dim = {}, sigma_M = {}, sigma_H = {}",
+            args.n, d, args.sigma_m, args.sigma_h
+        );
+        println!("g = {:.6}", f.g);
+        println!("radius = {:.6}", f.radius);
+        for (i, p) in positions.iter().enumerate() {
+            println!(
+                "p{i} = {:?}",
+                p.iter()
+                    .map(|v| (v * 1e6).round() / 1e6)
+                    .collect::<Vec<_>>()
+            );
+        }
+        println!("second moments = {moments:?}");
+    }
+    Ok(EXIT_OK)
+}

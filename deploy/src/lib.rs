@@ -1,0 +1,13 @@
+//! `vbap`: the front door and supervisor of the vbap process set.
+//!
+//! - [`sim`]: the in-process reference simulator (`vbap sim`).
+//! - [`supervise`]: the multi-process run (`vbap run`), tokio.
+//! - [`analyze`]: timing analysis from the tracing logs (`vbap analyze`).
+//! - [`progress`]: the progress bar of `vbap run`.
+//! - [`cli`]: the command line.
+
+pub mod analyze;
+pub mod cli;
+pub mod progress;
+pub mod sim;
+pub mod supervise;

@@ -1,0 +1,49 @@
+//! The field server: owns the environment and answers sensor reads.
+//!
+//! [`World::sample`] is pure: the true field value plus the sensor noise keyed by
+//! (seed, vehicle, tick), exactly what the in-process simulator draws. [`run`] serves it
+//! over iceoryx2 request-response.
+
+pub mod run;
+
+use shared::config::Mission;
+use shared::field::{measure, Field};
+use shared::math::Vec3;
+
+/// The environment of a mission.
+#[derive(Clone, Debug)]
+pub struct World {
+    field: Field,
+    seed: u64,
+    noise_std: f64,
+}
+
+impl World {
+    /// The world of `mission`.
+    pub fn new(mission: &Mission) -> Self {
+        Self {
+            field: mission.field(),
+            seed: mission.mission.seed,
+            noise_std: mission.field.noise_std,
+        }
+    }
+
+    /// The reading of vehicle `vehicle`'s sensor at `position`, tick `tick`, time `t` (s):
+    /// T(p, t) + N(0, σ_M²), the noise keyed by (seed, vehicle, tick). `None` for a
+    /// non-finite position.
+    pub fn sample(&self, vehicle: u32, tick: u64, t: f64, position: &Vec3) -> Option<f64> {
+        if !position.iter().all(|v| v.is_finite()) || !t.is_finite() {
+            return None;
+        }
+        let v = measure(
+            &self.field,
+            position,
+            t,
+            self.seed,
+            vehicle,
+            tick,
+            self.noise_std,
+        );
+        v.is_finite().then_some(v)
+    }
+}

@@ -1,0 +1,21 @@
+//! `shared`: everything the vbap processes have in common and nothing that is a process.
+//!
+//! - [`math`]: the paper's mathematics, pure (no IPC, clock, logging or files).
+//! - [`field`]: the sensed environments, with ground truth, and the keyed sensor noise.
+//! - [`config`]: the mission file (TOML), parsed and validated.
+//! - [`rng`]: random streams keyed by (seed, stream, id, tick).
+//! - [`msg`], [`topics`]: zero-copy payloads and every service name and limit.
+//! - [`telemetry`]: the one tracing setup of every process.
+//! - [`rundir`]: the run-directory files (CSV, JSON lines, summary).
+//! - [`plot`]: the mission plot.
+
+pub mod config;
+pub mod field;
+pub mod math;
+pub mod msg;
+pub mod plot;
+pub mod process;
+pub mod rng;
+pub mod rundir;
+pub mod telemetry;
+pub mod topics;

@@ -1,0 +1,226 @@
+//! Zero-copy payloads, grouped by direction (`agent_to_coordinator`, ...).
+//!
+//! Every payload is `#[repr(C)]`, `Copy`, fixed size and `ZeroCopySend`, with an explicit,
+//! versioned type name: change the version whenever the layout changes, so an old process
+//! can never read a new layout. Every payload starts with a [`Header`] (DESIGN §4).
+
+use iceoryx2::prelude::ZeroCopySend;
+
+use crate::math::Vec3;
+
+/// Largest fleet a mission may have (fixed capacity of the swarm snapshot).
+pub const MAX_VEHICLES: usize = 256;
+/// Largest number of virtual leaders a formation design may have.
+pub const MAX_LEADERS: usize = 256;
+
+/// Wall-clock time now, in nanoseconds since the Unix epoch (for latency analysis only;
+/// the control law never sees it).
+pub fn wall_ns() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0)
+}
+
+/// What every payload carries first.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("vbap.Header.v1")]
+pub struct Header {
+    /// Sender id: the vehicle id, or [`Header::COORDINATOR`] / [`Header::FIELD_SERVER`].
+    pub sender: u32,
+    /// Bit flags, meaning defined by the payload.
+    pub flags: u32,
+    /// Control tick k.
+    pub tick: u64,
+    /// Mission time t = k·dt, s.
+    pub t: f64,
+    /// Per-sender sequence number, strictly increasing (replays are rejected).
+    pub seq: u64,
+    /// Send wall-clock time, ns since the Unix epoch.
+    pub sent_ns: u64,
+}
+
+impl Header {
+    /// Sender id of the coordinator.
+    pub const COORDINATOR: u32 = u32::MAX - 1;
+    /// Sender id of the field server.
+    pub const FIELD_SERVER: u32 = u32::MAX - 2;
+}
+
+/// Converts a payload array to a vector.
+pub fn to_vec3(a: &[f64; 3]) -> Vec3 {
+    Vec3::new(a[0], a[1], a[2])
+}
+
+/// Converts a vector to a payload array.
+pub fn from_vec3(v: &Vec3) -> [f64; 3] {
+    [v.x, v.y, v.z]
+}
+
+/// Vehicle → coordinator.
+pub mod agent_to_coordinator {
+    use super::*;
+
+    /// A vehicle's state and its sensor reading at tick `header.tick`
+    /// (service `<mission>/vehicle/<id>/state`).
+    #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.VehicleState.v1")]
+    pub struct VehicleState {
+        pub header: Header,
+        /// Position x_i, length unit.
+        pub position: [f64; 3],
+        /// Velocity ẋ_i, length unit/s.
+        pub velocity: [f64; 3],
+        /// Sensor reading T_m(x_i, t) (field unit), taken at `position` and `header.t`.
+        pub measurement: f64,
+    }
+
+    impl VehicleState {
+        /// Flag: the agent is holding station (heard nothing from the coordinator).
+        pub const HOLDING: u32 = 1;
+
+        /// True when every number is finite.
+        pub fn is_finite(&self) -> bool {
+            self.header.t.is_finite()
+                && self.position.iter().all(|v| v.is_finite())
+                && self.velocity.iter().all(|v| v.is_finite())
+                && self.measurement.is_finite()
+        }
+    }
+}
+
+/// Coordinator → vehicles.
+pub mod coordinator_to_agent {
+    use super::*;
+
+    /// One vehicle's last known state, as the coordinator holds it.
+    #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.SnapshotEntry.v1")]
+    pub struct SnapshotEntry {
+        /// Vehicle id.
+        pub id: u32,
+        /// 1 when the vehicle takes part in the formation.
+        pub alive: u32,
+        /// Position, length unit.
+        pub position: [f64; 3],
+        /// Velocity, length unit/s.
+        pub velocity: [f64; 3],
+    }
+
+    /// The virtual body for the step from tick `header.tick` to the next, with the swarm
+    /// snapshot every agent needs for the inter-vehicle potential (service `<mission>/body`).
+    /// Agents read it in place (zero copy).
+    #[derive(Debug, Clone, Copy, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.BodyCommand.v1")]
+    pub struct BodyCommand {
+        pub header: Header,
+        /// Virtual body parameter s.
+        pub s: f64,
+        /// Formation speed ṡ (IV.4), 1/s.
+        pub sdot: f64,
+        /// Virtual body centre r, length unit.
+        pub r: [f64; 3],
+        /// Formation scale k (III.3).
+        pub scale: f64,
+        /// Scaled inter-vehicle potential (alpha, d0, d1) of (III.3).
+        pub inter: [f64; 3],
+        /// Scaled vehicle–leader potential (alpha, h0, h1) of (III.3).
+        pub leader: [f64; 3],
+        /// Damping gain K = damping·I of (II.1), 1/s.
+        pub damping: f64,
+        /// Number of valid entries in `leaders`.
+        pub n_leaders: u32,
+        /// Number of valid entries in `snapshot` (ordered by id).
+        pub n_vehicles: u32,
+        /// Virtual leader positions b_l(s), length unit.
+        pub leaders: [[f64; 3]; MAX_LEADERS],
+        /// Every vehicle's last known state at this tick, ordered by id.
+        pub snapshot: [SnapshotEntry; MAX_VEHICLES],
+    }
+
+    impl BodyCommand {
+        /// Flag: the mission is over; agents exit.
+        pub const FINISHED: u32 = 1;
+        /// Flag: the body holds position (too few vehicles to estimate a gradient).
+        pub const HOLDING: u32 = 2;
+
+        /// An empty command (no leaders, no vehicles).
+        pub fn empty() -> Self {
+            Self {
+                header: Header::default(),
+                s: 0.0,
+                sdot: 0.0,
+                r: [0.0; 3],
+                scale: 1.0,
+                inter: [0.0; 3],
+                leader: [0.0; 3],
+                damping: 0.0,
+                n_leaders: 0,
+                n_vehicles: 0,
+                leaders: [[0.0; 3]; MAX_LEADERS],
+                snapshot: [SnapshotEntry::default(); MAX_VEHICLES],
+            }
+        }
+
+        /// True when every number in use is finite and the counts are in range.
+        pub fn is_valid(&self) -> bool {
+            let n_l = self.n_leaders as usize;
+            let n_v = self.n_vehicles as usize;
+            n_l <= MAX_LEADERS
+                && n_v <= MAX_VEHICLES
+                && [self.header.t, self.s, self.sdot, self.scale, self.damping]
+                    .iter()
+                    .chain(self.r.iter())
+                    .chain(self.inter.iter())
+                    .chain(self.leader.iter())
+                    .all(|v| v.is_finite())
+                && self.leaders[..n_l].iter().flatten().all(|v| v.is_finite())
+                && self.snapshot[..n_v].iter().all(|e| {
+                    e.position
+                        .iter()
+                        .chain(e.velocity.iter())
+                        .all(|v| v.is_finite())
+                })
+        }
+    }
+}
+
+/// Vehicle → field server.
+pub mod agent_to_field {
+    use super::*;
+
+    /// "What does my sensor read at this position and time?" (service `<mission>/field/sample`).
+    /// `header.sender` and `header.tick` key the sensor noise.
+    #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.SampleRequest.v1")]
+    pub struct SampleRequest {
+        pub header: Header,
+        /// Sensor position, length unit.
+        pub position: [f64; 3],
+    }
+}
+
+/// Field server → vehicle.
+pub mod field_to_agent {
+    use super::*;
+
+    /// The noisy reading T(p, t) + N(0, σ_M²).
+    #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.SampleReply.v1")]
+    pub struct SampleReply {
+        pub header: Header,
+        /// Sequence number of the request answered.
+        pub request_seq: u64,
+        /// The reading, field unit.
+        pub value: f64,
+        /// 1 when the request was rejected (non-finite position, unknown vehicle).
+        pub rejected: u32,
+        pub _pad: u32,
+    }
+}

@@ -1,0 +1,26 @@
+//! Process plumbing shared by the three binaries: dying with the supervisor, exit codes.
+
+/// Exit code: success.
+pub const EXIT_OK: i32 = 0;
+/// Exit code: runtime failure.
+pub const EXIT_FAILURE: i32 = 1;
+/// Exit code: invalid input (config, arguments).
+pub const EXIT_INVALID: i32 = 2;
+
+/// Asks the kernel to SIGKILL this process when its parent dies (PR_SET_PDEATHSIG), so a
+/// crashed supervisor leaves no orphan. If the parent is already gone (`expected_parent`
+/// no longer our parent), exits at once.
+#[allow(unsafe_code)]
+pub fn die_with_parent(expected_parent: Option<u32>) {
+    // SAFETY: prctl(PR_SET_PDEATHSIG, sig) takes two integers and touches no memory of ours.
+    unsafe {
+        libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong);
+    }
+    if let Some(parent) = expected_parent {
+        // SAFETY: getppid has no preconditions.
+        let ppid = unsafe { libc::getppid() } as u32;
+        if ppid != parent {
+            std::process::exit(EXIT_FAILURE);
+        }
+    }
+}

@@ -1,0 +1,121 @@
+//! The one tracing setup of every vbap process.
+//!
+//! JSON lines, one object per event, to `--log FILE` when given (the supervisor points each
+//! process at `RUN_DIR/logs/<process>.jsonl`), else to stderr. `RUST_LOG` overrides the
+//! built-in default filter. iceoryx2's own messages arrive through its `tracing` logger
+//! feature under the target `iceoryx2_bb_loggers::tracing`.
+//!
+//! Level meanings: `error` the process cannot go on; `warn` something was lost or rejected;
+//! `info` lifecycle and mission events; `debug` one line per message (latency analysis);
+//! `trace` inner loops.
+//!
+//! Message records (target [`MSG_TARGET`]) carry `hop`, `sender`, `tick`, `seq`, `sent_ns`,
+//! `recv_ns` as fields: `vbap analyze` reads them.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+
+use tracing_subscriber::fmt::MakeWriter;
+use tracing_subscriber::EnvFilter;
+
+/// Target of per-message records.
+pub const MSG_TARGET: &str = "vbap::msg";
+
+/// Default filter: info everywhere, message records included, iceoryx2 warnings only.
+pub const DEFAULT_FILTER: &str = "info,vbap::msg=debug,iceoryx2_bb_loggers=warn";
+
+/// A buffered log file shared by the subscriber; flushed by [`LogGuard`] on drop.
+#[derive(Clone)]
+struct SharedFile(Arc<Mutex<BufWriter<File>>>);
+
+struct SharedFileWriter(Arc<Mutex<BufWriter<File>>>);
+
+impl Write for SharedFileWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0
+            .lock()
+            .map_err(|_| std::io::Error::other("log lock poisoned"))?
+            .write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0
+            .lock()
+            .map_err(|_| std::io::Error::other("log lock poisoned"))?
+            .flush()
+    }
+}
+
+impl<'a> MakeWriter<'a> for SharedFile {
+    type Writer = SharedFileWriter;
+    fn make_writer(&'a self) -> Self::Writer {
+        SharedFileWriter(self.0.clone())
+    }
+}
+
+/// Keeps the log file open; flushes it when dropped. Hold it in `main` until exit.
+pub struct LogGuard(Option<Arc<Mutex<BufWriter<File>>>>);
+
+impl LogGuard {
+    /// Flushes buffered log lines now (call before a deliberate exit).
+    pub fn flush(&self) {
+        if let Some(file) = &self.0 {
+            if let Ok(mut f) = file.lock() {
+                let _ = f.flush();
+            }
+        }
+    }
+}
+
+impl Drop for LogGuard {
+    fn drop(&mut self) {
+        self.flush();
+    }
+}
+
+/// Installs the global subscriber for process `process` (recorded as a field of every
+/// line through the span-less `process` target name). Returns the guard that flushes.
+pub fn init(process: &str, log_file: Option<&Path>) -> std::io::Result<LogGuard> {
+    init_with(process, log_file, DEFAULT_FILTER)
+}
+
+/// [`init`] with another built-in default filter (the `vbap` front door logs warnings only
+/// to the terminal).
+pub fn init_with(
+    process: &str,
+    log_file: Option<&Path>,
+    default_filter: &str,
+) -> std::io::Result<LogGuard> {
+    let filter =
+        EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(default_filter));
+    let builder = tracing_subscriber::fmt()
+        .json()
+        .with_env_filter(filter)
+        .with_current_span(false)
+        .with_span_list(false)
+        .with_thread_ids(false)
+        .with_target(true);
+    let guard = match log_file {
+        Some(path) => {
+            if let Some(parent) = path.parent() {
+                std::fs::create_dir_all(parent)?;
+            }
+            let file = Arc::new(Mutex::new(BufWriter::with_capacity(
+                1 << 16,
+                std::fs::OpenOptions::new()
+                    .create(true)
+                    .append(true)
+                    .open(path)?,
+            )));
+            let _ = builder.with_writer(SharedFile(file.clone())).try_init();
+            LogGuard(Some(file))
+        }
+        None => {
+            let _ = builder.with_writer(std::io::stderr).try_init();
+            LogGuard(None)
+        }
+    };
+    tracing::info!(process, pid = std::process::id(), "started");
+    Ok(guard)
+}

@@ -1,0 +1,357 @@
+//! Every iceoryx2 service name and limit of vbap, and the only place they are spelled.
+//!
+//! One *domain* per mission: the iceoryx2 prefix `vbap_<mission>_` keeps two missions on one
+//! host (and two tests) apart, and every service name also starts with the mission name
+//! (DESIGN §4). The creator of a service fixes its limits for the service's life, so every
+//! process opens every service with the same [`Limits`], sized from the fleet.
+//!
+//! Topology (a star through the coordinator, O(N) connections):
+//!
+//! | service | pattern | who writes | who reads |
+//! |---|---|---|---|
+//! | `<m>/vehicle/<id>/state` | pub-sub `VehicleState` | agent `id` (the only publisher: the lock against two agents with one id) | coordinator (+1 spare) |
+//! | `<m>/body` | pub-sub `BodyCommand` (history 1) | coordinator | every agent, in place |
+//! | `<m>/field/sample` | request-response | agents (clients) | field server |
+//! | `<m>/vehicle/<id>/wake` | event | coordinator, field server | agent `id` |
+//! | `<m>/coordinator/wake` | event | agents | coordinator |
+//! | `<m>/field/wake` | event | agents | field server |
+
+use iceoryx2::config::Config;
+use iceoryx2::node::{Node, NodeBuilder, NodeState};
+use iceoryx2::port::event_id::EventId;
+use iceoryx2::prelude::{
+    ipc, CallbackProgression, FileName, NodeName, SemanticString, ServiceName,
+};
+use iceoryx2::service::port_factory::{event, publish_subscribe, request_response};
+use iceoryx2::signal_handling_mode::SignalHandlingMode;
+
+use crate::msg::agent_to_coordinator::VehicleState;
+use crate::msg::agent_to_field::SampleRequest;
+use crate::msg::coordinator_to_agent::BodyCommand;
+use crate::msg::field_to_agent::SampleReply;
+
+/// Event id: a new body command was published.
+pub const EVENT_BODY: EventId = EventId::new(1);
+/// Event id: a sample reply is ready.
+pub const EVENT_SAMPLE: EventId = EventId::new(2);
+/// Event id: a vehicle state was published / a request was sent.
+pub const EVENT_DATA: EventId = EventId::new(3);
+/// Event id: a notifier of the service died (iceoryx2 dead-notifier event).
+pub const EVENT_NOTIFIER_DEAD: EventId = EventId::new(4);
+/// Largest event id in use.
+pub const EVENT_ID_MAX: usize = 8;
+
+/// Errors opening a service or a node; the service name is always in the message.
+#[derive(Debug, thiserror::Error)]
+pub enum TopicError {
+    /// A service or node name was refused by iceoryx2.
+    #[error("invalid name {name:?}: {reason}")]
+    Name { name: String, reason: String },
+    /// Opening or creating a service failed.
+    #[error("opening service {service:?}: {reason}")]
+    Service { service: String, reason: String },
+    /// Creating the node failed.
+    #[error("creating node {node:?}: {reason}")]
+    Node { node: String, reason: String },
+}
+
+/// Service limits of a mission, sized from the fleet. Everyone uses the same values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limits {
+    /// Fleet size N.
+    pub vehicles: usize,
+}
+
+impl Limits {
+    /// Limits for a fleet of `vehicles`.
+    pub fn for_fleet(vehicles: usize) -> Self {
+        Self { vehicles }
+    }
+    /// Nodes that may use a shared service: every agent, coordinator, field server, the
+    /// supervisor, restarted processes not yet cleaned, tools and tests.
+    pub fn max_nodes(&self) -> usize {
+        2 * self.vehicles + 8
+    }
+    /// Subscribers of the body service, clients of the field service.
+    pub fn fleet_ports(&self) -> usize {
+        self.vehicles + 4
+    }
+    /// Buffer of a vehicle-state subscriber: enough for a burst of stored-and-forwarded states.
+    pub const STATE_BUFFER: usize = 64;
+}
+
+/// The iceoryx2 domain of one mission.
+#[derive(Clone, Debug)]
+pub struct Domain {
+    /// Mission name (letters, digits, `_`).
+    pub mission: String,
+    config: Config,
+}
+
+impl Domain {
+    /// The domain of mission `mission`: iceoryx2 prefix `vbap_<mission>_`.
+    pub fn new(mission: &str) -> Result<Self, TopicError> {
+        let mut config = Config::default();
+        let prefix = format!("vbap_{mission}_");
+        config.global.prefix = FileName::new(prefix.as_bytes()).map_err(|e| TopicError::Name {
+            name: prefix.clone(),
+            reason: format!("{e:?}"),
+        })?;
+        Ok(Self {
+            mission: mission.to_string(),
+            config,
+        })
+    }
+
+    /// The iceoryx2 configuration of this domain.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// The shared-memory file prefix of this domain (files `/dev/shm/<prefix>*`).
+    pub fn shm_prefix(&self) -> String {
+        format!("vbap_{}_", self.mission)
+    }
+
+    /// Creates a node named `name` in this domain; signals are left to iceoryx2's waits
+    /// (SIGINT/SIGTERM end a wait with an interrupt: exit cleanly).
+    pub fn node(&self, name: &str) -> Result<Node<ipc::Service>, TopicError> {
+        let node_name = NodeName::new(name).map_err(|e| TopicError::Name {
+            name: name.to_string(),
+            reason: format!("{e:?}"),
+        })?;
+        NodeBuilder::new()
+            .name(&node_name)
+            .config(&self.config)
+            .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+            .create::<ipc::Service>()
+            .map_err(|e| TopicError::Node {
+                node: name.to_string(),
+                reason: format!("{e:?}"),
+            })
+    }
+
+    /// Removes the stale resources of every dead node of this domain; returns how many
+    /// dead nodes were found.
+    pub fn cleanup_dead_nodes(&self) -> usize {
+        let mut dead = 0;
+        let _ = Node::<ipc::Service>::list(&self.config, |state| {
+            if let NodeState::Dead(view) = state {
+                dead += 1;
+                let _ = view.try_remove_stale_resources();
+            }
+            CallbackProgression::Continue
+        });
+        dead
+    }
+
+    /// Names of the live nodes of this domain (one `Node::list`: ~0.2 ms per few nodes, scan
+    /// at most about once a second with large fleets).
+    pub fn alive_node_names(&self) -> Vec<String> {
+        let mut names = Vec::new();
+        let _ = Node::<ipc::Service>::list(&self.config, |state| {
+            if let NodeState::Alive(view) = state {
+                use iceoryx2::node::NodeView;
+                if let Some(details) = view.details() {
+                    names.push(details.name().to_string());
+                }
+            }
+            CallbackProgression::Continue
+        });
+        names
+    }
+
+    fn name(&self, path: &str) -> Result<ServiceName, TopicError> {
+        let full = format!("{}/{}", self.mission, path);
+        ServiceName::new(&full).map_err(|e| TopicError::Name {
+            name: full,
+            reason: format!("{e:?}"),
+        })
+    }
+
+    /// Service name of vehicle `id`'s state.
+    pub fn state_name(&self, id: u32) -> String {
+        format!("{}/vehicle/{id}/state", self.mission)
+    }
+
+    /// `<m>/vehicle/<id>/state`.
+    pub fn state_service(
+        &self,
+        node: &Node<ipc::Service>,
+        id: u32,
+        limits: &Limits,
+    ) -> Result<publish_subscribe::PortFactory<ipc::Service, VehicleState, ()>, TopicError> {
+        let name = self.name(&format!("vehicle/{id}/state"))?;
+        node.service_builder(&name)
+            .publish_subscribe::<VehicleState>()
+            .max_publishers(1)
+            .max_subscribers(3)
+            .max_nodes(limits.max_nodes())
+            .history_size(1)
+            .subscriber_max_buffer_size(Limits::STATE_BUFFER)
+            .enable_safe_overflow(true)
+            .open_or_create()
+            .map_err(|e| service_err(&name, e))
+    }
+
+    /// `<m>/body`.
+    pub fn body_service(
+        &self,
+        node: &Node<ipc::Service>,
+        limits: &Limits,
+    ) -> Result<publish_subscribe::PortFactory<ipc::Service, BodyCommand, ()>, TopicError> {
+        let name = self.name("body")?;
+        node.service_builder(&name)
+            .publish_subscribe::<BodyCommand>()
+            .max_publishers(2)
+            .max_subscribers(limits.fleet_ports())
+            .max_nodes(limits.max_nodes())
+            .history_size(1)
+            .subscriber_max_buffer_size(4)
+            .enable_safe_overflow(true)
+            .open_or_create()
+            .map_err(|e| service_err(&name, e))
+    }
+
+    /// `<m>/field/sample`.
+    pub fn field_service(
+        &self,
+        node: &Node<ipc::Service>,
+        limits: &Limits,
+    ) -> Result<
+        request_response::PortFactory<ipc::Service, SampleRequest, (), SampleReply, ()>,
+        TopicError,
+    > {
+        let name = self.name("field/sample")?;
+        node.service_builder(&name)
+            .request_response::<SampleRequest, SampleReply>()
+            .max_servers(2)
+            .max_clients(limits.fleet_ports())
+            .max_nodes(limits.max_nodes())
+            .max_active_requests_per_client(4)
+            .max_response_buffer_size(4)
+            .enable_safe_overflow_for_requests(true)
+            .enable_safe_overflow_for_responses(true)
+            .open_or_create()
+            .map_err(|e| service_err(&name, e))
+    }
+
+    fn event_service(
+        &self,
+        node: &Node<ipc::Service>,
+        path: &str,
+        listeners: usize,
+        notifiers: usize,
+        limits: &Limits,
+    ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
+        let name = self.name(path)?;
+        node.service_builder(&name)
+            .event()
+            .max_listeners(listeners)
+            .max_notifiers(notifiers)
+            .max_nodes(limits.max_nodes())
+            .event_id_max_value(EVENT_ID_MAX)
+            .notifier_dead_event(EVENT_NOTIFIER_DEAD)
+            .open_or_create()
+            .map_err(|e| service_err(&name, e))
+    }
+
+    /// `<m>/vehicle/<id>/wake`: the agent listens, coordinator and field server notify.
+    pub fn vehicle_wake(
+        &self,
+        node: &Node<ipc::Service>,
+        id: u32,
+        limits: &Limits,
+    ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
+        self.event_service(node, &format!("vehicle/{id}/wake"), 2, 6, limits)
+    }
+
+    /// `<m>/coordinator/wake`: the coordinator listens, agents notify.
+    pub fn coordinator_wake(
+        &self,
+        node: &Node<ipc::Service>,
+        limits: &Limits,
+    ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
+        self.event_service(
+            node,
+            "coordinator/wake",
+            2,
+            limits.fleet_ports() + 4,
+            limits,
+        )
+    }
+
+    /// `<m>/field/wake`: the field server listens, agents notify.
+    pub fn field_wake(
+        &self,
+        node: &Node<ipc::Service>,
+        limits: &Limits,
+    ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
+        self.event_service(node, "field/wake", 2, limits.fleet_ports() + 4, limits)
+    }
+}
+
+fn service_err(name: &ServiceName, e: impl std::fmt::Debug) -> TopicError {
+    TopicError::Service {
+        service: name.to_string(),
+        reason: format!("{e:?}"),
+    }
+}
+
+/// Node name of vehicle agent `id`.
+pub fn agent_node_name(id: u32) -> String {
+    format!("vehicle_agent_{id}")
+}
+/// Node name of the coordinator.
+pub const COORDINATOR_NODE: &str = "coordinator";
+/// Node name of the field server.
+pub const FIELD_SERVER_NODE: &str = "field_server";
+
+/// What ended a wait.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wake {
+    /// At least one event arrived (all pending events were drained).
+    Events,
+    /// The timeout passed with no event.
+    Timeout,
+    /// SIGINT or SIGTERM: flush and exit cleanly.
+    Stop,
+}
+
+/// Blocks in `waitset` (which has `listener` attached) until an event, the timeout or a
+/// termination signal; drains the listener so the next wait blocks again.
+pub fn wait_for_wake(
+    waitset: &iceoryx2::waitset::WaitSet<ipc::Service>,
+    listener: &iceoryx2::port::listener::Listener<ipc::Service>,
+    timeout: std::time::Duration,
+) -> Result<Wake, TopicError> {
+    use iceoryx2::waitset::WaitSetRunResult;
+    let mut woke = false;
+    let result = waitset
+        .wait_and_process_once_with_timeout(
+            |_| {
+                woke = true;
+                CallbackProgression::Continue
+            },
+            timeout,
+        )
+        .map_err(|e| TopicError::Service {
+            service: "waitset".into(),
+            reason: format!("{e:?}"),
+        })?;
+    if matches!(
+        result,
+        WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt
+    ) {
+        return Ok(Wake::Stop);
+    }
+    let drained = listener.try_wait(|_| {}).map_err(|e| TopicError::Service {
+        service: "listener".into(),
+        reason: format!("{e:?}"),
+    })?;
+    Ok(if woke || drained > 0 {
+        Wake::Events
+    } else {
+        Wake::Timeout
+    })
+}

@@ -1,0 +1,306 @@
+//! End-to-end tests of the multi-process system: they start the real binaries.
+
+use std::time::Duration;
+
+use tests::*;
+
+fn mission_2d(name: &str, n: usize, duration: f64, pace: &str) -> String {
+    format!(
+        r#"
+[mission]
+name = "{name}"
+seed = 7
+duration = {duration}
+dt = 0.05
+pace = {pace}
+goal = "max"
+dim = 2
+tolerance = 1.0
+
+[field]
+kind = "gaussian"
+center = [6.0, 3.0]
+amplitude = 10.0
+width = 6.0
+noise_std = 0.1
+
+[vehicles]
+count = {n}
+start = [0.0, 0.0]
+start_spread = 0.3
+"#
+    )
+}
+
+fn mission_3d(name: &str, duration: f64) -> String {
+    format!(
+        r#"
+[mission]
+name = "{name}"
+seed = 3
+duration = {duration}
+dt = 0.05
+goal = "min"
+dim = 3
+
+[field]
+kind = "quadratic"
+center = [3.0, -2.0, 1.0]
+hessian = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1.0]]
+noise_std = 0.05
+
+[vehicles]
+count = 4
+start = [0.0, 0.0, 0.0]
+"#
+    )
+}
+
+/// `vbap sim` and `vbap run` of the same mission write byte-identical tracks.
+fn assert_run_equals_sim(text: &str) {
+    let tmp = TempDir::new("eq");
+    let file = write_mission(&tmp, "m.toml", text);
+    run_ok(
+        vbap()
+            .arg("sim")
+            .arg(&file)
+            .arg("--out")
+            .arg(tmp.join("sim"))
+            .arg("--quiet"),
+    );
+    let out = run_ok(
+        vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--out")
+            .arg(tmp.join("run"))
+            .arg("--quiet"),
+    );
+    let printed: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("vbap run prints the summary as JSON");
+    assert_eq!(printed["mode"], "multi-process");
+    assert_same_tracks(&tmp.join("sim"), &tmp.join("run"));
+    let s = summary(&tmp.join("run"));
+    assert_eq!(s["messages"]["rejected"], 0);
+    assert!(s["messages"]["delivered"].as_u64().unwrap() > 0);
+    for hop in ["state", "body", "field_request", "field_reply"] {
+        assert!(
+            s["latency_us"][hop]["p50"].as_f64().unwrap() > 0.0,
+            "latency of hop {hop} recorded"
+        );
+    }
+    let name: toml::Value = toml::from_str(text).unwrap();
+    let name = name["mission"]["name"].as_str().unwrap().to_string();
+    assert!(
+        leftover_files(&name).is_empty(),
+        "shared memory left behind: {:?}",
+        leftover_files(&name)
+    );
+    assert!(
+        processes_mentioning(&tmp.path.to_string_lossy()).is_empty(),
+        "processes left behind"
+    );
+}
+
+#[test]
+fn lockstep_equals_in_process_n4_2d() {
+    assert_run_equals_sim(&mission_2d(&unique_name("eq4"), 4, 10.0, "\"lockstep\""));
+}
+
+#[test]
+fn lockstep_equals_in_process_n7_2d() {
+    assert_run_equals_sim(&mission_2d(&unique_name("eq7"), 7, 8.0, "\"lockstep\""));
+}
+
+#[test]
+fn lockstep_equals_in_process_3d() {
+    assert_run_equals_sim(&mission_3d(&unique_name("eq3d"), 8.0));
+}
+
+#[test]
+fn two_missions_at_once_do_not_interfere() {
+    let tmp = TempDir::new("two");
+    let a = write_mission(
+        &tmp,
+        "a.toml",
+        &mission_2d(&unique_name("twoa"), 4, 6.0, "\"lockstep\""),
+    );
+    let b_text =
+        mission_2d(&unique_name("twob"), 5, 6.0, "\"lockstep\"").replace("seed = 7", "seed = 8");
+    let b = write_mission(&tmp, "b.toml", &b_text);
+    let mut runs: Vec<ChildGuard> = [(&a, "run_a"), (&b, "run_b")]
+        .iter()
+        .map(|(file, out)| {
+            ChildGuard(Some(
+                vbap()
+                    .arg("run")
+                    .arg(file)
+                    .arg("--out")
+                    .arg(tmp.join(out))
+                    .arg("--quiet")
+                    .stdout(std::process::Stdio::null())
+                    .spawn()
+                    .expect("spawning vbap run"),
+            ))
+        })
+        .collect();
+    for r in runs.iter_mut() {
+        assert!(r.wait().success());
+    }
+    run_ok(
+        vbap()
+            .arg("sim")
+            .arg(&a)
+            .arg("--out")
+            .arg(tmp.join("sim_a"))
+            .arg("--quiet"),
+    );
+    run_ok(
+        vbap()
+            .arg("sim")
+            .arg(&b)
+            .arg("--out")
+            .arg(tmp.join("sim_b"))
+            .arg("--quiet"),
+    );
+    assert_same_tracks(&tmp.join("run_a"), &tmp.join("sim_a"));
+    assert_same_tracks(&tmp.join("run_b"), &tmp.join("sim_b"));
+}
+
+#[test]
+fn real_time_pace_runs_at_wall_speed_and_scaled() {
+    let tmp = TempDir::new("rt");
+    // pace 1.0: 2 s of mission take at least ~2 s of wall time.
+    let file = write_mission(
+        &tmp,
+        "rt.toml",
+        &mission_2d(&unique_name("rt1"), 4, 2.0, "1.0"),
+    );
+    run_ok(
+        vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--out")
+            .arg(tmp.join("rt1"))
+            .arg("--quiet"),
+    );
+    let s = summary(&tmp.join("rt1"));
+    assert_eq!(s["ticks"], 40);
+    assert!(
+        s["wall_time_s"].as_f64().unwrap() >= 1.9,
+        "pace 1.0 ran faster than real time: {s}"
+    );
+    assert!(s["late_ticks"].as_u64().is_some());
+    // pace 60: a minute of mission in about a second (lower bound only).
+    let file = write_mission(
+        &tmp,
+        "rt60.toml",
+        &mission_2d(&unique_name("rt60"), 4, 60.0, "60.0"),
+    );
+    run_ok(
+        vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--out")
+            .arg(tmp.join("rt60"))
+            .arg("--quiet"),
+    );
+    let s = summary(&tmp.join("rt60"));
+    assert_eq!(s["ticks"], 1200);
+    assert!(
+        s["wall_time_s"].as_f64().unwrap() >= 0.95,
+        "pace 60 ran faster than 60x: {s}"
+    );
+}
+
+fn stop_with(sig: &str) {
+    let tmp = TempDir::new("sig");
+    let name = unique_name("sig");
+    let file = write_mission(&tmp, "long.toml", &mission_2d(&name, 4, 100000.0, "1.0"));
+    let out = tmp.join("run");
+    let mut run = ChildGuard(Some(
+        vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--out")
+            .arg(&out)
+            .arg("--quiet")
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .expect("spawning vbap run"),
+    ));
+    let body = out.join("body.csv");
+    wait_until(
+        || {
+            std::fs::read_to_string(&body)
+                .map(|t| t.lines().count() > 3)
+                .unwrap_or(false)
+        },
+        Duration::from_secs(60),
+        "the run to make progress",
+    );
+    let children = processes_mentioning(&out.to_string_lossy());
+    assert!(
+        children.len() >= 6,
+        "field server, coordinator and 4 agents run: {children:?}"
+    );
+    run.signal(sig);
+    let status = run.wait();
+    assert!(
+        !status.success(),
+        "an interrupted run does not report success"
+    );
+    assert!(
+        processes_mentioning(&out.to_string_lossy()).is_empty(),
+        "processes left after {sig}"
+    );
+    assert!(
+        leftover_files(&name).is_empty(),
+        "shared memory left after {sig}: {:?}",
+        leftover_files(&name)
+    );
+    // What was written is kept.
+    assert!(read(&body).lines().count() > 3);
+    assert!(
+        out.join("summary.json").exists(),
+        "the coordinator wrote a summary on the way out"
+    );
+}
+
+#[test]
+fn sigint_stops_everything_cleanly() {
+    stop_with("INT");
+}
+
+#[test]
+fn sigterm_stops_everything_cleanly() {
+    stop_with("TERM");
+}
+
+#[test]
+fn bad_mission_is_refused_before_any_process_starts() {
+    let tmp = TempDir::new("bad");
+    let name = unique_name("bad");
+    let text = mission_2d(&name, 4, 5.0, "\"lockstep\"").replace("width = 6.0", "width = -6.0");
+    let file = write_mission(&tmp, "bad.toml", &text);
+    let out = vbap()
+        .arg("run")
+        .arg(&file)
+        .arg("--out")
+        .arg(tmp.join("run"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("field.width"),
+        "the error names the key: {err}"
+    );
+    assert!(
+        !tmp.join("run").join("logs").exists(),
+        "no process was started"
+    );
+    assert!(leftover_files(&name).is_empty());
+    let out = vbap().arg("check").arg(&file).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}

@@ -1,0 +1,148 @@
+//! The vehicle agent: one process per vehicle (`vehicle_agent --id I`).
+//!
+//! [`Agent::step`] is the whole decision of a tick and never sees iceoryx2: it computes
+//! u_i from (II.1) with the latest virtual leaders and neighbour states the agent has
+//! received, and integrates the double integrator ẍ_i = u_i. The in-process simulator
+//! calls exactly this function, which is why the multi-process system can reproduce it
+//! bit for bit. [`run`] wires the ports.
+
+pub mod run;
+
+use rand::Rng;
+use shared::config::Mission;
+use shared::math::control::{control_law, integrate};
+use shared::math::formation::FormationDesign;
+use shared::math::potential::PairPotential;
+use shared::math::Vec3;
+use shared::rng::{keyed, Stream};
+
+/// What an agent needs from the coordinator for one step.
+#[derive(Clone, Copy, Debug)]
+pub struct AgentInputs<'a> {
+    /// Virtual leader positions b_l(s), length unit.
+    pub leaders: &'a [Vec3],
+    /// Positions of the other vehicles (swarm snapshot, ordered by id, self excluded).
+    pub neighbours: &'a [Vec3],
+    /// Scaled inter-vehicle potential V_I (III.3).
+    pub inter: PairPotential,
+    /// Scaled vehicle–leader potential V_h (III.3).
+    pub leader: PairPotential,
+    /// Damping gain, K = damping·I in (II.1), 1/s.
+    pub damping: f64,
+}
+
+/// One vehicle: its own state and dynamics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Agent {
+    /// Vehicle id.
+    pub id: u32,
+    /// Mission dimension (2 or 3); in 2-D z stays 0.
+    pub dim: usize,
+    /// Position x_i, length unit.
+    pub position: Vec3,
+    /// Velocity ẋ_i, length unit/s.
+    pub velocity: Vec3,
+}
+
+impl Agent {
+    /// One control step of length `dt` (s): u_i from (II.1), then ẍ_i = u_i integrated
+    /// (semi-implicit Euler). Returns u_i.
+    pub fn step(&mut self, inputs: &AgentInputs<'_>, dt: f64) -> Vec3 {
+        let u = control_law(
+            &self.position,
+            &self.velocity,
+            inputs.neighbours,
+            inputs.leaders,
+            &inputs.inter,
+            &inputs.leader,
+            inputs.damping,
+        );
+        let (x, v) = integrate(&self.position, &self.velocity, &u, dt);
+        self.position = x;
+        self.velocity = v;
+        if self.dim == 2 {
+            self.position.z = 0.0;
+            self.velocity.z = 0.0;
+        }
+        u
+    }
+
+    /// Holds station when nothing is heard from the coordinator (DESIGN §2): damping and
+    /// the last known virtual leaders only, no neighbours.
+    pub fn hold_station(
+        &mut self,
+        last_leaders: &[Vec3],
+        leader: &PairPotential,
+        damping: f64,
+        dt: f64,
+    ) -> Vec3 {
+        let inputs = AgentInputs {
+            leaders: last_leaders,
+            neighbours: &[],
+            inter: PairPotential {
+                alpha: 0.0,
+                d0: 1.0,
+                d1: 0.0,
+            },
+            leader: *leader,
+            damping,
+        };
+        self.step(&inputs, dt)
+    }
+}
+
+/// The initial formation design of a mission (before any loss): regular polygon /
+/// Platonic solid of the mission's radius around one central leader.
+pub fn initial_design(
+    mission: &Mission,
+) -> Result<FormationDesign, shared::math::formation::FormationError> {
+    shared::math::formation::design_regular(
+        mission.vehicles.count,
+        mission.mission.dim,
+        mission.formation.radius,
+        mission.formation.alpha,
+        mission.formation.alpha,
+    )
+}
+
+/// The initial state of vehicle `id`: its slot of the initial design around
+/// `vehicles.start`, displaced by at most `vehicles.start_spread` in a direction and by an
+/// amount drawn from the key (seed, InitialPosition, id, 0); at rest.
+pub fn initial_agent(mission: &Mission, design: &FormationDesign, id: u32) -> Agent {
+    let dim = mission.mission.dim;
+    let slot = design
+        .slots
+        .get(id as usize)
+        .copied()
+        .unwrap_or_else(Vec3::zeros);
+    let mut rng = keyed(
+        mission.mission.seed,
+        Stream::InitialPosition,
+        u64::from(id),
+        0,
+    );
+    // Uniform in the unit disc / ball by rejection (a bounded number of draws in practice).
+    let offset = loop {
+        let mut o = Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        if dim == 2 {
+            o.z = 0.0;
+        }
+        if o.norm_squared() <= 1.0 {
+            break o;
+        }
+    };
+    let mut position = mission.start_vec() + slot + offset * mission.vehicles.start_spread;
+    if dim == 2 {
+        position.z = 0.0;
+    }
+    Agent {
+        id,
+        dim,
+        position,
+        velocity: Vec3::zeros(),
+    }
+}
