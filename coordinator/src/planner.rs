@@ -17,6 +17,9 @@ use shared::math::{Mat3, Vec3};
 pub struct Report {
     /// Vehicle id.
     pub id: u32,
+    /// Tick at which the state and the reading were taken (possibly older than the
+    /// planner's tick when links delay it).
+    pub tick: u64,
     /// Position x_i at the tick, length unit.
     pub position: Vec3,
     /// Velocity, length unit/s.
@@ -96,6 +99,8 @@ pub struct Command {
     pub terms: LyapunovTerms,
     /// The filtered gradient estimate ∇T_KF at r_k (zero before the first estimate).
     pub grad_est: Vec3,
+    /// Trace of the Kalman covariance P (0 before the first estimate).
+    pub p_trace: f64,
     /// True when the body holds position (fewer than dim + 1 vehicles).
     pub holding: bool,
     /// True when the least-squares estimate of this tick failed (rank, too few).
@@ -180,15 +185,24 @@ impl Planner {
         self.reconfigurations
     }
 
-    /// One tick: `reports` are the vehicles in the formation at this tick, ordered by id,
-    /// with states and readings at this tick. `dt` is the tick length, s.
-    pub fn step(&mut self, reports: &[Report], dt: f64) -> Result<Command, PlannerError> {
+    /// One tick `k`. `members` holds the last known report of every vehicle in the
+    /// formation, ordered by id (the formation, the Lyapunov function and the swarm
+    /// snapshot use them); `fresh` the reports delivered since the last tick, in delivery
+    /// order, each with its own position and time (the estimator uses them: Remark 5.8).
+    /// With ideal links both are this tick's reports. `dt` is the tick length, s.
+    pub fn step(
+        &mut self,
+        k: u64,
+        members: &[Report],
+        fresh: &[Report],
+        dt: f64,
+    ) -> Result<Command, PlannerError> {
         let p = &self.params;
         let dim = p.dim;
-        let ids: Vec<u32> = reports.iter().map(|r| r.id).collect();
+        let ids: Vec<u32> = members.iter().map(|r| r.id).collect();
         let mut reconfigured = false;
         if ids != self.members {
-            if !reports.is_empty() {
+            if !members.is_empty() {
                 self.design = design_regular(ids.len(), dim, p.radius, p.alpha, p.alpha).map_err(
                     |source| PlannerError::Design {
                         n: ids.len(),
@@ -202,45 +216,52 @@ impl Planner {
         }
 
         let r = self.body.r;
-        let rel: Vec<Vec3> = reports.iter().map(|q| q.position - r).collect();
-        let y: Vec<f64> = reports.iter().map(|q| q.measurement).collect();
-        let holding = reports.len() < dim + 1;
+        let holding = members.len() < dim + 1;
 
-        // Gradient estimate: least squares (Lemma 5.1) into the Kalman filter (Lemma 5.4,
-        // Remark 5.8: time-varying C, measurements at their true positions).
+        // Gradient estimate: least squares (Lemma 5.1) on the fresh readings, into the
+        // Kalman filter (Lemma 5.4) with a time-varying C (Remark 5.8): every reading at its
+        // true position relative to the body centre now, its variance grown by the
+        // random-walk drift of the model over its age.
+        let rel: Vec<Vec3> = fresh.iter().map(|q| q.position - r).collect();
+        let y: Vec<f64> = fresh.iter().map(|q| q.measurement).collect();
         let mut estimate_failed = false;
         let shift = r - self.last_r;
         self.last_r = r;
         if let Some(f) = self.filter.as_mut() {
             f.predict(dt, p.kalman_b, &shift);
         }
-        if holding {
-            estimate_failed = true;
+        let ls = if rel.len() > dim {
+            least_squares(dim, &rel, &y).ok()
         } else {
-            match least_squares(dim, &rel, &y) {
-                Ok(ls) => {
-                    self.noise.observe(&ls);
-                    let sigma_m = p.sigma_m.unwrap_or_else(|| self.noise.sigma());
-                    let var: Vec<f64> = rel
-                        .iter()
-                        .map(|q| {
-                            let curv = 0.5 * q.dot(&(p.hessian_guess * q)) * p.sigma_h;
-                            sigma_m * sigma_m + curv * curv
-                        })
-                        .collect();
-                    match self.filter.as_mut() {
-                        None => {
-                            self.filter = Some(GradientFilter::new(dim, &ls, p.initial_variance))
-                        }
-                        Some(f) => {
-                            if f.update(&rel, &y, &var).is_err() {
-                                estimate_failed = true;
-                            }
-                        }
-                    }
-                }
-                Err(_) => estimate_failed = true,
+            None
+        };
+        if let Some(ls) = &ls {
+            self.noise.observe(ls);
+        }
+        let sigma_m = p.sigma_m.unwrap_or_else(|| self.noise.sigma());
+        if self.filter.is_none() {
+            match &ls {
+                Some(ls) => self.filter = Some(GradientFilter::new(dim, ls, p.initial_variance)),
+                None => estimate_failed = true,
             }
+        } else if !fresh.is_empty() {
+            let b2 = p.kalman_b * p.kalman_b;
+            let var: Vec<f64> = fresh
+                .iter()
+                .zip(&rel)
+                .map(|(q, d)| {
+                    let curv = 0.5 * d.dot(&(p.hessian_guess * d)) * p.sigma_h;
+                    let age = k.saturating_sub(q.tick) as f64 * dt;
+                    sigma_m * sigma_m + curv * curv + b2 * age * (1.0 + d.norm_squared())
+                })
+                .collect();
+            if let Some(f) = self.filter.as_mut() {
+                if f.update(&rel, &y, &var).is_err() {
+                    estimate_failed = true;
+                }
+            }
+        } else {
+            estimate_failed = true;
         }
         let grad_est = self
             .filter
@@ -286,8 +307,8 @@ impl Planner {
             dk_ds: dk,
         };
 
-        let positions: Vec<Vec3> = reports.iter().map(|q| q.position).collect();
-        let velocities: Vec<Vec3> = reports.iter().map(|q| q.velocity).collect();
+        let positions: Vec<Vec3> = members.iter().map(|q| q.position).collect();
+        let velocities: Vec<Vec3> = members.iter().map(|q| q.velocity).collect();
         let terms = lyapunov_terms(
             &positions,
             &velocities,
@@ -311,6 +332,7 @@ impl Planner {
             damping: p.damping,
             terms,
             grad_est,
+            p_trace: self.filter.as_ref().map_or(0.0, |f| f.covariance().trace()),
             holding,
             estimate_failed,
             reconfigured,

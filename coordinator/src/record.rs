@@ -11,7 +11,9 @@ use shared::field::Field;
 use shared::math::convergence::theorem_5_1_bound;
 use shared::math::Vec3;
 use shared::plot::{MissionPlot, Snapshot, Track};
-use shared::rundir::{BodyRow, Event, EventLog, RunDir, Summary, TrackWriter, VehicleRow};
+use shared::rundir::{
+    BodyRow, Event, EventLog, InputRow, RunDir, Summary, TrackWriter, VehicleRow,
+};
 
 use crate::planner::{Command, Planner, Report};
 
@@ -84,6 +86,36 @@ impl Recorder {
         self.events.push(&e)
     }
 
+    /// Records the arguments of planner step `k` (`planner_inputs.csv`), so `vbap replay`
+    /// can re-run the planner offline.
+    pub fn inputs(&mut self, k: u64, members: &[Report], fresh: &[Report]) -> io::Result<()> {
+        let same = members == fresh;
+        let mut row = |role: &str, q: &Report| {
+            self.tracks.input(&InputRow {
+                k,
+                role,
+                id: q.id,
+                tick: q.tick,
+                position: q.position,
+                velocity: q.velocity,
+                measurement: q.measurement,
+            })
+        };
+        if same {
+            for q in members {
+                row("both", q)?;
+            }
+        } else {
+            for q in members {
+                row("member", q)?;
+            }
+            for q in fresh {
+                row("fresh", q)?;
+            }
+        }
+        Ok(())
+    }
+
     /// Records tick `k`: `truth` holds every vehicle's true state and reading (ordered by
     /// id), `command` what the planner decided.
     pub fn tick(&mut self, k: u64, truth: &[Report], command: &Command) -> io::Result<()> {
@@ -109,6 +141,8 @@ impl Recorder {
             grad: command.grad_est,
             v: command.terms.v,
             n_vehicles: command.members.len(),
+            p_trace: command.p_trace,
+            true_grad: self.field.gradient(&b.r, t),
         })?;
         if command.reconfigured && k > 0 {
             self.events.push(&Event {

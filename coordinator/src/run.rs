@@ -198,12 +198,14 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
             .filter(|s| paced.is_some() || s.header.tick == k)
             .map(|s| Report {
                 id: s.header.sender,
+                tick: s.header.tick,
                 position: to_vec3(&s.position),
                 velocity: to_vec3(&s.velocity),
                 measurement: s.measurement,
             })
             .collect();
-        let command = planner.step(&reports, dt)?;
+        let command = planner.step(k, &reports, &reports, dt)?;
+        recorder.inputs(k, &reports, &reports)?;
         recorder.tick(k, &reports, &command)?;
 
         seq += 1;

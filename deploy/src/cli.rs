@@ -33,6 +33,12 @@ enum Cmd {
     },
     /// Optimal formation (V.7): g, positions, radius, second moments.
     Formation(FormationArgs),
+    /// Re-run the planner offline on a run's recorded inputs; check body.csv bit for bit.
+    Replay(crate::replay::ReplayArgs),
+    /// Run a mission for many seeds; table, aggregate, pass/fail.
+    Batch(crate::batch::BatchArgs),
+    /// Benchmarks: IPC hop against its floor, lockstep scaling, real-time capacity.
+    Bench(crate::bench::BenchArgs),
     /// Timing analysis of a run from its tracing logs.
     Analyze {
         /// The run directory.
@@ -186,6 +192,9 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
             }
         }
         Cmd::Formation(args) => formation(&args),
+        Cmd::Replay(args) => crate::replay::main(&args),
+        Cmd::Batch(args) => crate::batch::main(&args),
+        Cmd::Bench(args) => crate::bench::main(&args),
         Cmd::Analyze { run_dir, json } => {
             if !run_dir.join("logs").is_dir() {
                 return Err(InvalidInput(format!(

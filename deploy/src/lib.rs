@@ -4,10 +4,15 @@
 //! - [`supervise`]: the multi-process run (`vbap run`), tokio.
 //! - [`analyze`]: timing analysis from the tracing logs (`vbap analyze`).
 //! - [`progress`]: the progress bar of `vbap run`.
+//! - [`replay`], [`batch`], [`bench`], [`report_plots`]: study a run, many runs, the speed.
 //! - [`cli`]: the command line.
 
 pub mod analyze;
+pub mod batch;
+pub mod bench;
 pub mod cli;
 pub mod progress;
+pub mod replay;
+pub mod report_plots;
 pub mod sim;
 pub mod supervise;

@@ -46,12 +46,14 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
             .iter()
             .map(|a| Report {
                 id: a.id,
+                tick: k,
                 position: a.position,
                 velocity: a.velocity,
                 measurement: world.sample(a.id, k, t, &a.position).unwrap_or(f64::NAN),
             })
             .collect();
-        let command = planner.step(&reports, dt)?;
+        let command = planner.step(k, &reports, &reports, dt)?;
+        recorder.inputs(k, &reports, &reports)?;
         recorder.tick(k, &reports, &command)?;
         positions.clear();
         positions.extend(reports.iter().map(|q| q.position));
@@ -85,5 +87,6 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
     summary.wall_time_s = wall.elapsed().as_secs_f64();
     summary.write(dir).context("writing summary.json")?;
     recorder.write_plot().context("writing plot.svg")?;
+    crate::report_plots::write_run_plots(dir).context("writing the time-series plots")?;
     Ok(summary)
 }

@@ -295,6 +295,9 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
             s.latency_us = report.latency_summary();
         }
         s.write(dir).context("writing summary.json")?;
+        if let Err(e) = crate::report_plots::write_run_plots(dir) {
+            warn!(error = %e, "time-series plots failed");
+        }
     }
     Ok(RunOutcome {
         summary,

@@ -15,8 +15,16 @@ use crate::math::Vec3;
 
 /// Header of `vehicles.csv`.
 pub const VEHICLES_HEADER: &str = "t,k,id,x,y,z,vx,vy,vz,measurement";
+/// Header of `planner_inputs.csv`: `role` is `both` (a member's report that is also
+/// fresh), `member` (last known report, not fresh) or `fresh` (delivered this tick, not
+/// the member's latest).
+pub const INPUTS_HEADER: &str = "k,role,id,tick,x,y,z,vx,vy,vz,measurement";
 /// Header of `body.csv`.
-pub const BODY_HEADER: &str = "t,k,s,sdot,rx,ry,rz,scale,grad_x,grad_y,grad_z,V,n_vehicles";
+///
+/// After the contract columns: `p_trace`, the trace of the Kalman covariance P (0 before
+/// the first estimate), and the true gradient at r (ground truth, from the recorder).
+pub const BODY_HEADER: &str =
+    "t,k,s,sdot,rx,ry,rz,scale,grad_x,grad_y,grad_z,V,n_vehicles,p_trace,true_grad_x,true_grad_y,true_grad_z";
 
 /// Paths of the files of one run directory.
 #[derive(Clone, Debug)]
@@ -56,6 +64,10 @@ impl RunDir {
     /// `logs/<process>.jsonl`.
     pub fn log(&self, process: &str) -> PathBuf {
         self.root.join("logs").join(format!("{process}.jsonl"))
+    }
+    /// `planner_inputs.csv`: every argument of every planner step (`vbap replay`).
+    pub fn planner_inputs(&self) -> PathBuf {
+        self.root.join("planner_inputs.csv")
     }
     /// `plot.svg`.
     pub fn plot(&self) -> PathBuf {
@@ -97,12 +109,27 @@ pub struct BodyRow {
     pub grad: Vec3,
     pub v: f64,
     pub n_vehicles: usize,
+    pub p_trace: f64,
+    pub true_grad: Vec3,
 }
 
-/// Appends rows to `vehicles.csv` and `body.csv`.
+/// One row of `planner_inputs.csv`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InputRow<'a> {
+    pub k: u64,
+    pub role: &'a str,
+    pub id: u32,
+    pub tick: u64,
+    pub position: Vec3,
+    pub velocity: Vec3,
+    pub measurement: f64,
+}
+
+/// Appends rows to `vehicles.csv`, `body.csv` and `planner_inputs.csv`.
 pub struct TrackWriter {
     vehicles: BufWriter<File>,
     body: BufWriter<File>,
+    inputs: BufWriter<File>,
 }
 
 impl TrackWriter {
@@ -111,7 +138,26 @@ impl TrackWriter {
         Ok(Self {
             vehicles: open_append(&dir.vehicles(), VEHICLES_HEADER)?,
             body: open_append(&dir.body(), BODY_HEADER)?,
+            inputs: open_append(&dir.planner_inputs(), INPUTS_HEADER)?,
         })
+    }
+    /// Appends one planner input row.
+    pub fn input(&mut self, r: &InputRow<'_>) -> io::Result<()> {
+        writeln!(
+            self.inputs,
+            "{},{},{},{},{},{},{},{},{},{},{}",
+            r.k,
+            r.role,
+            r.id,
+            r.tick,
+            r.position.x,
+            r.position.y,
+            r.position.z,
+            r.velocity.x,
+            r.velocity.y,
+            r.velocity.z,
+            r.measurement
+        )
     }
     /// Appends one vehicle row.
     pub fn vehicle(&mut self, r: &VehicleRow) -> io::Result<()> {
@@ -134,7 +180,7 @@ impl TrackWriter {
     pub fn body(&mut self, r: &BodyRow) -> io::Result<()> {
         writeln!(
             self.body,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.t,
             r.k,
             r.s,
@@ -147,12 +193,17 @@ impl TrackWriter {
             r.grad.y,
             r.grad.z,
             r.v,
-            r.n_vehicles
+            r.n_vehicles,
+            r.p_trace,
+            r.true_grad.x,
+            r.true_grad.y,
+            r.true_grad.z
         )
     }
     /// Flushes both files.
     pub fn flush(&mut self) -> io::Result<()> {
         self.vehicles.flush()?;
+        self.inputs.flush()?;
         self.body.flush()
     }
 }
