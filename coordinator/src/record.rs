@@ -86,6 +86,69 @@ impl Recorder {
         self.events.push(&e)
     }
 
+    /// Writes a `fault` event for every scheduled fault starting at tick `k`.
+    pub fn faults_starting(&mut self, k: u64) -> io::Result<()> {
+        let dt = self.mission.mission.dt;
+        let starting: Vec<_> = self
+            .mission
+            .faults
+            .iter()
+            .filter(|f| shared::faults::tick_at(f.at, dt) == k)
+            .cloned()
+            .collect();
+        for f in starting {
+            self.events.push(&Event {
+                t: k as f64 * dt,
+                k,
+                kind: "fault".into(),
+                vehicle: Some(f.vehicle),
+                detail: serde_json::json!({ "fault": f.kind.as_str(), "at": f.at, "until": f.until, "value": f.value }),
+            })?;
+        }
+        Ok(())
+    }
+
+    /// Vehicle `v` was lost at tick `k` (`cause`: "scheduled kill", "process died", ...).
+    pub fn lost(&mut self, k: u64, v: u32, cause: &str) -> io::Result<()> {
+        let t = k as f64 * self.mission.mission.dt;
+        self.event(Event {
+            t,
+            k,
+            kind: "lost".into(),
+            vehicle: Some(v),
+            detail: serde_json::json!({ "cause": cause }),
+        })
+    }
+
+    /// Vehicle `v` was admitted back at tick `k`.
+    pub fn rejoined(&mut self, k: u64, v: u32) -> io::Result<()> {
+        let t = k as f64 * self.mission.mission.dt;
+        self.event(Event {
+            t,
+            k,
+            kind: "rejoin".into(),
+            vehicle: Some(v),
+            detail: serde_json::Value::Null,
+        })
+    }
+
+    /// Writes a `link_drop` event for every uplink report the link model dropped.
+    pub fn uplink(&mut self, k: u64, fates: &[(u32, shared::link::Fate)]) -> io::Result<()> {
+        let t = k as f64 * self.mission.mission.dt;
+        for (v, fate) in fates {
+            if let shared::link::Fate::Drop(reason) = fate {
+                self.events.push(&Event {
+                    t,
+                    k,
+                    kind: "link_drop".into(),
+                    vehicle: Some(*v),
+                    detail: serde_json::json!({ "direction": "uplink", "reason": reason.as_str() }),
+                })?;
+            }
+        }
+        Ok(())
+    }
+
     /// Records the arguments of planner step `k` (`planner_inputs.csv`), so `vbap replay`
     /// can re-run the planner offline.
     pub fn inputs(&mut self, k: u64, members: &[Report], fresh: &[Report]) -> io::Result<()> {

@@ -8,13 +8,15 @@
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use coordinator::fleet::Fleet;
 use coordinator::planner::{Planner, PlannerParams, Report};
 use coordinator::record::Recorder;
 use field_server::World;
 use shared::config::Mission;
-use shared::math::Vec3;
+use shared::faults::FaultPlan;
 use shared::rundir::{RunDir, Summary};
-use vehicle_agent::{initial_agent, initial_design, Agent, AgentInputs};
+use std::collections::BTreeMap;
+use vehicle_agent::{initial_agent, initial_design, Agent, DownlinkCounts, Guidance, Vehicle};
 
 /// Progress callback: (tick, ticks, mission time s, distance to optimum if known).
 pub type Progress<'a> = &'a mut dyn FnMut(u64, u64, f64, Option<f64>);
@@ -24,13 +26,23 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
     let wall = Instant::now();
     let dt = mission.mission.dt;
     let ticks = mission.ticks();
+    let dim = mission.mission.dim;
     let design = initial_design(mission).context("initial formation design")?;
-    let mut agents: Vec<Agent> = (0..mission.vehicles.count as u32)
-        .map(|id| initial_agent(mission, &design, id))
+    let initial = Guidance::initial(mission, &design);
+    let plan = FaultPlan::new(mission);
+    let ids: Vec<u32> = (0..mission.vehicles.count as u32).collect();
+    let mut vehicles: BTreeMap<u32, Vehicle> = ids
+        .iter()
+        .map(|&id| {
+            (
+                id,
+                Vehicle::new(initial_agent(mission, &design, id), initial.clone()),
+            )
+        })
         .collect();
-    let ids: Vec<u32> = agents.iter().map(|a| a.id).collect();
     let world = World::new(mission);
     let field = mission.field();
+    let mut fleet = Fleet::new(mission, &ids);
     let mut planner = Planner::new(
         PlannerParams::from_mission(mission),
         mission.start_vec(),
@@ -38,43 +50,68 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
     )?;
     let mut recorder = Recorder::open(mission, dir).context("opening the run directory files")?;
     let every = (ticks / 200).max(1);
-    let mut positions: Vec<Vec3> = Vec::with_capacity(agents.len());
-    let mut neighbours: Vec<Vec3> = Vec::with_capacity(agents.len());
+    let mut downlink = DownlinkCounts::default();
     for k in 0..ticks {
         let t = k as f64 * dt;
-        let reports: Vec<Report> = agents
-            .iter()
-            .map(|a| Report {
-                id: a.id,
-                tick: k,
-                position: a.position,
-                velocity: a.velocity,
-                measurement: world.sample(a.id, k, t, &a.position).unwrap_or(f64::NAN),
+        recorder.faults_starting(k)?;
+        for v in plan.kills_at(k).collect::<Vec<_>>() {
+            if fleet.lose(v) {
+                if let Some(gone) = vehicles.remove(&v) {
+                    downlink.delivered += gone.counts.delivered;
+                    downlink.dropped += gone.counts.dropped;
+                }
+                recorder.lost(k, v, "scheduled kill")?;
+            }
+        }
+        for v in plan.restarts_at(k).collect::<Vec<_>>() {
+            if let Some(restore) = fleet.admit(v) {
+                let agent = Agent {
+                    id: v,
+                    dim,
+                    position: restore.position,
+                    velocity: restore.velocity,
+                };
+                vehicles.insert(v, Vehicle::new(agent, initial.clone()));
+                recorder.rejoined(k, v)?;
+            }
+        }
+        let admitted: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
+        let truth: Vec<Report> = vehicles
+            .iter_mut()
+            .filter(|(id, _)| !admitted.contains(id))
+            .map(|(&id, veh)| {
+                let raw = world
+                    .sample(id, k, t, &veh.agent.position)
+                    .unwrap_or(f64::NAN);
+                Report {
+                    id,
+                    tick: k,
+                    position: veh.agent.position,
+                    velocity: veh.agent.velocity,
+                    measurement: veh.read_sensor(&plan, t, raw),
+                }
             })
             .collect();
-        let command = planner.step(k, &reports, &reports, dt)?;
-        recorder.inputs(k, &reports, &reports)?;
-        recorder.tick(k, &reports, &command)?;
-        positions.clear();
-        positions.extend(reports.iter().map(|q| q.position));
-        for (i, agent) in agents.iter_mut().enumerate() {
-            neighbours.clear();
-            neighbours.extend(
-                positions
-                    .iter()
-                    .enumerate()
-                    .filter(|(j, _)| *j != i)
-                    .map(|(_, p)| *p),
+        let fates = fleet.receive(k, dt, &truth);
+        recorder.uplink(k, &fates)?;
+        let (members, fresh) = fleet.deliver(t);
+        let command = planner.step(k, &members, &fresh, dt)?;
+        recorder.inputs(k, &members, &fresh)?;
+        recorder.tick(k, &truth, &command)?;
+        let snapshot = fleet.snapshot(&members);
+        for (&id, veh) in vehicles.iter_mut() {
+            let guidance = Guidance::from_command(
+                id,
+                k,
+                command.leaders.clone(),
+                &snapshot,
+                command.inter,
+                command.leader,
+                command.damping,
             );
-            let inputs = AgentInputs {
-                leaders: &command.leaders,
-                neighbours: &neighbours,
-                inter: command.inter,
-                leader: command.leader,
-                damping: command.damping,
-            };
-            agent.step(&inputs, dt);
+            veh.on_command(fleet.model(), guidance, k, dt);
         }
+        fleet.end_tick();
         if k.is_multiple_of(every) || k + 1 == ticks {
             let distance = field
                 .optimum(t, mission.mission.goal)
@@ -82,8 +119,18 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
             progress(k + 1, ticks, t, distance);
         }
     }
+    for veh in vehicles.values() {
+        downlink.delivered += veh.counts.delivered;
+        downlink.dropped += veh.counts.dropped;
+    }
     recorder.flush()?;
     let mut summary = recorder.summary(&planner, "in-process");
+    summary.messages.sent = fleet.counts.delivered
+        + fleet.counts.dropped_injected
+        + downlink.delivered
+        + downlink.dropped;
+    summary.messages.delivered = fleet.counts.delivered + downlink.delivered;
+    summary.messages.dropped_injected = fleet.counts.dropped_injected + downlink.dropped;
     summary.wall_time_s = wall.elapsed().as_secs_f64();
     summary.write(dir).context("writing summary.json")?;
     recorder.write_plot().context("writing plot.svg")?;

@@ -5,18 +5,18 @@
 //! (PR_SET_PDEATHSIG). SIGINT/SIGTERM to the supervisor: SIGTERM to every child, a grace
 //! period, SIGKILL for stragglers, then the mission's iceoryx2 resources are cleaned.
 
+use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
-use shared::config::Mission;
+use shared::config::{Mission, RestartPolicy};
 use shared::rundir::{RunDir, Summary};
 use shared::topics::Domain;
 use tokio::io::{AsyncBufReadExt, BufReader};
 use tokio::process::{Child, Command};
+use tokio::sync::mpsc;
 use tracing::{info, warn};
 
 use crate::analyze;
@@ -27,10 +27,40 @@ const GRACE: Duration = Duration::from_secs(5);
 /// How long a process may take to print `ready`.
 const READY_TIMEOUT: Duration = Duration::from_secs(60);
 
-/// One supervised child.
+/// What a supervised process is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Role {
+    FieldServer,
+    Coordinator,
+    Agent(u32),
+}
+
+impl Role {
+    fn name(self) -> String {
+        match self {
+            Role::FieldServer => "field_server".into(),
+            Role::Coordinator => "coordinator".into(),
+            Role::Agent(id) => format!("vehicle_agent_{id}"),
+        }
+    }
+}
+
+/// One supervised process slot (a process and its restarts).
 struct Proc {
-    name: String,
-    child: Child,
+    role: Role,
+    /// pid of the running process; None once it ended.
+    pid: Option<u32>,
+    /// Generation of the process in this slot (restarts increment it).
+    generation: u32,
+    /// Wall times of the restarts inside the policy window.
+    restarts: VecDeque<Instant>,
+}
+
+/// A process ended.
+struct Exit {
+    slot: usize,
+    generation: u32,
+    status: std::io::Result<std::process::ExitStatus>,
 }
 
 /// The directory of the vbap binaries (the one holding this executable).
@@ -44,13 +74,11 @@ pub fn bin_dir() -> Result<PathBuf> {
 
 /// Sends `sig` to a child that has not been reaped yet.
 #[allow(unsafe_code)]
-fn signal(child: &Child, sig: i32) {
-    if let Some(pid) = child.id() {
-        // SAFETY: kill(2) takes a pid and a signal number; the child is not reaped yet
-        // (`id()` is Some), so the pid still names our child.
-        unsafe {
-            libc::kill(pid as libc::pid_t, sig);
-        }
+fn signal(pid: u32, sig: i32) {
+    // SAFETY: kill(2) takes a pid and a signal number and touches no memory of ours; the
+    // pid is of a child whose exit we have not seen, so it has not been reaped.
+    unsafe {
+        libc::kill(pid as libc::pid_t, sig);
     }
 }
 
@@ -114,10 +142,13 @@ pub fn leftover_files(domain: &Domain) -> Vec<PathBuf> {
     out
 }
 
-async fn spawn(bin: &Path, name: &str, args: &[String], dir: &RunDir) -> Result<Proc> {
-    let stderr = std::fs::File::create(dir.root.join("logs").join(format!("{name}.stderr.log")))
+async fn spawn(bin: &Path, name: &str, args: &[String], dir: &RunDir) -> Result<Child> {
+    let stderr = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(dir.root.join("logs").join(format!("{name}.stderr.log")))
         .with_context(|| format!("creating the stderr log of {name}"))?;
-    let child = Command::new(bin)
+    Command::new(bin)
         .args(args)
         .arg("--log")
         .arg(dir.log(name))
@@ -128,26 +159,131 @@ async fn spawn(bin: &Path, name: &str, args: &[String], dir: &RunDir) -> Result<
         .stderr(Stdio::from(stderr))
         .kill_on_drop(true)
         .spawn()
-        .with_context(|| format!("starting {}", bin.display()))?;
-    Ok(Proc {
-        name: name.to_string(),
-        child,
-    })
+        .with_context(|| format!("starting {}", bin.display()))
 }
 
-async fn await_ready(proc: &mut Proc) -> Result<()> {
-    let stdout = proc.child.stdout.take().context("child stdout")?;
+async fn await_ready(name: &str, child: &mut Child) -> Result<()> {
+    let stdout = child.stdout.take().context("child stdout")?;
     let mut lines = BufReader::new(stdout).lines();
     let line = tokio::time::timeout(READY_TIMEOUT, lines.next_line())
         .await
-        .with_context(|| format!("{} did not get ready within {READY_TIMEOUT:?}", proc.name))?
-        .with_context(|| format!("reading {}'s stdout", proc.name))?;
+        .with_context(|| format!("{name} did not get ready within {READY_TIMEOUT:?}"))?
+        .with_context(|| format!("reading {name}'s stdout"))?;
     match line.as_deref() {
         Some("ready") => Ok(()),
-        other => bail!(
-            "{} exited before it was ready ({other:?}); see its logs",
-            proc.name
-        ),
+        other => bail!("{name} exited before it was ready ({other:?}); see its logs"),
+    }
+}
+
+/// The process set of one run.
+struct ProcessSet<'a> {
+    bin: PathBuf,
+    mission: &'a Mission,
+    mission_file: String,
+    dir: &'a RunDir,
+    procs: Vec<Proc>,
+    exits: mpsc::UnboundedSender<Exit>,
+}
+
+impl ProcessSet<'_> {
+    fn args(&self, role: Role, restart: bool) -> (PathBuf, Vec<String>) {
+        let mut args = vec!["--mission".to_string(), self.mission_file.clone()];
+        let exe = match role {
+            Role::FieldServer => "field_server",
+            Role::Coordinator => {
+                args.extend([
+                    "--run-dir".to_string(),
+                    self.dir.root.to_string_lossy().to_string(),
+                ]);
+                "coordinator"
+            }
+            Role::Agent(id) => {
+                args.extend(["--id".to_string(), id.to_string()]);
+                if restart {
+                    args.push("--rejoin".to_string());
+                }
+                "vehicle_agent"
+            }
+        };
+        (self.bin.join(exe), args)
+    }
+
+    /// Starts the process of `slot` (first start or restart) and waits until it is ready.
+    async fn start(&mut self, slot: usize) -> Result<()> {
+        let role = self.procs[slot].role;
+        let (exe, args) = self.args(role, self.procs[slot].generation > 0);
+        let name = role.name();
+        let mut child = spawn(&exe, &name, &args, self.dir).await?;
+        let pid = child.id();
+        self.procs[slot].pid = pid;
+        self.procs[slot].generation += 1;
+        let generation = self.procs[slot].generation;
+        let ready = await_ready(&name, &mut child).await;
+        let exits = self.exits.clone();
+        tokio::spawn(async move {
+            let status = child.wait().await;
+            let _ = exits.send(Exit {
+                slot,
+                generation,
+                status,
+            });
+        });
+        ready
+    }
+
+    /// Sends `sig` to every running process.
+    fn signal_all(&self, sig: i32) {
+        for p in &self.procs {
+            if let Some(pid) = p.pid {
+                signal(pid, sig);
+            }
+        }
+    }
+
+    fn running(&self) -> usize {
+        self.procs.iter().filter(|p| p.pid.is_some()).count()
+    }
+
+    fn policy(&self, role: Role) -> RestartPolicy {
+        let r = &self.mission.restart;
+        match role {
+            Role::FieldServer => r.field_server,
+            Role::Coordinator => r.coordinator,
+            Role::Agent(_) => r.vehicles,
+        }
+    }
+}
+
+/// SIGTERM to every running process, a grace period, then SIGKILL; reaps all.
+async fn stop_all(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedReceiver<Exit>) {
+    set.signal_all(libc::SIGTERM);
+    let deadline = tokio::time::Instant::now() + GRACE;
+    while set.running() > 0 {
+        match tokio::time::timeout_at(deadline, exits.recv()).await {
+            Ok(Some(e)) => {
+                if set.procs[e.slot].generation == e.generation {
+                    set.procs[e.slot].pid = None;
+                }
+            }
+            Ok(None) => break,
+            Err(_) => {
+                for p in &set.procs {
+                    if let Some(pid) = p.pid {
+                        warn!(process = %p.role.name(), "did not stop within the grace period: SIGKILL");
+                        signal(pid, libc::SIGKILL);
+                    }
+                }
+                while set.running() > 0 {
+                    match exits.recv().await {
+                        Some(e) if set.procs[e.slot].generation == e.generation => {
+                            set.procs[e.slot].pid = None
+                        }
+                        Some(_) => {}
+                        None => break,
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -167,7 +303,6 @@ pub struct RunOutcome {
 /// Runs `mission` as a process set writing `dir`.
 pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result<RunOutcome> {
     let wall = Instant::now();
-    let bin = bin_dir()?;
     let domain = Domain::new(&mission.mission.name)?;
     let cleaned = clean_domain(&domain)?;
     if cleaned > 0 {
@@ -176,116 +311,128 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
             "removed stale resources of an earlier run of this mission"
         );
     }
-    let mission_file = dir.mission().to_string_lossy().to_string();
-    let mut procs: Vec<Proc> = Vec::new();
-    let interrupted = Arc::new(AtomicBool::new(false));
-
+    let (tx, mut exits) = mpsc::unbounded_channel();
+    let mut roles = vec![Role::FieldServer, Role::Coordinator];
+    roles.extend((0..mission.vehicles.count as u32).map(Role::Agent));
+    let mut set = ProcessSet {
+        bin: bin_dir()?,
+        mission,
+        mission_file: dir.mission().to_string_lossy().to_string(),
+        dir,
+        procs: roles
+            .into_iter()
+            .map(|role| Proc {
+                role,
+                pid: None,
+                generation: 0,
+                restarts: VecDeque::new(),
+            })
+            .collect(),
+        exits: tx,
+    };
+    let mut interrupted = false;
     let start = async {
-        let mut fs = spawn(
-            &bin.join("field_server"),
-            "field_server",
-            &["--mission".into(), mission_file.clone()],
-            dir,
-        )
-        .await?;
-        await_ready(&mut fs).await?;
-        procs.push(fs);
-        let mut co = spawn(
-            &bin.join("coordinator"),
-            "coordinator",
-            &[
-                "--mission".into(),
-                mission_file.clone(),
-                "--run-dir".into(),
-                dir.root.to_string_lossy().to_string(),
-            ],
-            dir,
-        )
-        .await?;
-        await_ready(&mut co).await?;
-        procs.push(co);
-        let mut agents = Vec::new();
-        for id in 0..mission.vehicles.count {
-            let name = format!("vehicle_agent_{id}");
-            agents.push(
-                spawn(
-                    &bin.join("vehicle_agent"),
-                    &name,
-                    &[
-                        "--mission".into(),
-                        mission_file.clone(),
-                        "--id".into(),
-                        id.to_string(),
-                    ],
-                    dir,
-                )
-                .await?,
-            );
+        // Field server, then coordinator, each ready before the next; then every agent.
+        set.start(0).await?;
+        set.start(1).await?;
+        for slot in 2..set.procs.len() {
+            set.start(slot).await?;
         }
-        for a in agents.iter_mut() {
-            await_ready(a).await?;
-        }
-        procs.extend(agents);
         anyhow::Ok(())
     };
     let started = tokio::select! {
         r = start => r,
-        _ = shutdown_signal() => { interrupted.store(true, Ordering::SeqCst); Ok(()) }
+        _ = shutdown_signal() => { interrupted = true; Ok(()) }
     };
     let startup_s = wall.elapsed().as_secs_f64();
     if let Err(e) = started {
-        stop_all(&mut procs).await;
+        stop_all(&mut set, &mut exits).await;
         let _ = clean_domain(&domain);
         return Err(e);
     }
-    info!(startup_s, processes = procs.len(), "process set up");
+    info!(startup_s, processes = set.procs.len(), "process set up");
 
-    let mut view = ProgressView::start(
-        mission,
-        show_progress && !interrupted.load(Ordering::SeqCst),
-    );
-    let coordinator_ok = if interrupted.load(Ordering::SeqCst) {
-        false
-    } else {
-        let coord_idx = procs
-            .iter()
-            .position(|p| p.name == "coordinator")
-            .expect("coordinator started");
-        let status = tokio::select! {
-            s = procs[coord_idx].child.wait() => Some(s),
-            _ = shutdown_signal() => None,
+    let mut view = ProgressView::start(mission, show_progress && !interrupted);
+    let mut coordinator_ok = false;
+    let mut restarts_done = 0u32;
+    while !interrupted {
+        let exit = tokio::select! {
+            e = exits.recv() => e,
+            _ = shutdown_signal() => { interrupted = true; None }
         };
-        match status {
-            Some(Ok(s)) => {
-                if !s.success() {
-                    warn!(status = %s, "coordinator failed");
-                }
-                s.success()
-            }
-            Some(Err(e)) => {
-                warn!(error = %e, "waiting for the coordinator");
-                false
-            }
-            None => {
-                interrupted.store(true, Ordering::SeqCst);
-                false
-            }
+        let Some(exit) = exit else { break };
+        let slot = exit.slot;
+        if set.procs[slot].generation != exit.generation {
+            continue;
         }
-    };
-    view.finish();
-    // Finished (or stopped): the others end on FINISHED; stragglers get SIGTERM, SIGKILL.
-    if interrupted.load(Ordering::SeqCst) {
-        stop_all(&mut procs).await;
-    } else {
-        let deadline = Instant::now() + GRACE;
-        for p in procs.iter_mut() {
-            let left = deadline.saturating_duration_since(Instant::now());
-            if tokio::time::timeout(left, p.child.wait()).await.is_err() {
-                warn!(process = %p.name, "still running after the mission: terminating");
-            }
+        set.procs[slot].pid = None;
+        let role = set.procs[slot].role;
+        let failed = !exit.status.as_ref().is_ok_and(|s| s.success());
+        if role == Role::Coordinator && !failed {
+            coordinator_ok = true;
+            break;
         }
-        stop_all(&mut procs).await;
+        if !failed && policy_is_not_always(set.policy(role)) {
+            continue; // a normal end (the mission finished)
+        }
+        let policy = set.policy(role);
+        let restart = match policy {
+            RestartPolicy::Never => false,
+            RestartPolicy::OnFailure => failed,
+            RestartPolicy::Always => true,
+        };
+        warn!(process = %role.name(), status = ?exit.status, ?policy, restart, "process ended");
+        if !restart {
+            if role == Role::Coordinator || role == Role::FieldServer {
+                break; // the mission cannot go on
+            }
+            continue;
+        }
+        // Restart with backoff, at most max_restarts per window.
+        let r = &mission.restart;
+        let window = Duration::from_secs_f64(r.window);
+        let p = &mut set.procs[slot];
+        while p.restarts.front().is_some_and(|t| t.elapsed() > window) {
+            p.restarts.pop_front();
+        }
+        if p.restarts.len() >= r.max_restarts as usize {
+            warn!(process = %role.name(), "restart limit reached: not restarting");
+            if role == Role::Coordinator || role == Role::FieldServer {
+                break;
+            }
+            continue;
+        }
+        let backoff = Duration::from_secs_f64(r.backoff * 2f64.powi(p.restarts.len() as i32));
+        p.restarts.push_back(Instant::now());
+        tokio::select! {
+            _ = tokio::time::sleep(backoff) => {}
+            _ = shutdown_signal() => { interrupted = true; break; }
+        }
+        // Clean the dead node first so the restarted process can take its services.
+        domain.cleanup_dead_nodes();
+        match set.start(slot).await {
+            Ok(()) => {
+                restarts_done += 1;
+                info!(process = %role.name(), restarts_done, "restarted");
+            }
+            Err(e) => warn!(process = %role.name(), error = %e, "restart failed"),
+        }
     }
+    view.finish();
+    if !interrupted {
+        // The mission is over: the others end on FINISHED; stragglers get SIGTERM.
+        let deadline = tokio::time::Instant::now() + GRACE;
+        while set.running() > 0 {
+            match tokio::time::timeout_at(deadline, exits.recv()).await {
+                Ok(Some(e)) if set.procs[e.slot].generation == e.generation => {
+                    set.procs[e.slot].pid = None
+                }
+                Ok(Some(_)) => {}
+                _ => break,
+            }
+        }
+    }
+    stop_all(&mut set, &mut exits).await;
     let _ = clean_domain(&domain);
 
     let mut summary = Summary::read(dir).ok();
@@ -294,6 +441,7 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
         if let Ok(report) = analyze::analyze(dir) {
             s.latency_us = report.latency_summary();
         }
+        s.agent_rejected = count_agent_rejections(dir);
         s.write(dir).context("writing summary.json")?;
         if let Err(e) = crate::report_plots::write_run_plots(dir) {
             warn!(error = %e, "time-series plots failed");
@@ -301,25 +449,34 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
     }
     Ok(RunOutcome {
         summary,
-        interrupted: interrupted.load(Ordering::SeqCst),
+        interrupted,
         coordinator_ok,
         startup_s,
     })
 }
 
-/// SIGTERM to every live child, a grace period, then SIGKILL; reaps all.
-async fn stop_all(procs: &mut [Proc]) {
-    for p in procs.iter() {
-        signal(&p.child, libc::SIGTERM);
-    }
-    let deadline = Instant::now() + GRACE;
-    for p in procs.iter_mut() {
-        let left = deadline.saturating_duration_since(Instant::now());
-        if tokio::time::timeout(left, p.child.wait()).await.is_err() {
-            warn!(process = %p.name, "did not stop within the grace period: SIGKILL");
-            let _ = p.child.kill().await;
+fn policy_is_not_always(p: RestartPolicy) -> bool {
+    p != RestartPolicy::Always
+}
+
+/// Body commands rejected by the agents, counted from their logs.
+fn count_agent_rejections(dir: &RunDir) -> u64 {
+    let Ok(entries) = std::fs::read_dir(dir.root.join("logs")) else {
+        return 0;
+    };
+    let mut n = 0;
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().to_string();
+        if name.starts_with("vehicle_agent") && name.ends_with(".jsonl") {
+            if let Ok(text) = std::fs::read_to_string(e.path()) {
+                n += text
+                    .lines()
+                    .filter(|l| l.contains("rejected a body command"))
+                    .count() as u64;
+            }
         }
     }
+    n
 }
 
 /// Resolves on SIGINT or SIGTERM.

@@ -453,8 +453,19 @@ impl Default for EstimatorSection {
     }
 }
 
+/// How the surfacing windows of the vehicles are placed in time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SurfacingPhase {
+    /// Vehicle i surfaces at phase i·period/N (one or a few at the surface at a time).
+    #[default]
+    Staggered,
+    /// All vehicles surface together.
+    Together,
+}
+
 /// `[links]`: the vehicle ↔ coordinator link model, both directions (DESIGN §6).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LinksSection {
     /// One-way delay (s), ≥ 0.
@@ -467,6 +478,78 @@ pub struct LinksSection {
     pub surfacing_period: f64,
     /// Time at the surface in each period (s), ≤ surfacing_period, > 0 if the period is.
     pub surfacing_window: f64,
+    /// Placement of the surfacing windows: "staggered" (vehicle i at phase i·period/N) or
+    /// "together".
+    pub surfacing_phase: SurfacingPhase,
+    /// Bursty loss (Gilbert–Elliott): probability per message of going from the good to
+    /// the bad state; 0 = plain Bernoulli loss.
+    pub burst_enter: f64,
+    /// Gilbert–Elliott: probability per message of leaving the bad state.
+    pub burst_exit: f64,
+    /// Gilbert–Elliott: loss probability in the bad state (`loss` applies in the good one).
+    pub burst_loss: f64,
+    /// Apply the model to coordinator → vehicle messages too (false: uplink only).
+    pub downlink: bool,
+}
+
+impl Default for LinksSection {
+    fn default() -> Self {
+        Self {
+            delay: 0.0,
+            jitter: 0.0,
+            loss: 0.0,
+            surfacing_period: 0.0,
+            surfacing_window: 0.0,
+            surfacing_phase: SurfacingPhase::Staggered,
+            burst_enter: 0.0,
+            burst_exit: 0.5,
+            burst_loss: 0.5,
+            downlink: true,
+        }
+    }
+}
+
+/// A restart policy of the supervisor (`[restart]`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RestartPolicy {
+    /// Never restart.
+    Never,
+    /// Restart after a failure (non-zero exit or killed by a signal).
+    OnFailure,
+    /// Restart whenever the process ends before the mission does.
+    Always,
+}
+
+/// `[restart]`: what the supervisor does when a process of the set dies (DESIGN §7).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RestartSection {
+    /// Policy for vehicle agents.
+    pub vehicles: RestartPolicy,
+    /// Policy for the coordinator (a restarted coordinator resumes from its checkpoint).
+    pub coordinator: RestartPolicy,
+    /// Policy for the field server.
+    pub field_server: RestartPolicy,
+    /// Wall time before a restart (s); doubles with each restart inside the window.
+    pub backoff: f64,
+    /// Largest number of restarts of one process inside `window`; past it, no more.
+    pub max_restarts: u32,
+    /// Length of the restart-counting window (s, wall time).
+    pub window: f64,
+}
+
+impl Default for RestartSection {
+    fn default() -> Self {
+        Self {
+            vehicles: RestartPolicy::Never,
+            coordinator: RestartPolicy::OnFailure,
+            field_server: RestartPolicy::OnFailure,
+            backoff: 0.2,
+            max_restarts: 5,
+            window: 60.0,
+        }
+    }
 }
 
 /// The kind of a scheduled fault (`faults[i].kind`).
@@ -533,6 +616,8 @@ pub struct Mission {
     pub estimator: EstimatorSection,
     /// `[links]`.
     pub links: LinksSection,
+    /// `[restart]`.
+    pub restart: RestartSection,
     /// `[[faults]]`, in file order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub faults: Vec<FaultConfig>,
@@ -550,6 +635,7 @@ impl PartialEq for Mission {
             && self.body == other.body
             && self.estimator == other.estimator
             && self.links == other.links
+            && self.restart == other.restart
             && self.faults == other.faults
     }
 }
@@ -1055,6 +1141,39 @@ impl Mission {
             )?;
         }
 
+        for (key, value) in [
+            ("links.burst_enter", l.burst_enter),
+            ("links.burst_exit", l.burst_exit),
+            ("links.burst_loss", l.burst_loss),
+        ] {
+            c.finite(key, value)?;
+            c.ensure(
+                (0.0..=1.0).contains(&value),
+                key,
+                num(value),
+                "must be in [0, 1]",
+            )?;
+        }
+        if l.burst_enter > 0.0 {
+            c.ensure(
+                l.burst_exit > 0.0,
+                "links.burst_exit",
+                num(l.burst_exit),
+                "must be > 0 when links.burst_enter > 0 (else the bad state never ends)",
+            )?;
+            c.ensure(
+                l.burst_loss < 1.0,
+                "links.burst_loss",
+                num(l.burst_loss),
+                "must be < 1",
+            )?;
+        }
+
+        // [restart]
+        let r = &self.restart;
+        c.positive("restart.backoff", r.backoff)?;
+        c.positive("restart.window", r.window)?;
+
         // [[faults]]
         for (i, fault) in self.faults.iter().enumerate() {
             let k = format!("faults[{i}]");
@@ -1082,6 +1201,14 @@ impl Mission {
                         num(fault.at),
                         num(m.duration)
                     ),
+                )?;
+            }
+            if fault.kind == FaultKind::Kill && fault.until.is_some() {
+                c.ensure(
+                    self.restart.vehicles != RestartPolicy::Never,
+                    &format!("{k}.until"),
+                    num(fault.until.unwrap_or_default()),
+                    "a kill with a restart time needs restart.vehicles = \"on-failure\" or \"always\"",
                 )?;
             }
             match (fault.kind, fault.value) {

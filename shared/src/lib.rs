@@ -10,7 +10,9 @@
 //! - [`plot`]: the mission plot.
 
 pub mod config;
+pub mod faults;
 pub mod field;
+pub mod link;
 pub mod math;
 pub mod msg;
 pub mod plot;

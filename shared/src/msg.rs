@@ -66,9 +66,12 @@ pub mod agent_to_coordinator {
     /// (service `<mission>/vehicle/<id>/state`).
     #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.VehicleState.v1")]
+    #[type_name("vbap.VehicleState.v2")]
     pub struct VehicleState {
         pub header: Header,
+        /// OS process id of the agent (the coordinator SIGKILLs it for a scheduled kill).
+        pub pid: u32,
+        pub _pad: u32,
         /// Position x_i, length unit.
         pub position: [f64; 3],
         /// Velocity ẋ_i, length unit/s.
@@ -80,6 +83,9 @@ pub mod agent_to_coordinator {
     impl VehicleState {
         /// Flag: the agent is holding station (heard nothing from the coordinator).
         pub const HOLDING: u32 = 1;
+        /// Flag: a (re)started agent asks to join a mission under way; the state is its
+        /// last known one, not a report of the tick.
+        pub const JOINING: u32 = 2;
 
         /// True when every number is finite.
         pub fn is_finite(&self) -> bool {
@@ -98,11 +104,11 @@ pub mod coordinator_to_agent {
     /// One vehicle's last known state, as the coordinator holds it.
     #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.SnapshotEntry.v1")]
+    #[type_name("vbap.SnapshotEntry.v2")]
     pub struct SnapshotEntry {
         /// Vehicle id.
         pub id: u32,
-        /// 1 when the vehicle takes part in the formation.
+        /// [`SnapshotEntry::LOST`], [`SnapshotEntry::MEMBER`] or [`SnapshotEntry::ADMITTED`].
         pub alive: u32,
         /// Position, length unit.
         pub position: [f64; 3],
@@ -110,12 +116,21 @@ pub mod coordinator_to_agent {
         pub velocity: [f64; 3],
     }
 
+    impl SnapshotEntry {
+        /// A lost vehicle: its last true state (a restarted agent resumes from it).
+        pub const LOST: u32 = 0;
+        /// A member of the formation: its last state the coordinator received.
+        pub const MEMBER: u32 = 1;
+        /// Admitted back at this tick: the agent restores this state and steps from it.
+        pub const ADMITTED: u32 = 2;
+    }
+
     /// The virtual body for the step from tick `header.tick` to the next, with the swarm
     /// snapshot every agent needs for the inter-vehicle potential (service `<mission>/body`).
     /// Agents read it in place (zero copy).
     #[derive(Debug, Clone, Copy, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.BodyCommand.v1")]
+    #[type_name("vbap.BodyCommand.v2")]
     pub struct BodyCommand {
         pub header: Header,
         /// Virtual body parameter s.

@@ -24,3 +24,13 @@ pub fn die_with_parent(expected_parent: Option<u32>) {
         }
     }
 }
+
+/// Sends SIGKILL to process `pid`; false when it does not exist (any more).
+#[allow(unsafe_code)]
+pub fn sigkill(pid: u32) -> bool {
+    if pid == 0 || pid > i32::MAX as u32 {
+        return false;
+    }
+    // SAFETY: kill(2) takes a pid and a signal number and touches no memory of ours.
+    unsafe { libc::kill(pid as libc::pid_t, libc::SIGKILL) == 0 }
+}

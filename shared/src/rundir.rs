@@ -320,6 +320,13 @@ pub struct Summary {
     pub optimum: Option<[f64; 3]>,
     pub estimated_sigma_m: Option<f64>,
     pub holding_ticks: u64,
+    /// For every vehicle process found dead: wall time from its last message to the
+    /// coordinator's verdict, ms.
+    pub detection_latency_ms: Vec<f64>,
+    /// For every admitted restart: wall time from its join request to its admission, ms.
+    pub rejoin_latency_ms: Vec<f64>,
+    /// Body commands the agents rejected (from their logs).
+    pub agent_rejected: u64,
 }
 
 impl Summary {

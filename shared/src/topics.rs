@@ -145,6 +145,30 @@ impl Domain {
         dead
     }
 
+    /// Every node of this domain by name: true when alive, false when dead (its process is
+    /// gone but its resources are not cleaned yet). One `Node::list`.
+    pub fn node_states(&self) -> std::collections::BTreeMap<String, bool> {
+        use iceoryx2::node::NodeView;
+        let mut out = std::collections::BTreeMap::new();
+        let _ = Node::<ipc::Service>::list(&self.config, |state| {
+            match &state {
+                NodeState::Alive(view) => {
+                    if let Some(d) = view.details() {
+                        out.insert(d.name().to_string(), true);
+                    }
+                }
+                NodeState::Dead(view) => {
+                    if let Some(d) = view.details() {
+                        out.entry(d.name().to_string()).or_insert(false);
+                    }
+                }
+                _ => {}
+            }
+            CallbackProgression::Continue
+        });
+        out
+    }
+
     /// Names of the live nodes of this domain (one `Node::list`: ~0.2 ms per few nodes, scan
     /// at most about once a second with large fleets).
     pub fn alive_node_names(&self) -> Vec<String> {

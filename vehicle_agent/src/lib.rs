@@ -10,6 +10,9 @@ pub mod run;
 
 use rand::Rng;
 use shared::config::Mission;
+use shared::faults::{FaultPlan, SensorState};
+use shared::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
+use shared::math::body::VirtualBody;
 use shared::math::control::{control_law, integrate};
 use shared::math::formation::FormationDesign;
 use shared::math::potential::PairPotential;
@@ -144,5 +147,152 @@ pub fn initial_agent(mission: &Mission, design: &FormationDesign, id: u32) -> Ag
         dim,
         position,
         velocity: Vec3::zeros(),
+    }
+}
+
+/// What the coordinator tells a vehicle for one step: the virtual leaders, the
+/// neighbours' last known positions and the (scaled) potentials. The content of a body
+/// command as one vehicle sees it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Guidance {
+    /// Tick of the command.
+    pub tick: u64,
+    /// Virtual leader positions b_l(s), length unit.
+    pub leaders: Vec<Vec3>,
+    /// Positions of the other members (ordered by id).
+    pub neighbours: Vec<Vec3>,
+    /// Scaled inter-vehicle potential.
+    pub inter: PairPotential,
+    /// Scaled vehicle–leader potential.
+    pub leader: PairPotential,
+    /// Damping gain of (II.1), 1/s.
+    pub damping: f64,
+}
+
+impl Guidance {
+    /// The guidance of a body command for vehicle `id`: leaders, potentials, and as
+    /// neighbours every member or admitted vehicle of the snapshot but itself.
+    pub fn from_command(
+        id: u32,
+        tick: u64,
+        leaders: Vec<Vec3>,
+        snapshot: &[shared::msg::coordinator_to_agent::SnapshotEntry],
+        inter: PairPotential,
+        leader: PairPotential,
+        damping: f64,
+    ) -> Self {
+        use shared::msg::coordinator_to_agent::SnapshotEntry;
+        let neighbours = snapshot
+            .iter()
+            .filter(|e| e.id != id && e.alive != SnapshotEntry::LOST)
+            .map(|e| shared::msg::to_vec3(&e.position))
+            .collect();
+        Self {
+            tick,
+            leaders,
+            neighbours,
+            inter,
+            leader,
+            damping,
+        }
+    }
+
+    /// The guidance a vehicle starts with before it hears anything: the leaders of the
+    /// initial virtual body (the plan it was deployed with), no neighbours.
+    pub fn initial(mission: &Mission, design: &FormationDesign) -> Self {
+        let body = VirtualBody {
+            s: 0.0,
+            r: mission.start_vec(),
+            rotation: nalgebra::Rotation3::identity(),
+            scale: 1.0,
+        };
+        Self {
+            tick: 0,
+            leaders: body.leader_positions(design),
+            neighbours: Vec::new(),
+            inter: body.scaled_inter(design),
+            leader: body.scaled_leader(design),
+            damping: mission.vehicles.damping,
+        }
+    }
+}
+
+/// Counters of a vehicle's downlink.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DownlinkCounts {
+    /// Commands delivered by the link model.
+    pub delivered: u64,
+    /// Commands dropped by the link model.
+    pub dropped: u64,
+}
+
+/// One vehicle with its side of the link: the per-tick logic of an agent, pure. The
+/// command of every tick arrives (it is the lockstep clock); the link model decides when
+/// its content becomes visible; the vehicle steers by the newest visible guidance.
+#[derive(Clone, Debug)]
+pub struct Vehicle {
+    /// The vehicle's dynamics.
+    pub agent: Agent,
+    link: LinkState,
+    inbox: DelayQueue<Guidance>,
+    current: Guidance,
+    sensor: SensorState,
+    /// Downlink counters.
+    pub counts: DownlinkCounts,
+}
+
+impl Vehicle {
+    /// A vehicle starting with `initial` guidance.
+    pub fn new(agent: Agent, initial: Guidance) -> Self {
+        Self {
+            agent,
+            link: LinkState::default(),
+            inbox: DelayQueue::default(),
+            current: initial,
+            sensor: SensorState::default(),
+            counts: DownlinkCounts::default(),
+        }
+    }
+
+    /// What the sensor reports at time `t` (s) when the field reads `raw`: the
+    /// mission's sensor faults applied.
+    pub fn read_sensor(&mut self, faults: &FaultPlan, t: f64, raw: f64) -> f64 {
+        faults.sensor(self.agent.id, t, raw, &mut self.sensor)
+    }
+
+    /// Nothing heard from the coordinator: hold station around the last visible leaders
+    /// (damping and leader forces only, DESIGN §2).
+    pub fn hold_station(&mut self, dt: f64) {
+        let g = &self.current;
+        self.agent
+            .hold_station(&g.leaders, &g.leader, g.damping, dt);
+    }
+
+    /// The command of tick `k` arrives; the link model decides when its content is
+    /// visible; then the vehicle steps from tick k to k + 1 with the newest visible
+    /// guidance. Returns the fate of the command.
+    pub fn on_command(&mut self, model: &LinkModel, guidance: Guidance, k: u64, dt: f64) -> Fate {
+        let t = k as f64 * dt;
+        let fate = model.fate(&mut self.link, self.agent.id, Direction::Downlink, k, t);
+        match fate {
+            Fate::Deliver { at, .. } => {
+                self.counts.delivered += 1;
+                self.inbox.push(at, guidance);
+            }
+            Fate::Drop(_) => self.counts.dropped += 1,
+        }
+        if let Some(newest) = self.inbox.pop_due(t).into_iter().last() {
+            self.current = newest;
+        }
+        let g = &self.current;
+        let inputs = AgentInputs {
+            leaders: &g.leaders,
+            neighbours: &g.neighbours,
+            inter: g.inter,
+            leader: g.leader,
+            damping: g.damping,
+        };
+        self.agent.step(&inputs, dt);
+        fate
     }
 }

@@ -19,6 +19,9 @@ struct Args {
     /// JSON-lines log file (default: stderr).
     #[arg(long)]
     log: Option<PathBuf>,
+    /// This process is a restart: ask to join the mission under way.
+    #[arg(long)]
+    rejoin: bool,
     /// Exit when this process (the supervisor) is no longer our parent.
     #[arg(long)]
     parent: Option<u32>,
@@ -42,7 +45,7 @@ fn main() {
         std::process::exit(EXIT_INVALID);
     }
     let log = shared::telemetry::init(&format!("vehicle_agent_{}", args.id), args.log.as_deref());
-    let code = match vehicle_agent::run::run(&mission, args.id, || {
+    let code = match vehicle_agent::run::run(&mission, args.id, args.rejoin, || {
         println!("ready");
         let _ = std::io::Write::flush(&mut std::io::stdout());
     }) {

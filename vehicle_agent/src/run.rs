@@ -1,36 +1,36 @@
-//! The agent process: wires iceoryx2 ports around [`crate::Agent::step`].
+//! The agent process: wires iceoryx2 ports around [`crate::Vehicle`].
+//!
+//! Every body command is the lockstep clock (it always arrives, over shared memory);
+//! the link model decides when its *content* becomes visible to the vehicle. A
+//! (re)started agent that finds a mission under way asks to join (state flag
+//! `JOINING`) and waits until the coordinator admits it, then resumes from the state the
+//! coordinator hands back.
 
 use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
 use iceoryx2::prelude::*;
 use shared::config::{Mission, Pace};
-use shared::math::potential::PairPotential;
-use shared::math::Vec3;
+use shared::faults::FaultPlan;
+use shared::link::{Fate, LinkModel};
 use shared::msg::agent_to_coordinator::VehicleState;
 use shared::msg::agent_to_field::SampleRequest;
-use shared::msg::coordinator_to_agent::BodyCommand;
+use shared::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
 use shared::msg::{from_vec3, to_vec3, wall_ns, Header};
 use shared::telemetry::MSG_TARGET;
 use shared::topics::{self, wait_for_wake, Domain, Limits, Wake};
 use tracing::{debug, info, warn};
 
-use crate::{initial_agent, initial_design, Agent, AgentInputs};
+use crate::{initial_agent, initial_design, Agent, Guidance, Vehicle};
 
 /// How long an agent waits for its sensor reading before it gives up (wall time).
 const SAMPLE_TIMEOUT: Duration = Duration::from_secs(10);
 
-/// The last command heard from the coordinator.
-struct LastCommand {
-    leaders: Vec<Vec3>,
-    neighbours: Vec<Vec3>,
-    inter: PairPotential,
-    leader: PairPotential,
-    damping: f64,
-}
-
 /// Runs vehicle `id` of `mission` until the mission ends or a termination signal.
-pub fn run(mission: &Mission, id: u32, on_ready: impl FnOnce()) -> Result<()> {
+/// `rejoin`: the process is a restart (the supervisor says so) and asks to join the
+/// mission under way instead of starting at tick 0. `on_ready` is called once every port
+/// exists.
+pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) -> Result<()> {
     let name = &mission.mission.name;
     let dt = mission.mission.dt;
     let domain = Domain::new(name)?;
@@ -80,28 +80,22 @@ pub fn run(mission: &Mission, id: u32, on_ready: impl FnOnce()) -> Result<()> {
         .map_err(|e| anyhow::anyhow!("attaching the wake listener: {e:?}"))?;
 
     let design = initial_design(mission).context("initial formation design")?;
-    let mut agent: Agent = initial_agent(mission, &design, id);
+    let initial = Guidance::initial(mission, &design);
+    let model = LinkModel::new(mission);
+    let plan = FaultPlan::new(mission);
+    let mut vehicle = Vehicle::new(initial_agent(mission, &design, id), initial.clone());
     // Paced runs hold station when the coordinator is silent for a few ticks.
     let hold_after = match mission.mission.pace {
         Pace::Lockstep => None,
         Pace::Factor(f) => Some(Duration::from_secs_f64((4.0 * dt / f).max(0.5))),
     };
+    let pid = std::process::id();
     let mut seq: u64 = 0;
-    let mut k: u64 = 0;
     let mut last_body_seq: Option<u64> = None;
     let mut rejected: u64 = 0;
-    let mut last: Option<LastCommand> = None;
-    info!(
-        vehicle = id,
-        x = agent.position.x,
-        y = agent.position.y,
-        z = agent.position.z,
-        "agent up"
-    );
-    on_ready();
 
-    // The sensor reading at the current tick, then the state report.
-    let report = |agent: &Agent, k: u64, seq: &mut u64, holding: bool| -> Result<bool> {
+    // Reads the sensor at the vehicle's position at tick k (through the field server).
+    let sample = |agent: &Agent, k: u64, seq: &mut u64| -> Result<Option<f64>> {
         let t = k as f64 * dt;
         *seq += 1;
         let request = SampleRequest {
@@ -122,38 +116,41 @@ pub fn run(mission: &Mission, id: u32, on_ready: impl FnOnce()) -> Result<()> {
             .notify()
             .map_err(|e| anyhow::anyhow!("waking the field server: {e:?}"))?;
         let started = std::time::Instant::now();
-        let value = loop {
+        loop {
             if let Some(reply) = pending
                 .receive()
                 .map_err(|e| anyhow::anyhow!("receiving a sample: {e:?}"))?
             {
-                let recv_ns = wall_ns();
                 let h = reply.header;
                 debug!(target: MSG_TARGET, hop = "field_reply", sender = h.sender, receiver = id, tick = h.tick,
-                       seq = h.seq, sent_ns = h.sent_ns, recv_ns, "recv");
+                       seq = h.seq, sent_ns = h.sent_ns, recv_ns = wall_ns(), "recv");
                 if reply.rejected != 0 || !reply.value.is_finite() {
                     bail!("the field server rejected our sample request at tick {k}");
                 }
-                break reply.value;
+                return Ok(Some(reply.value));
             }
             let left = SAMPLE_TIMEOUT.saturating_sub(started.elapsed());
             if left.is_zero() {
                 bail!("no sensor reading from the field server within {SAMPLE_TIMEOUT:?}");
             }
             if wait_for_wake(&waitset, &wake, left)? == Wake::Stop {
-                return Ok(false);
+                return Ok(None);
             }
-        };
+        }
+    };
+    let publish = |agent: &Agent, k: u64, value: f64, flags: u32, seq: &mut u64| -> Result<()> {
         *seq += 1;
         let state = VehicleState {
             header: Header {
                 sender: id,
-                flags: if holding { VehicleState::HOLDING } else { 0 },
+                flags,
                 tick: k,
-                t,
+                t: k as f64 * dt,
                 seq: *seq,
                 sent_ns: wall_ns(),
             },
+            pid,
+            _pad: 0,
             position: from_vec3(&agent.position),
             velocity: from_vec3(&agent.velocity),
             measurement: value,
@@ -164,13 +161,39 @@ pub fn run(mission: &Mission, id: u32, on_ready: impl FnOnce()) -> Result<()> {
         coordinator_notifier
             .notify()
             .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
+        Ok(())
+    };
+    // Measure at tick k (sensor faults applied) and report. False on a stop signal.
+    let report = |vehicle: &mut Vehicle, k: u64, seq: &mut u64, flags: u32| -> Result<bool> {
+        let Some(raw) = sample(&vehicle.agent, k, seq)? else {
+            return Ok(false);
+        };
+        let value = vehicle.read_sensor(&plan, k as f64 * dt, raw);
+        publish(&vehicle.agent, k, value, flags, seq)?;
         Ok(true)
     };
 
-    if !report(&agent, k, &mut seq, false)? {
+    // A restarted process asks to join the mission under way; the coordinator admits it
+    // by handing its last known state back in the snapshot.
+    let mut joining = rejoin;
+    let mut k: u64 = 0;
+    info!(
+        vehicle = id,
+        joining,
+        tick = k,
+        x = vehicle.agent.position.x,
+        y = vehicle.agent.position.y,
+        z = vehicle.agent.position.z,
+        "agent up"
+    );
+    on_ready();
+    if joining {
+        publish(&vehicle.agent, k, 0.0, VehicleState::JOINING, &mut seq)?;
+    } else if !report(&mut vehicle, k, &mut seq, 0)? {
         info!(vehicle = id, "stopped by signal");
         return Ok(());
     }
+
     // Check for commands first, wait only when there is nothing to act on: a command may
     // have arrived (and its wake-up been consumed) while we waited for a sensor reading.
     let mut idle = false;
@@ -183,15 +206,16 @@ pub fn run(mission: &Mission, id: u32, on_ready: impl FnOnce()) -> Result<()> {
                     return Ok(());
                 }
                 Wake::Timeout => {
-                    if let (Some(_), Some(cmd)) = (hold_after, last.as_ref()) {
-                        agent.hold_station(&cmd.leaders, &cmd.leader, cmd.damping, dt);
+                    if hold_after.is_some() && !joining {
+                        // Nothing heard (paced runs): fly the last visible guidance.
+                        vehicle.hold_station(dt);
                         k += 1;
                         warn!(
                             vehicle = id,
                             tick = k,
                             "coordinator silent: holding station"
                         );
-                        if !report(&agent, k, &mut seq, true)? {
+                        if !report(&mut vehicle, k, &mut seq, VehicleState::HOLDING)? {
                             return Ok(());
                         }
                     }
@@ -201,17 +225,17 @@ pub fn run(mission: &Mission, id: u32, on_ready: impl FnOnce()) -> Result<()> {
             }
         }
         idle = true;
-        // Read the newest valid body command in place.
-        let mut newest: Option<(u64, bool)> = None;
+        // The newest valid body command, read in place.
+        let mut newest: Option<(u64, Guidance, Option<SnapshotEntry>)> = None;
+        let mut finished = false;
         while let Some(sample) = body_sub
             .receive()
             .map_err(|e| anyhow::anyhow!("receiving the body: {e:?}"))?
         {
             let body: &BodyCommand = &sample;
             let h = body.header;
-            let recv_ns = wall_ns();
             debug!(target: MSG_TARGET, hop = "body", sender = h.sender, receiver = id, tick = h.tick, seq = h.seq,
-                   sent_ns = h.sent_ns, recv_ns, "recv");
+                   sent_ns = h.sent_ns, recv_ns = wall_ns(), "recv");
             let replay = last_body_seq.is_some_and(|s| h.seq <= s);
             if h.sender != Header::COORDINATOR || replay || !body.is_valid() {
                 rejected += 1;
@@ -219,62 +243,90 @@ pub fn run(mission: &Mission, id: u32, on_ready: impl FnOnce()) -> Result<()> {
                     vehicle = id,
                     tick = h.tick,
                     seq = h.seq,
+                    sender = h.sender,
                     rejected,
+                    replay,
                     "rejected a body command"
                 );
                 continue;
             }
             last_body_seq = Some(h.seq);
             if h.flags & BodyCommand::FINISHED != 0 {
-                newest = Some((h.tick, true));
+                finished = true;
                 break;
             }
             let n_l = body.n_leaders as usize;
             let n_v = body.n_vehicles as usize;
-            let cmd = LastCommand {
-                leaders: body.leaders[..n_l].iter().map(to_vec3).collect(),
-                neighbours: body.snapshot[..n_v]
-                    .iter()
-                    .filter(|e| e.id != id && e.alive != 0)
-                    .map(|e| to_vec3(&e.position))
-                    .collect(),
-                inter: PairPotential {
+            let snapshot = &body.snapshot[..n_v];
+            let guidance = Guidance::from_command(
+                id,
+                h.tick,
+                body.leaders[..n_l].iter().map(to_vec3).collect(),
+                snapshot,
+                shared::math::potential::PairPotential {
                     alpha: body.inter[0],
                     d0: body.inter[1],
                     d1: body.inter[2],
                 },
-                leader: PairPotential {
+                shared::math::potential::PairPotential {
                     alpha: body.leader[0],
                     d0: body.leader[1],
                     d1: body.leader[2],
                 },
-                damping: body.damping,
-            };
-            last = Some(cmd);
-            newest = Some((h.tick, false));
+                body.damping,
+            );
+            let own = snapshot.iter().find(|e| e.id == id).copied();
+            newest = Some((h.tick, guidance, own));
         }
-        let Some((tick, finished)) = newest else {
-            continue;
-        };
         if finished {
-            info!(vehicle = id, tick = k, rejected, "mission finished");
+            info!(
+                vehicle = id,
+                tick = k,
+                rejected,
+                delivered = vehicle.counts.delivered,
+                dropped = vehicle.counts.dropped,
+                "mission finished"
+            );
             return Ok(());
         }
-        if tick < k {
+        let Some((tick, guidance, own)) = newest else {
+            continue;
+        };
+        let admitted = own.is_some_and(|e| e.alive == SnapshotEntry::ADMITTED);
+        if joining || admitted {
+            // Admitted when the coordinator hands our state back in the snapshot.
+            match own {
+                Some(e) if admitted => {
+                    vehicle = Vehicle::new(
+                        Agent {
+                            id,
+                            dim: mission.mission.dim,
+                            position: to_vec3(&e.position),
+                            velocity: to_vec3(&e.velocity),
+                        },
+                        initial.clone(),
+                    );
+                    joining = false;
+                    info!(vehicle = id, tick, "admitted back into the formation");
+                }
+                _ => continue,
+            }
+        } else if tick < k {
             continue; // an old command (paced runs): we already stepped past it
         }
         idle = false;
-        let cmd = last.as_ref().expect("set with newest");
-        let inputs = AgentInputs {
-            leaders: &cmd.leaders,
-            neighbours: &cmd.neighbours,
-            inter: cmd.inter,
-            leader: cmd.leader,
-            damping: cmd.damping,
-        };
-        agent.step(&inputs, dt);
+        let fate = vehicle.on_command(&model, guidance, tick, dt);
+        match fate {
+            Fate::Deliver { injected, .. } if injected > 0.0 => {
+                debug!(target: MSG_TARGET, hop = "body_link", receiver = id, tick, injected_ms = injected * 1e3, "held")
+            }
+            Fate::Drop(reason) => {
+                debug!(target: MSG_TARGET, hop = "body", receiver = id, tick, reason = reason.as_str(), "drop")
+            }
+            _ => {}
+        }
         k = tick + 1;
-        if !report(&agent, k, &mut seq, false)? {
+        if !report(&mut vehicle, k, &mut seq, 0)? {
             info!(vehicle = id, tick = k, "stopped by signal");
             return Ok(());
         }

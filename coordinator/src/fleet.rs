@@ -1,0 +1,184 @@
+//! The coordinator's view of the fleet: who is alive, what it last heard from each
+//! vehicle through the link model, who was lost and who is admitted back. Pure: the
+//! in-process simulator and the coordinator process both drive it.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use shared::config::Mission;
+use shared::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
+use shared::msg::coordinator_to_agent::SnapshotEntry;
+use shared::msg::from_vec3;
+
+use crate::planner::Report;
+
+/// Counters of the uplink (vehicle → coordinator).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UplinkCounts {
+    /// Reports delivered by the link model.
+    pub delivered: u64,
+    /// Reports dropped by the link model.
+    pub dropped_injected: u64,
+}
+
+/// The fleet as the coordinator knows it.
+#[derive(Clone, Debug)]
+pub struct Fleet {
+    model: LinkModel,
+    links: BTreeMap<u32, LinkState>,
+    inbox: DelayQueue<Report>,
+    alive: BTreeSet<u32>,
+    latest: BTreeMap<u32, Report>,
+    last_truth: BTreeMap<u32, Report>,
+    lost: BTreeSet<u32>,
+    admitted: Vec<Report>,
+    /// Uplink counters.
+    pub counts: UplinkCounts,
+}
+
+impl Fleet {
+    /// The fleet of `mission` at the start: vehicles `ids` alive, nothing heard yet.
+    pub fn new(mission: &Mission, ids: &[u32]) -> Self {
+        Self {
+            model: LinkModel::new(mission),
+            links: BTreeMap::new(),
+            inbox: DelayQueue::default(),
+            alive: ids.iter().copied().collect(),
+            latest: BTreeMap::new(),
+            last_truth: BTreeMap::new(),
+            lost: BTreeSet::new(),
+            admitted: Vec::new(),
+            counts: UplinkCounts::default(),
+        }
+    }
+
+    /// The link model.
+    pub fn model(&self) -> &LinkModel {
+        &self.model
+    }
+
+    /// True when vehicle `v` is alive (its process runs, as far as the coordinator knows).
+    pub fn is_alive(&self, v: u32) -> bool {
+        self.alive.contains(&v)
+    }
+
+    /// The alive vehicles, ordered by id.
+    pub fn alive(&self) -> impl Iterator<Item = u32> + '_ {
+        self.alive.iter().copied()
+    }
+
+    /// True when vehicle `v` was lost and not admitted back.
+    pub fn is_lost(&self, v: u32) -> bool {
+        self.lost.contains(&v)
+    }
+
+    /// Vehicle `v` is gone (killed, dead): forget what it sent that is still in flight.
+    /// Returns false when it was not alive.
+    pub fn lose(&mut self, v: u32) -> bool {
+        if !self.alive.remove(&v) {
+            return false;
+        }
+        self.lost.insert(v);
+        self.latest.remove(&v);
+        self.inbox.retain(|r| r.id != v);
+        self.admitted.retain(|r| r.id != v);
+        true
+    }
+
+    /// Admits lost vehicle `v` back at this tick, at its last true state; returns that
+    /// state (the restarted agent resumes from it). `None` when `v` is not lost or was
+    /// never heard of.
+    pub fn admit(&mut self, v: u32) -> Option<Report> {
+        if !self.lost.contains(&v) {
+            return None;
+        }
+        let restore = *self.last_truth.get(&v)?;
+        self.lost.remove(&v);
+        self.alive.insert(v);
+        self.admitted.push(restore);
+        Some(restore)
+    }
+
+    /// Vehicles admitted at this tick (not members until their first report is delivered).
+    pub fn admitted(&self) -> &[Report] {
+        &self.admitted
+    }
+
+    /// The true reports of tick `k` (ordered by id, alive vehicles only) arrive: the link
+    /// model decides when each becomes visible. Returns every fate, for the logs.
+    pub fn receive(&mut self, k: u64, dt: f64, truth: &[Report]) -> Vec<(u32, Fate)> {
+        let t = k as f64 * dt;
+        let mut fates = Vec::with_capacity(truth.len());
+        for q in truth {
+            self.last_truth.insert(q.id, *q);
+            let state = self.links.entry(q.id).or_default();
+            let fate = self.model.fate(state, q.id, Direction::Uplink, q.tick, t);
+            match fate {
+                Fate::Deliver { at, .. } => self.inbox.push(at, *q),
+                Fate::Drop(_) => self.counts.dropped_injected += 1,
+            }
+            fates.push((q.id, fate));
+        }
+        fates
+    }
+
+    /// Releases the reports due at mission time `t`: returns (members, fresh) for the
+    /// planner — the latest delivered report of every alive vehicle (ordered by id) and
+    /// the reports delivered now (in delivery order).
+    pub fn deliver(&mut self, t: f64) -> (Vec<Report>, Vec<Report>) {
+        let fresh: Vec<Report> = self
+            .inbox
+            .pop_due(t)
+            .into_iter()
+            .filter(|r| self.alive.contains(&r.id))
+            .collect();
+        for r in &fresh {
+            self.counts.delivered += 1;
+            match self.latest.get(&r.id) {
+                Some(old) if old.tick > r.tick => {}
+                _ => {
+                    self.latest.insert(r.id, *r);
+                }
+            }
+        }
+        let members = self
+            .alive
+            .iter()
+            .filter_map(|v| self.latest.get(v).copied())
+            .collect();
+        (members, fresh)
+    }
+
+    /// The swarm snapshot of this tick: members (their last delivered state), vehicles
+    /// admitted now (their restore state) and lost vehicles (their last true state),
+    /// ordered by id.
+    pub fn snapshot(&self, members: &[Report]) -> Vec<SnapshotEntry> {
+        let entry = |r: &Report, alive: u32| SnapshotEntry {
+            id: r.id,
+            alive,
+            position: from_vec3(&r.position),
+            velocity: from_vec3(&r.velocity),
+        };
+        let mut rows: Vec<SnapshotEntry> = members
+            .iter()
+            .map(|r| entry(r, SnapshotEntry::MEMBER))
+            .chain(
+                self.admitted
+                    .iter()
+                    .map(|r| entry(r, SnapshotEntry::ADMITTED)),
+            )
+            .chain(
+                self.lost
+                    .iter()
+                    .filter_map(|v| self.last_truth.get(v))
+                    .map(|r| entry(r, SnapshotEntry::LOST)),
+            )
+            .collect();
+        rows.sort_by_key(|e| e.id);
+        rows
+    }
+
+    /// Ends the tick (admissions become ordinary).
+    pub fn end_tick(&mut self) {
+        self.admitted.clear();
+    }
+}
