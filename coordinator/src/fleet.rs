@@ -12,7 +12,7 @@ use shared::msg::from_vec3;
 use crate::planner::Report;
 
 /// Counters of the uplink (vehicle → coordinator).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct UplinkCounts {
     /// Reports delivered by the link model.
     pub delivered: u64,
@@ -21,7 +21,7 @@ pub struct UplinkCounts {
 }
 
 /// The fleet as the coordinator knows it.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Fleet {
     model: LinkModel,
     links: BTreeMap<u32, LinkState>,

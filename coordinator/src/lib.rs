@@ -6,6 +6,7 @@
 //! ticks into the run-directory files and the summary, with ground truth the planner
 //! never sees. [`run`] wires the ports.
 
+pub mod checkpoint;
 pub mod fleet;
 pub mod planner;
 pub mod record;

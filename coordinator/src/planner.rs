@@ -13,7 +13,7 @@ use shared::math::speed::formation_speed;
 use shared::math::{Mat3, Vec3};
 
 /// One vehicle's report for a tick, as the coordinator received it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Report {
     /// Vehicle id.
     pub id: u32,
@@ -29,7 +29,7 @@ pub struct Report {
 }
 
 /// The planner's tunables, taken from the mission file.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PlannerParams {
     pub dim: usize,
     pub goal: Goal,
@@ -120,7 +120,7 @@ pub enum PlannerError {
 }
 
 /// The coordinator's state: virtual body, formation design, filter.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Planner {
     params: PlannerParams,
     design: FormationDesign,

@@ -22,6 +22,23 @@ const PLOT_SNAPSHOTS: usize = 6;
 /// Track points kept per vehicle for the plot (downsampled evenly).
 const PLOT_POINTS: usize = 2000;
 
+/// The running figures of `summary.json` (checkpointed with the coordinator).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RecorderStats {
+    pub max_v_over_vu: f64,
+    pub last_outside: Option<f64>,
+    pub ever_inside: bool,
+    pub holding_ticks: u64,
+    pub ticks: u64,
+    pub last_t: f64,
+    pub last_r: Vec3,
+    pub last_scale: f64,
+    pub vehicles_started: usize,
+    pub vehicles_lost: usize,
+    pub vehicles_rejoined: usize,
+    pub was_holding: bool,
+}
+
 /// Records ticks, accumulates the figures of `summary.json`.
 pub struct Recorder {
     mission: Mission,
@@ -29,38 +46,13 @@ pub struct Recorder {
     dir: RunDir,
     tracks: TrackWriter,
     events: EventLog,
-    stride: u64,
-    plot_tracks: std::collections::BTreeMap<u32, Vec<(f64, f64)>>,
-    plot_body: Vec<(f64, f64)>,
-    plot_snapshots: Vec<Snapshot>,
-    max_v_over_vu: f64,
-    last_outside: Option<f64>,
-    ever_inside: bool,
-    holding_ticks: u64,
-    ticks: u64,
-    last_t: f64,
-    last_r: Vec3,
-    last_scale: f64,
-    vehicles_started: usize,
-    vehicles_lost: usize,
-    vehicles_rejoined: usize,
-    was_holding: bool,
+    stats: RecorderStats,
 }
 
 impl Recorder {
     /// Opens the CSV and event files of `dir` (appending).
     pub fn open(mission: &Mission, dir: &RunDir) -> io::Result<Self> {
-        let ticks = mission.ticks().max(1);
-        Ok(Self {
-            mission: mission.clone(),
-            field: mission.field(),
-            dir: dir.clone(),
-            tracks: TrackWriter::open(dir)?,
-            events: EventLog::open(dir)?,
-            stride: (ticks / PLOT_POINTS as u64).max(1),
-            plot_tracks: Default::default(),
-            plot_body: Vec::new(),
-            plot_snapshots: Vec::new(),
+        let stats = RecorderStats {
             max_v_over_vu: 0.0,
             last_outside: None,
             ever_inside: false,
@@ -73,14 +65,32 @@ impl Recorder {
             vehicles_lost: 0,
             vehicles_rejoined: 0,
             was_holding: false,
+        };
+        Self::resume(mission, dir, stats)
+    }
+
+    /// Opens the files of `dir` (appending) with running figures `stats` (a checkpoint's).
+    pub fn resume(mission: &Mission, dir: &RunDir, stats: RecorderStats) -> io::Result<Self> {
+        Ok(Self {
+            mission: mission.clone(),
+            field: mission.field(),
+            dir: dir.clone(),
+            tracks: TrackWriter::open(dir)?,
+            events: EventLog::open(dir)?,
+            stats,
         })
+    }
+
+    /// The running figures.
+    pub fn stats(&self) -> &RecorderStats {
+        &self.stats
     }
 
     /// Appends an event to `events.jsonl`.
     pub fn event(&mut self, e: Event) -> io::Result<()> {
         match e.kind.as_str() {
-            "lost" => self.vehicles_lost += 1,
-            "rejoin" => self.vehicles_rejoined += 1,
+            "lost" => self.stats.vehicles_lost += 1,
+            "rejoin" => self.stats.vehicles_rejoined += 1,
             _ => {}
         }
         self.events.push(&e)
@@ -216,8 +226,8 @@ impl Recorder {
                 detail: serde_json::json!({ "vehicles": command.members }),
             })?;
         }
-        if command.holding != self.was_holding {
-            self.was_holding = command.holding;
+        if command.holding != self.stats.was_holding {
+            self.stats.was_holding = command.holding;
             self.events.push(&Event {
                 t,
                 k,
@@ -232,15 +242,16 @@ impl Recorder {
             })?;
         }
         if command.holding {
-            self.holding_ticks += 1;
+            self.stats.holding_ticks += 1;
         }
-        self.max_v_over_vu = self
+        self.stats.max_v_over_vu = self
+            .stats
             .max_v_over_vu
             .max(command.terms.v / self.mission.body.v_u);
         if let Some(opt) = self.field.optimum(t, self.mission.mission.goal) {
             if (b.r - opt).norm() <= self.mission.mission.tolerance {
-                if !self.ever_inside {
-                    self.ever_inside = true;
+                if !self.stats.ever_inside {
+                    self.stats.ever_inside = true;
                     self.events.push(&Event {
                         t,
                         k,
@@ -250,32 +261,19 @@ impl Recorder {
                     })?;
                 }
             } else {
-                self.last_outside = Some(t);
+                self.stats.last_outside = Some(t);
             }
         }
-        if k.is_multiple_of(self.stride) {
-            for q in truth {
-                self.plot_tracks
-                    .entry(q.id)
-                    .or_default()
-                    .push((q.position.x, q.position.y));
-            }
-            self.plot_body.push((b.r.x, b.r.y));
-        }
-        let total = self.mission.ticks().max(1);
-        let every = (total / PLOT_SNAPSHOTS as u64).max(1);
-        if k.is_multiple_of(every) || k + 1 == total {
-            self.plot_snapshots.push(Snapshot {
-                t,
-                positions: truth.iter().map(|q| (q.position.x, q.position.y)).collect(),
-                centre: (b.r.x, b.r.y),
-            });
-        }
-        self.ticks = k + 1;
-        self.last_t = t;
-        self.last_r = b.r;
-        self.last_scale = b.scale;
+        self.stats.ticks = k + 1;
+        self.stats.last_t = t;
+        self.stats.last_r = b.r;
+        self.stats.last_scale = b.scale;
         Ok(())
+    }
+
+    /// The run directory.
+    pub fn dir(&self) -> &RunDir {
+        &self.dir
     }
 
     /// Flushes the files.
@@ -288,13 +286,17 @@ impl Recorder {
     /// filled in by the caller).
     pub fn summary(&self, planner: &Planner, mode: &str) -> Summary {
         let m = &self.mission;
-        let t = self.last_t;
-        let r = self.last_r;
+        let t = self.stats.last_t;
+        let r = self.stats.last_r;
         let optimum = self.field.optimum(t, m.mission.goal);
         let distance = optimum.map(|o| (r - o).norm());
         let converged = distance.is_some_and(|d| d <= m.mission.tolerance);
         let time_to_converge_s = if converged {
-            Some(self.last_outside.map_or(0.0, |t_out| t_out + m.mission.dt))
+            Some(
+                self.stats
+                    .last_outside
+                    .map_or(0.0, |t_out| t_out + m.mission.dt),
+            )
         } else {
             None
         };
@@ -318,18 +320,18 @@ impl Recorder {
             theorem_5_1_bound: bound,
             in_set_m: bound.map(|b| final_grad_norm <= b),
             time_to_converge_s,
-            vehicles_started: self.vehicles_started,
-            vehicles_lost: self.vehicles_lost,
-            vehicles_rejoined: self.vehicles_rejoined,
+            vehicles_started: self.stats.vehicles_started,
+            vehicles_lost: self.stats.vehicles_lost,
+            vehicles_rejoined: self.stats.vehicles_rejoined,
             reconfigurations: planner.reconfigurations(),
-            max_v_over_vu: self.max_v_over_vu,
-            ticks: self.ticks,
+            max_v_over_vu: self.stats.max_v_over_vu,
+            ticks: self.stats.ticks,
             final_time_s: t,
             final_body_position: [r.x, r.y, r.z],
-            final_scale: self.last_scale,
+            final_scale: self.stats.last_scale,
             optimum: optimum.map(|o| [o.x, o.y, o.z]),
             estimated_sigma_m: Some(planner.sigma_m()),
-            holding_ticks: self.holding_ticks,
+            holding_ticks: self.stats.holding_ticks,
             ..Summary::default()
         }
     }
@@ -338,33 +340,97 @@ impl Recorder {
     /// snapshots and the optimum.
     pub fn write_plot(&self) -> Result<(), shared::plot::PlotError> {
         let m = &self.mission;
-        let t = self.last_t;
+        let t = self.stats.last_t;
         let field = &self.field;
         let z = if m.mission.dim == 3 {
-            self.last_r.z
+            self.stats.last_r.z
         } else {
             0.0
         };
         let sample = move |x: f64, y: f64| field.value(&Vec3::new(x, y, z), t);
         let optimum = field.optimum(t, m.mission.goal).map(|o| (o.x, o.y));
+        let (tracks, body_path, snapshots) =
+            plot_data(&self.dir, m.ticks()).map_err(|e| shared::plot::PlotError::Io {
+                path: self.dir.vehicles(),
+                source: e,
+            })?;
         let plot = MissionPlot {
             title: format!("{} (seed {})", m.mission.name, m.mission.seed),
             length_unit: m.mission.length_unit.clone(),
             field: &sample,
             field_label: m.mission.field_label.clone(),
-            tracks: self
-                .plot_tracks
-                .iter()
-                .map(|(id, pts)| Track {
-                    id: *id,
-                    points: pts.clone(),
-                })
-                .collect(),
-            body_path: self.plot_body.clone(),
-            snapshots: self.plot_snapshots.clone(),
+            tracks,
+            body_path,
+            snapshots,
             optimum,
             events: Vec::new(),
         };
         shared::plot::write_mission_svg(&plot, &self.dir.plot())
     }
+}
+
+/// Tracks, body path and formation snapshots read back from `vehicles.csv` and
+/// `body.csv` (downsampled), so the plot needs nothing kept in memory.
+type PlotData = (Vec<Track>, Vec<(f64, f64)>, Vec<Snapshot>);
+
+fn plot_data(dir: &RunDir, ticks: u64) -> io::Result<PlotData> {
+    use std::collections::BTreeMap;
+    use std::io::BufRead;
+    let ticks = ticks.max(1);
+    let stride = (ticks / PLOT_POINTS as u64).max(1);
+    let every = (ticks / PLOT_SNAPSHOTS as u64).max(1);
+    let num = |s: Option<&str>| s.and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    let mut body: BTreeMap<u64, (f64, f64, f64)> = BTreeMap::new();
+    let mut path = Vec::new();
+    for line in std::io::BufReader::new(std::fs::File::open(dir.body())?)
+        .lines()
+        .skip(1)
+    {
+        let line = line?;
+        let mut f = line.split(',');
+        let t = num(f.next());
+        let k = num(f.next()) as u64;
+        let (_s, _sd) = (f.next(), f.next());
+        let (x, y) = (num(f.next()), num(f.next()));
+        if k.is_multiple_of(stride) {
+            path.push((x, y));
+        }
+        if k.is_multiple_of(every) || k + 1 == ticks {
+            body.insert(k, (t, x, y));
+        }
+    }
+    let mut tracks: BTreeMap<u32, Vec<(f64, f64)>> = BTreeMap::new();
+    let mut snaps: BTreeMap<u64, Vec<(f64, f64)>> = BTreeMap::new();
+    for line in std::io::BufReader::new(std::fs::File::open(dir.vehicles())?)
+        .lines()
+        .skip(1)
+    {
+        let line = line?;
+        let mut f = line.split(',');
+        let _t = f.next();
+        let k = num(f.next()) as u64;
+        let id = num(f.next()) as u32;
+        let (x, y) = (num(f.next()), num(f.next()));
+        if k.is_multiple_of(stride) {
+            tracks.entry(id).or_default().push((x, y));
+        }
+        if body.contains_key(&k) {
+            snaps.entry(k).or_default().push((x, y));
+        }
+    }
+    let snapshots = snaps
+        .into_iter()
+        .filter_map(|(k, positions)| {
+            body.get(&k).map(|&(t, x, y)| Snapshot {
+                t,
+                positions,
+                centre: (x, y),
+            })
+        })
+        .collect();
+    let tracks = tracks
+        .into_iter()
+        .map(|(id, points)| Track { id, points })
+        .collect();
+    Ok((tracks, path, snapshots))
 }

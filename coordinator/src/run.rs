@@ -17,6 +17,7 @@ use shared::telemetry::MSG_TARGET;
 use shared::topics::{self, wait_for_wake, Domain, Limits, Wake};
 use tracing::{debug, info, warn};
 
+use crate::checkpoint::{Checkpoint, CheckpointWriter, PeerMark};
 use crate::fleet::Fleet;
 use crate::planner::{Planner, PlannerParams, Report};
 use crate::record::Recorder;
@@ -173,27 +174,64 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
 
     let ids: Vec<u32> = (0..n as u32).collect();
     let plan = FaultPlan::new(mission);
-    let mut fleet = Fleet::new(mission, &ids);
-    let mut planner = Planner::new(
-        PlannerParams::from_mission(mission),
-        mission.start_vec(),
-        &ids,
-    )?;
-    let mut recorder = Recorder::open(mission, dir).context("opening the run directory files")?;
     let mut inbox = Inbox {
         latest: BTreeMap::new(),
         peers: vec![Peer::default(); n],
         joins: BTreeSet::new(),
         counts: MessageCounts::default(),
     };
+    // A restarted coordinator resumes from its checkpoint.
+    let mut republish: Option<BodyRecord> = None;
+    let resumed = Checkpoint::load(dir).context("reading the checkpoint")?;
+    let (mut planner, mut fleet, mut recorder, mut k) = match resumed {
+        Some(cp) => {
+            dir.truncate_to(&cp.offsets)
+                .context("cutting the run files back to the checkpoint")?;
+            for (peer, mark) in inbox.peers.iter_mut().zip(&cp.peers) {
+                peer.pid = mark.pid;
+                peer.last_seq = mark.last_seq;
+            }
+            inbox.counts = cp.counts;
+            info!(
+                tick = cp.next_tick,
+                "resumed from the checkpoint: re-publishing the last command"
+            );
+            republish = Some(cp.body.clone());
+            let recorder = Recorder::resume(mission, dir, cp.stats)
+                .context("opening the run directory files")?;
+            (cp.planner, cp.fleet, recorder, cp.next_tick)
+        }
+        None => (
+            Planner::new(
+                PlannerParams::from_mission(mission),
+                mission.start_vec(),
+                &ids,
+            )?,
+            Fleet::new(mission, &ids),
+            Recorder::open(mission, dir).context("opening the run directory files")?,
+            0,
+        ),
+    };
     let mut detection_ms = Vec::new();
     let mut rejoin_ms = Vec::new();
     let mut late_ticks = 0u64;
     let mut sent = 0u64;
-    let mut seq = 0u64;
+    if let Some(cp) = Checkpoint::load(dir).ok().flatten() {
+        detection_ms = cp.detection_ms;
+        rejoin_ms = cp.rejoin_ms;
+        late_ticks = cp.late_ticks;
+        sent = cp.sent;
+    }
+    let mut checkpoints = CheckpointWriter::open(dir).context("opening the checkpoint files")?;
     let mut body = Box::new(BodyCommand::empty());
-    info!(vehicles = n, ticks, "coordinator up");
+    info!(vehicles = n, ticks, start_tick = k, "coordinator up");
     on_ready();
+    if let Some(record) = republish {
+        publish(&mut body, &record, &body_pub)?;
+        for notifier in &notifiers {
+            let _ = notifier.notify();
+        }
+    }
 
     let paced = match mission.mission.pace {
         Pace::Lockstep => None,
@@ -202,7 +240,6 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
     let mut clock_start: Option<Instant> = None;
     let mut last_scan = Instant::now() - LIVENESS_EVERY;
     let mut stopped = false;
-    let mut k = 0u64;
     'ticks: while k < ticks {
         recorder.faults_starting(k)?;
         // Scheduled kills: a real SIGKILL of the agent's process, then wait until its
@@ -285,7 +322,7 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
         // Gather the states of tick k: all of them (lockstep), or what is in at the
         // tick's deadline (paced). Missing vehicles are checked for liveness.
         let admitted: BTreeSet<u32> = fleet.admitted().iter().map(|r| r.id).collect();
-        let first = k == 0;
+        let first = k == 0 || inbox.peers.iter().all(|p| p.last_recv.is_none());
         let wait_limit = if first {
             Duration::from_secs(30) + Duration::from_millis(100) * n as u32
         } else {
@@ -418,55 +455,65 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
         recorder.tick(k, &truth, &command)?;
         let snapshot = fleet.snapshot(&members);
 
-        seq += 1;
-        let b = &mut *body;
-        b.header = Header {
-            sender: Header::COORDINATOR,
-            flags: if command.holding {
-                BodyCommand::HOLDING
-            } else {
-                0
-            },
+        // Deterministic sequence numbers: a resumed coordinator re-sends a tick's command
+        // under the same number, which agents that already have it ignore.
+        let record = BodyRecord {
             tick: k,
             t,
-            seq,
-            sent_ns: 0,
+            seq: k + 1,
+            holding: command.holding,
+            s: command.body.s,
+            sdot: command.sdot,
+            r: from_vec3(&command.body.r),
+            scale: command.body.scale,
+            inter: [command.inter.alpha, command.inter.d0, command.inter.d1],
+            leader: [command.leader.alpha, command.leader.d0, command.leader.d1],
+            damping: command.damping,
+            leaders: command.leaders.iter().map(from_vec3).collect(),
+            snapshot,
         };
-        b.s = command.body.s;
-        b.sdot = command.sdot;
-        b.r = from_vec3(&command.body.r);
-        b.scale = command.body.scale;
-        b.inter = [command.inter.alpha, command.inter.d0, command.inter.d1];
-        b.leader = [command.leader.alpha, command.leader.d0, command.leader.d1];
-        b.damping = command.damping;
-        let n_l = command.leaders.len().min(MAX_LEADERS);
-        b.n_leaders = n_l as u32;
-        for (slot, l) in b.leaders.iter_mut().zip(&command.leaders[..n_l]) {
-            *slot = from_vec3(l);
+        fleet.end_tick();
+        // Checkpoint before publishing: a coordinator restarted after this point
+        // re-publishes this very command and goes on with the next tick.
+        recorder.flush()?;
+        Checkpoint {
+            next_tick: k + 1,
+            planner: planner.clone(),
+            fleet: fleet.clone(),
+            stats: recorder.stats().clone(),
+            offsets: dir.offsets()?,
+            counts: inbox.counts,
+            sent: sent + 1,
+            late_ticks,
+            detection_ms: detection_ms.clone(),
+            rejoin_ms: rejoin_ms.clone(),
+            peers: inbox
+                .peers
+                .iter()
+                .map(|p| PeerMark {
+                    pid: p.pid,
+                    last_seq: p.last_seq,
+                })
+                .collect(),
+            body: record.clone(),
         }
-        let n_v = snapshot.len().min(MAX_VEHICLES);
-        b.n_vehicles = n_v as u32;
-        b.snapshot[..n_v].copy_from_slice(&snapshot[..n_v]);
-        b.header.sent_ns = wall_ns();
-        body_pub
-            .send_copy(*b)
-            .map_err(|e| anyhow::anyhow!("publishing the body: {e:?}"))?;
+        .save_with(&mut checkpoints)
+        .context("writing the checkpoint")?;
+        publish(&mut body, &record, &body_pub)?;
         sent += 1;
         for notifier in &notifiers {
             let _ = notifier.notify();
         }
-        fleet.end_tick();
         k += 1;
     }
 
     // Tell everyone the mission is over.
-    seq += 1;
     body.header = Header {
         sender: Header::COORDINATOR,
         flags: BodyCommand::FINISHED,
         tick: k,
         t: k as f64 * dt,
-        seq,
+        seq: k + 1,
         sent_ns: wall_ns(),
     };
     body.n_leaders = 0;
@@ -497,5 +544,62 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
         late_ticks,
         "coordinator done"
     );
+    Ok(())
+}
+
+/// The content of one body command (kept in the checkpoint for a re-send).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct BodyRecord {
+    pub tick: u64,
+    pub t: f64,
+    pub seq: u64,
+    pub holding: bool,
+    pub s: f64,
+    pub sdot: f64,
+    pub r: [f64; 3],
+    pub scale: f64,
+    pub inter: [f64; 3],
+    pub leader: [f64; 3],
+    pub damping: f64,
+    pub leaders: Vec<[f64; 3]>,
+    pub snapshot: Vec<shared::msg::coordinator_to_agent::SnapshotEntry>,
+}
+
+/// Fills the reusable command buffer from `record` and publishes it (zero copy into the
+/// subscribers' shared memory).
+fn publish(
+    body: &mut BodyCommand,
+    record: &BodyRecord,
+    publisher: &iceoryx2::port::publisher::Publisher<ipc::Service, BodyCommand, ()>,
+) -> Result<()> {
+    body.header = Header {
+        sender: Header::COORDINATOR,
+        flags: if record.holding {
+            BodyCommand::HOLDING
+        } else {
+            0
+        },
+        tick: record.tick,
+        t: record.t,
+        seq: record.seq,
+        sent_ns: 0,
+    };
+    body.s = record.s;
+    body.sdot = record.sdot;
+    body.r = record.r;
+    body.scale = record.scale;
+    body.inter = record.inter;
+    body.leader = record.leader;
+    body.damping = record.damping;
+    let n_l = record.leaders.len().min(MAX_LEADERS);
+    body.n_leaders = n_l as u32;
+    body.leaders[..n_l].copy_from_slice(&record.leaders[..n_l]);
+    let n_v = record.snapshot.len().min(MAX_VEHICLES);
+    body.n_vehicles = n_v as u32;
+    body.snapshot[..n_v].copy_from_slice(&record.snapshot[..n_v]);
+    body.header.sent_ns = wall_ns();
+    publisher
+        .send_copy(*body)
+        .map_err(|e| anyhow::anyhow!("publishing the body: {e:?}"))?;
     Ok(())
 }

@@ -62,7 +62,7 @@ pub struct LinkState {
 }
 
 /// The link model of a mission.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LinkModel {
     seed: u64,
     vehicles: usize,

@@ -102,7 +102,9 @@ pub mod coordinator_to_agent {
     use super::*;
 
     /// One vehicle's last known state, as the coordinator holds it.
-    #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+    #[derive(
+        Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, serde::Serialize, serde::Deserialize,
+    )]
     #[repr(C)]
     #[type_name("vbap.SnapshotEntry.v2")]
     pub struct SnapshotEntry {

@@ -75,6 +75,52 @@ impl RunDir {
     }
 }
 
+/// Lengths of the appended files at a checkpoint: a restarted coordinator cuts them back
+/// to these, so no row is written twice.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FileOffsets {
+    pub vehicles: u64,
+    pub body: u64,
+    pub inputs: u64,
+    pub events: u64,
+}
+
+impl RunDir {
+    /// The current lengths of the appended files (0 for a missing file).
+    pub fn offsets(&self) -> io::Result<FileOffsets> {
+        let len = |p: PathBuf| {
+            std::fs::metadata(p).map(|m| m.len()).or_else(|e| {
+                if e.kind() == io::ErrorKind::NotFound {
+                    Ok(0)
+                } else {
+                    Err(e)
+                }
+            })
+        };
+        Ok(FileOffsets {
+            vehicles: len(self.vehicles())?,
+            body: len(self.body())?,
+            inputs: len(self.planner_inputs())?,
+            events: len(self.events())?,
+        })
+    }
+
+    /// Cuts the appended files back to `o` (what a checkpoint covers).
+    pub fn truncate_to(&self, o: &FileOffsets) -> io::Result<()> {
+        for (path, len) in [
+            (self.vehicles(), o.vehicles),
+            (self.body(), o.body),
+            (self.planner_inputs(), o.inputs),
+            (self.events(), o.events),
+        ] {
+            if path.exists() {
+                OpenOptions::new().write(true).open(&path)?.set_len(len)?;
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Opens `path` for appending; writes `header` first when the file is new or empty.
 fn open_append(path: &Path, header: &str) -> io::Result<BufWriter<File>> {
     let file = OpenOptions::new().create(true).append(true).open(path)?;

@@ -138,6 +138,7 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
             }
         }
     };
+    let last_sent: std::cell::Cell<Option<VehicleState>> = std::cell::Cell::new(None);
     let publish = |agent: &Agent, k: u64, value: f64, flags: u32, seq: &mut u64| -> Result<()> {
         *seq += 1;
         let state = VehicleState {
@@ -158,6 +159,7 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
         state_pub
             .send_copy(state)
             .map_err(|e| anyhow::anyhow!("publishing the state: {e:?}"))?;
+        last_sent.set(Some(state));
         coordinator_notifier
             .notify()
             .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
@@ -228,6 +230,7 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
         // The newest valid body command, read in place.
         let mut newest: Option<(u64, Guidance, Option<SnapshotEntry>)> = None;
         let mut finished = false;
+        let mut resend = false;
         while let Some(sample) = body_sub
             .receive()
             .map_err(|e| anyhow::anyhow!("receiving the body: {e:?}"))?
@@ -236,7 +239,14 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
             let h = body.header;
             debug!(target: MSG_TARGET, hop = "body", sender = h.sender, receiver = id, tick = h.tick, seq = h.seq,
                    sent_ns = h.sent_ns, recv_ns = wall_ns(), "recv");
-            let replay = last_body_seq.is_some_and(|s| h.seq <= s);
+            if h.sender == Header::COORDINATOR && last_body_seq == Some(h.seq) {
+                // A duplicate: a restarted coordinator re-sends its last command. Send our
+                // last state again so it gets it (a new subscriber's history arrives only
+                // with the publisher's next sample).
+                resend = true;
+                continue;
+            }
+            let replay = last_body_seq.is_some_and(|s| h.seq < s);
             if h.sender != Header::COORDINATOR || replay || !body.is_valid() {
                 rejected += 1;
                 warn!(
@@ -288,6 +298,30 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
                 "mission finished"
             );
             return Ok(());
+        }
+        if resend && newest.is_none() {
+            if let Some(last) = last_sent.get() {
+                seq += 1;
+                let again = VehicleState {
+                    header: Header {
+                        seq,
+                        sent_ns: wall_ns(),
+                        ..last.header
+                    },
+                    ..last
+                };
+                state_pub
+                    .send_copy(again)
+                    .map_err(|e| anyhow::anyhow!("re-publishing the state: {e:?}"))?;
+                coordinator_notifier
+                    .notify()
+                    .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
+                info!(
+                    vehicle = id,
+                    tick = again.header.tick,
+                    "re-sent the last state to a restarted coordinator"
+                );
+            }
         }
         let Some((tick, guidance, own)) = newest else {
             continue;

@@ -10,7 +10,7 @@ use super::Vec3;
 /// Configuration of the virtual body at path parameter `s` (III.3).
 ///
 /// In 2-D missions `r.z = 0` and `rotation` is about the z axis only.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct VirtualBody {
     /// Path parameter `s` (dimensionless; `ṡ` of (IV.4) is in 1/s).
     pub s: f64,
@@ -24,7 +24,7 @@ pub struct VirtualBody {
 
 /// Direction of the virtual-body motion per unit `s` (Sec. III-D): `dr/ds`, `dR/ds`,
 /// `dk/ds`. The time derivatives are these times `ṡ`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BodyRates {
     /// `dr/ds`, length per unit `s`.
     pub dr_ds: Vec3,

@@ -70,7 +70,7 @@ pub enum FormationError {
 
 /// A formation design at scale `k = 1` in the body frame (origin = virtual body centre `r`),
 /// Sec. II; moved, rotated and scaled by the virtual body (III.3).
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FormationDesign {
     /// 2 or 3.
     pub dim: usize,
