@@ -1,0 +1,374 @@
+//! End-to-end tests of links and faults: real processes, real SIGKILLs.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use tests::*;
+
+fn base(name: &str, n: usize, duration: f64, pace: &str, extra: &str) -> String {
+    format!(
+        r#"
+[mission]
+name = "{name}"
+seed = 11
+duration = {duration}
+dt = 0.05
+pace = {pace}
+goal = "max"
+
+[field]
+kind = "gaussian"
+center = [6.0, 3.0]
+amplitude = 10.0
+width = 6.0
+noise_std = 0.1
+
+[vehicles]
+count = {n}
+damping = 5.0
+
+[formation]
+alpha = 60.0
+radius = 1.2
+
+[body]
+v_u = 10.0
+{extra}
+"#
+    )
+}
+
+fn events(dir: &std::path::Path) -> Vec<serde_json::Value> {
+    read(&dir.join("events.jsonl"))
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("event is JSON"))
+        .collect()
+}
+
+fn count(events: &[serde_json::Value], kind: &str) -> usize {
+    events.iter().filter(|e| e["kind"] == kind).count()
+}
+
+#[test]
+fn scheduled_faults_and_impaired_links_in_lockstep_equal_the_simulator() {
+    let tmp = TempDir::new("sched");
+    let extra = r#"
+[links]
+delay = 0.2
+jitter = 0.1
+loss = 0.1
+burst_enter = 0.02
+surfacing_period = 4.0
+surfacing_window = 2.0
+
+[restart]
+vehicles = "on-failure"
+
+[[faults]]
+kind = "kill"
+vehicle = 2
+at = 5.0
+until = 10.0
+
+[[faults]]
+kind = "kill"
+vehicle = 4
+at = 12.0
+
+[[faults]]
+kind = "link_down"
+vehicle = 1
+at = 3.0
+until = 6.0
+
+[[faults]]
+kind = "sensor_bias"
+vehicle = 0
+at = 2.0
+until = 4.0
+value = 0.5
+
+[[faults]]
+kind = "sensor_stuck"
+vehicle = 3
+at = 7.0
+until = 9.0
+"#;
+    let name = unique_name("sched");
+    let file = write_mission(&tmp, "m.toml", &base(&name, 5, 20.0, "\"lockstep\"", extra));
+    run_ok(
+        vbap()
+            .arg("sim")
+            .arg(&file)
+            .arg("--out")
+            .arg(tmp.join("sim"))
+            .arg("--quiet"),
+    );
+    run_ok(
+        vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--out")
+            .arg(tmp.join("run"))
+            .arg("--quiet"),
+    );
+    assert_same_tracks(&tmp.join("sim"), &tmp.join("run"));
+    let s = summary(&tmp.join("run"));
+    assert_eq!(s["vehicles_lost"], 2, "{s}");
+    assert_eq!(s["vehicles_rejoined"], 1, "{s}");
+    assert!(s["messages"]["dropped_injected"].as_u64().unwrap() > 0);
+    let ev = events(&tmp.join("run"));
+    assert_eq!(count(&ev, "fault"), 5);
+    assert!(count(&ev, "link_drop") > 0);
+    // The restarted agent was a new process (its pid differs) and rejoined.
+    let log = read(&tmp.join("run/logs/vehicle_agent_2.jsonl"));
+    assert!(log.contains("admitted back into the formation"));
+    assert!(leftover_files(&name).is_empty());
+    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+}
+
+fn pid_of(needle: &str) -> Option<u32> {
+    processes_mentioning(needle).into_iter().next()
+}
+
+fn rows(path: &std::path::Path) -> usize {
+    std::fs::read_to_string(path)
+        .map(|t| t.lines().count())
+        .unwrap_or(0)
+}
+
+#[test]
+fn a_killed_coordinator_resumes_from_its_checkpoint_and_the_run_equals_the_simulator() {
+    let tmp = TempDir::new("coordkill");
+    let name = unique_name("coordkill");
+    let extra = "[links]\ndelay = 0.1\nloss = 0.05\n";
+    let file = write_mission(
+        &tmp,
+        "m.toml",
+        &base(&name, 4, 400.0, "\"lockstep\"", extra),
+    );
+    run_ok(
+        vbap()
+            .arg("sim")
+            .arg(&file)
+            .arg("--out")
+            .arg(tmp.join("sim"))
+            .arg("--quiet"),
+    );
+    let out = tmp.join("run");
+    let mut run = ChildGuard(Some(
+        vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--out")
+            .arg(&out)
+            .arg("--quiet")
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    ));
+    let body = out.join("body.csv");
+    wait_until(
+        || rows(&body) > 1500,
+        Duration::from_secs(60),
+        "the run to get going",
+    );
+    let needle = format!(
+        "coordinator --mission {}",
+        out.join("mission.toml").display()
+    );
+    let pid = pid_of(&needle).expect("the coordinator runs");
+    assert!(std::process::Command::new("kill")
+        .args(["-9", &pid.to_string()])
+        .status()
+        .unwrap()
+        .success());
+    assert!(
+        run.wait().success(),
+        "the run completes after the coordinator restart"
+    );
+    let log = read(&out.join("logs/coordinator.jsonl"));
+    assert!(
+        log.contains("resumed from the checkpoint"),
+        "the restarted coordinator resumed"
+    );
+    assert_same_tracks(&tmp.join("sim"), &out);
+    assert!(leftover_files(&name).is_empty());
+}
+
+#[test]
+fn random_agent_kills_are_survived_and_the_restarted_agents_rejoin() {
+    let tmp = TempDir::new("agentkill");
+    let name = unique_name("agentkill");
+    let extra = "[restart]\nvehicles = \"on-failure\"\nbackoff = 0.1\n";
+    let file = write_mission(&tmp, "m.toml", &base(&name, 5, 30.0, "4.0", extra));
+    let out = tmp.join("run");
+    let mut run = ChildGuard(Some(
+        vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--out")
+            .arg(&out)
+            .arg("--quiet")
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    ));
+    let body = out.join("body.csv");
+    wait_until(
+        || rows(&body) > 20,
+        Duration::from_secs(60),
+        "the run to get going",
+    );
+    // Kill three agents one after another; each must be found dead and come back.
+    for (round, victim) in [1u32, 3, 1].into_iter().enumerate() {
+        let needle = format!("{} --id {victim} --", out.join("mission.toml").display());
+        let pid = pid_of(&needle).expect("the agent runs");
+        assert!(std::process::Command::new("kill")
+            .args(["-9", &pid.to_string()])
+            .status()
+            .unwrap()
+            .success());
+        let ev_path = out.join("events.jsonl");
+        wait_until(
+            || {
+                std::fs::read_to_string(&ev_path)
+                    .map(|t| t.matches("\"rejoin\"").count() > round)
+                    .unwrap_or(false)
+            },
+            Duration::from_secs(30),
+            "the killed agent to be found dead and rejoin",
+        );
+    }
+    assert!(run.wait().success(), "the mission completes");
+    let s = summary(&out);
+    assert_eq!(s["ticks"], 600, "every tick ran: {s}");
+    assert!(s["vehicles_lost"].as_u64().unwrap() >= 3, "{s}");
+    assert!(s["vehicles_rejoined"].as_u64().unwrap() >= 3, "{s}");
+    assert!(s["reconfigurations"].as_u64().unwrap() >= 6, "{s}");
+    assert!(
+        !s["detection_latency_ms"].as_array().unwrap().is_empty(),
+        "detection latency measured: {s}"
+    );
+    let ev = events(&out);
+    let lost: Vec<_> = ev
+        .iter()
+        .filter(|e| e["kind"] == "lost")
+        .map(|e| e["detail"]["cause"].clone())
+        .collect();
+    assert!(
+        lost.iter()
+            .all(|c| c == "process died" || c == "process restarted"),
+        "{lost:?}"
+    );
+    assert!(leftover_files(&name).is_empty());
+    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+}
+
+/// Parses the coordinator's message records: (injected delays ms, dropped count, all).
+fn uplink_stats(dir: &std::path::Path) -> (Vec<f64>, usize, usize) {
+    let mut delays = Vec::new();
+    let mut drops = 0;
+    let mut total = 0;
+    for line in read(&dir.join("logs/coordinator.jsonl")).lines() {
+        let v: serde_json::Value = match serde_json::from_str(line) {
+            Ok(v) => v,
+            Err(_) => continue,
+        };
+        let f = &v["fields"];
+        match (f["hop"].as_str(), f["message"].as_str()) {
+            (Some("state_link"), Some("held")) => delays.push(f["injected_ms"].as_f64().unwrap()),
+            (Some("state"), Some("drop")) => drops += 1,
+            (Some("state"), Some("recv")) => total += 1,
+            _ => {}
+        }
+    }
+    (delays, drops, total)
+}
+
+#[test]
+fn measured_delay_and_loss_match_the_configured_link() {
+    let tmp = TempDir::new("linkstat");
+    let name = unique_name("linkstat");
+    let extra = "[links]\ndelay = 2.0\njitter = 0.5\nloss = 0.2\n";
+    let file = write_mission(&tmp, "m.toml", &base(&name, 4, 60.0, "\"lockstep\"", extra));
+    run_ok(
+        vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--out")
+            .arg(tmp.join("run"))
+            .arg("--quiet"),
+    );
+    let (delays, drops, total) = uplink_stats(&tmp.join("run"));
+    assert_eq!(
+        total,
+        4 * 1200,
+        "every state reached the coordinator over shared memory"
+    );
+    // Loss: binomial, 5 standard errors.
+    let rate = drops as f64 / total as f64;
+    let se = (0.2 * 0.8 / total as f64).sqrt();
+    assert!((rate - 0.2).abs() < 5.0 * se, "loss rate {rate}");
+    // Delay: uniform on [1.5, 2.5] s, quantised up to the next tick (dt = 0.05 s) at most.
+    assert_eq!(delays.len() + drops, total);
+    let min = delays.iter().cloned().fold(f64::INFINITY, f64::min);
+    let max = delays.iter().cloned().fold(0.0, f64::max);
+    assert!(min >= 1500.0 - 1e-6 && max <= 2500.0 + 1e-6, "{min} {max}");
+    let mean = delays.iter().sum::<f64>() / delays.len() as f64;
+    let se = 288.7 / (delays.len() as f64).sqrt();
+    assert!((mean - 2000.0).abs() < 5.0 * se, "mean delay {mean} ms");
+    // The summary counts the same drops.
+    let s = summary(&tmp.join("run"));
+    assert_eq!(
+        s["messages"]["dropped_injected"].as_u64().unwrap() as usize,
+        drops
+    );
+}
+
+#[test]
+fn nothing_is_delivered_outside_a_surfacing_window() {
+    let tmp = TempDir::new("surf");
+    let name = unique_name("surf");
+    let (period, window, n) = (4.0, 1.0, 4);
+    let extra =
+        format!("[links]\ndelay = 0.1\nsurfacing_period = {period}\nsurfacing_window = {window}\n");
+    let file = write_mission(
+        &tmp,
+        "m.toml",
+        &base(&name, n, 30.0, "\"lockstep\"", &extra),
+    );
+    run_ok(
+        vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--out")
+            .arg(tmp.join("run"))
+            .arg("--quiet"),
+    );
+    // Every report the planner received fresh was delivered while its vehicle was at the
+    // surface: staggered phase i·period/N.
+    let text = read(&tmp.join("run/planner_inputs.csv"));
+    let mut fresh_per_vehicle: BTreeMap<u32, usize> = BTreeMap::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f[1] == "member" {
+            continue;
+        }
+        let k: u64 = f[0].parse().unwrap();
+        let id: u32 = f[2].parse().unwrap();
+        let t = k as f64 * 0.05;
+        let phase = period * id as f64 / n as f64;
+        let into = (t - phase).rem_euclid(period);
+        assert!(
+            into < window + 1e-9,
+            "vehicle {id} delivered at t = {t} ({into} s into its period)"
+        );
+        *fresh_per_vehicle.entry(id).or_default() += 1;
+    }
+    assert_eq!(
+        fresh_per_vehicle.len(),
+        n,
+        "every vehicle got reports through: {fresh_per_vehicle:?}"
+    );
+}
