@@ -6,6 +6,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use shared::config::Mission;
 use shared::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
+use shared::math::Vec3;
 use shared::msg::coordinator_to_agent::SnapshotEntry;
 use shared::msg::from_vec3;
 
@@ -31,6 +32,8 @@ pub struct Fleet {
     last_truth: BTreeMap<u32, Report>,
     lost: BTreeSet<u32>,
     admitted: Vec<Report>,
+    /// Virtual body centre at each tick still needed for dead reckoning.
+    body_track: BTreeMap<u64, Vec3>,
     /// Uplink counters.
     pub counts: UplinkCounts,
 }
@@ -47,6 +50,7 @@ impl Fleet {
             last_truth: BTreeMap::new(),
             lost: BTreeSet::new(),
             admitted: Vec::new(),
+            body_track: BTreeMap::new(),
             counts: UplinkCounts::default(),
         }
     }
@@ -121,10 +125,30 @@ impl Fleet {
         fates
     }
 
-    /// Releases the reports due at mission time `t`: returns (members, fresh) for the
+    /// The virtual body centre at tick `k` (call before [`Fleet::deliver`] of that tick).
+    pub fn track_body(&mut self, k: u64, r: Vec3) {
+        self.body_track.insert(k, r);
+        // Keep what the oldest report still in use or in flight may need.
+        let oldest = self
+            .latest
+            .values()
+            .map(|r| r.tick)
+            .chain(self.last_truth.values().map(|r| r.tick))
+            .min()
+            .unwrap_or(k);
+        while self
+            .body_track
+            .first_key_value()
+            .is_some_and(|(t, _)| *t < oldest)
+        {
+            self.body_track.pop_first();
+        }
+    }
+
+    /// Releases the reports due at mission time `t` (tick length `dt`): returns (members, fresh) for the
     /// planner — the latest delivered report of every alive vehicle (ordered by id) and
     /// the reports delivered now (in delivery order).
-    pub fn deliver(&mut self, t: f64) -> (Vec<Report>, Vec<Report>) {
+    pub fn deliver(&mut self, t: f64, dt: f64) -> (Vec<Report>, Vec<Report>) {
         let fresh: Vec<Report> = self
             .inbox
             .pop_due(t)
@@ -140,11 +164,25 @@ impl Fleet {
                 }
             }
         }
+        // Members out of contact are dead-reckoned: they keep their place relative to
+        // the virtual body, so a report of tick j is moved by r(now) − r(j).
+        let r_now = self.body_track.values().next_back().copied();
         let members = self
             .alive
             .iter()
-            .filter_map(|v| self.latest.get(v).copied())
+            .filter_map(|v| self.latest.get(v))
+            .map(|r| {
+                let shift = match (r_now, self.body_track.get(&r.tick)) {
+                    (Some(now), Some(then)) => now - then,
+                    _ => Vec3::zeros(),
+                };
+                Report {
+                    position: r.position + shift,
+                    ..*r
+                }
+            })
             .collect();
+        let _ = dt;
         (members, fresh)
     }
 

@@ -87,6 +87,9 @@ pub struct Command {
     pub body: VirtualBody,
     /// Formation speed ṡ (IV.4); 0 when holding.
     pub sdot: f64,
+    /// Velocity of the virtual body centre, dr/ds·ṡ, length unit/s: vehicles out of
+    /// contact dead-reckon the body with it.
+    pub velocity: Vec3,
     /// Virtual leader positions b_l(s_k) (III.3).
     pub leaders: Vec<Vec3>,
     /// Scaled inter-vehicle potential.
@@ -326,6 +329,7 @@ impl Planner {
         let command = Command {
             body: self.body,
             sdot,
+            velocity: rates.dr_ds * sdot,
             leaders: self.body.leader_positions(&self.design),
             inter: self.body.scaled_inter(&self.design),
             leader: self.body.scaled_leader(&self.design),

@@ -449,7 +449,8 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
             }
         }
         recorder.uplink(k, &fates)?;
-        let (members, fresh) = fleet.deliver(t);
+        fleet.track_body(k, planner.body().r);
+        let (members, fresh) = fleet.deliver(t, dt);
         let command = planner.step(k, &members, &fresh, dt)?;
         recorder.inputs(k, &members, &fresh)?;
         recorder.tick(k, &truth, &command)?;
@@ -469,6 +470,7 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
             inter: [command.inter.alpha, command.inter.d0, command.inter.d1],
             leader: [command.leader.alpha, command.leader.d0, command.leader.d1],
             damping: command.damping,
+            velocity: from_vec3(&command.velocity),
             leaders: command.leaders.iter().map(from_vec3).collect(),
             snapshot,
         };
@@ -561,6 +563,7 @@ pub struct BodyRecord {
     pub inter: [f64; 3],
     pub leader: [f64; 3],
     pub damping: f64,
+    pub velocity: [f64; 3],
     pub leaders: Vec<[f64; 3]>,
     pub snapshot: Vec<shared::msg::coordinator_to_agent::SnapshotEntry>,
 }
@@ -591,6 +594,7 @@ fn publish(
     body.inter = record.inter;
     body.leader = record.leader;
     body.damping = record.damping;
+    body.velocity = record.velocity;
     let n_l = record.leaders.len().min(MAX_LEADERS);
     body.n_leaders = n_l as u32;
     body.leaders[..n_l].copy_from_slice(&record.leaders[..n_l]);

@@ -280,7 +280,13 @@ fn default_run_dir(name: &str) -> Result<PathBuf> {
 }
 
 fn print_summary(summary: &Summary, dir: &RunDir) -> Result<()> {
-    println!("{}", serde_json::to_string_pretty(summary)?);
+    use std::io::Write;
+    // A closed pipe (`| head`) is not an error of the run.
+    let _ = writeln!(
+        std::io::stdout(),
+        "{}",
+        serde_json::to_string_pretty(summary)?
+    );
     eprintln!("run directory: {}", dir.root.display());
     Ok(())
 }

@@ -94,7 +94,8 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
             .collect();
         let fates = fleet.receive(k, dt, &truth);
         recorder.uplink(k, &fates)?;
-        let (members, fresh) = fleet.deliver(t);
+        fleet.track_body(k, planner.body().r);
+        let (members, fresh) = fleet.deliver(t, dt);
         let command = planner.step(k, &members, &fresh, dt)?;
         recorder.inputs(k, &members, &fresh)?;
         recorder.tick(k, &truth, &command)?;
@@ -108,6 +109,7 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
                 command.inter,
                 command.leader,
                 command.damping,
+                command.velocity,
             );
             veh.on_command(fleet.model(), guidance, k, dt);
         }

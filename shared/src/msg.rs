@@ -132,7 +132,7 @@ pub mod coordinator_to_agent {
     /// Agents read it in place (zero copy).
     #[derive(Debug, Clone, Copy, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.BodyCommand.v2")]
+    #[type_name("vbap.BodyCommand.v3")]
     pub struct BodyCommand {
         pub header: Header,
         /// Virtual body parameter s.
@@ -149,6 +149,9 @@ pub mod coordinator_to_agent {
         pub leader: [f64; 3],
         /// Damping gain K = damping·I of (II.1), 1/s.
         pub damping: f64,
+        /// Velocity of the body centre dr/ds·ṡ, length unit/s (dead reckoning when out of
+        /// contact).
+        pub velocity: [f64; 3],
         /// Number of valid entries in `leaders`.
         pub n_leaders: u32,
         /// Number of valid entries in `snapshot` (ordered by id).
@@ -176,6 +179,7 @@ pub mod coordinator_to_agent {
                 inter: [0.0; 3],
                 leader: [0.0; 3],
                 damping: 0.0,
+                velocity: [0.0; 3],
                 n_leaders: 0,
                 n_vehicles: 0,
                 leaders: [[0.0; 3]; MAX_LEADERS],
@@ -191,6 +195,7 @@ pub mod coordinator_to_agent {
                 && n_v <= MAX_VEHICLES
                 && [self.header.t, self.s, self.sdot, self.scale, self.damping]
                     .iter()
+                    .chain(self.velocity.iter())
                     .chain(self.r.iter())
                     .chain(self.inter.iter())
                     .chain(self.leader.iter())

@@ -167,6 +167,9 @@ pub struct Guidance {
     pub leader: PairPotential,
     /// Damping gain of (II.1), 1/s.
     pub damping: f64,
+    /// Velocity of the virtual body, length unit/s: while no newer command is visible, the
+    /// vehicle dead-reckons the leaders and its neighbours with it.
+    pub velocity: Vec3,
 }
 
 impl Guidance {
@@ -180,6 +183,7 @@ impl Guidance {
         inter: PairPotential,
         leader: PairPotential,
         damping: f64,
+        velocity: Vec3,
     ) -> Self {
         use shared::msg::coordinator_to_agent::SnapshotEntry;
         let neighbours = snapshot
@@ -194,6 +198,7 @@ impl Guidance {
             inter,
             leader,
             damping,
+            velocity,
         }
     }
 
@@ -213,6 +218,7 @@ impl Guidance {
             inter: body.scaled_inter(design),
             leader: body.scaled_leader(design),
             damping: mission.vehicles.damping,
+            velocity: Vec3::zeros(),
         }
     }
 }
@@ -285,14 +291,30 @@ impl Vehicle {
             self.current = newest;
         }
         let g = &self.current;
-        let inputs = AgentInputs {
-            leaders: &g.leaders,
-            neighbours: &g.neighbours,
-            inter: g.inter,
-            leader: g.leader,
-            damping: g.damping,
-        };
-        self.agent.step(&inputs, dt);
+        let age = k.saturating_sub(g.tick) as f64 * dt;
+        if age > 0.0 {
+            // Out of contact: dead-reckon the virtual body from the last command.
+            let shift = g.velocity * age;
+            let leaders: Vec<Vec3> = g.leaders.iter().map(|l| l + shift).collect();
+            let neighbours: Vec<Vec3> = g.neighbours.iter().map(|p| p + shift).collect();
+            let inputs = AgentInputs {
+                leaders: &leaders,
+                neighbours: &neighbours,
+                inter: g.inter,
+                leader: g.leader,
+                damping: g.damping,
+            };
+            self.agent.step(&inputs, dt);
+        } else {
+            let inputs = AgentInputs {
+                leaders: &g.leaders,
+                neighbours: &g.neighbours,
+                inter: g.inter,
+                leader: g.leader,
+                damping: g.damping,
+            };
+            self.agent.step(&inputs, dt);
+        }
         fate
     }
 }

@@ -284,6 +284,7 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
                     d1: body.leader[2],
                 },
                 body.damping,
+                to_vec3(&body.velocity),
             );
             let own = snapshot.iter().find(|e| e.id == id).copied();
             newest = Some((h.tick, guidance, own));
