@@ -70,7 +70,10 @@ impl Inbox {
                        sent_ns = h.sent_ns, recv_ns = wall_ns(), "recv");
                 let peer = &mut self.peers[id as usize];
                 let joining = h.flags & VehicleState::JOINING != 0;
-                let new_process = joining && s.pid != peer.pid;
+                // A join request comes from a new process (another pid): flagged, or any
+                // state of a vehicle that was lost. A lost vehicle's last words from its
+                // old process are not one.
+                let new_process = s.pid != peer.pid && (joining || fleet.is_lost(id));
                 let replay = !new_process && peer.last_seq.is_some_and(|q| h.seq <= q);
                 let future = h.tick > k + 1;
                 if h.sender != id || replay || future || !s.is_finite() {
@@ -90,10 +93,9 @@ impl Inbox {
                 peer.last_seq = Some(h.seq);
                 peer.pid = s.pid;
                 peer.last_recv = Some(Instant::now());
-                // A join request: flagged, or any state of a vehicle that was lost.
                 if joining || fleet.is_lost(id) {
-                    if !fleet.is_alive(id) || new_process {
-                        info!(vehicle = id, tick = h.tick, "join request");
+                    if new_process {
+                        info!(vehicle = id, tick = h.tick, pid = s.pid, "join request");
                         peer.join_request = Some(Instant::now());
                         self.joins.insert(id);
                         self.latest.remove(&id);

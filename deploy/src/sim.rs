@@ -101,16 +101,16 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
         recorder.tick(k, &truth, &command)?;
         let snapshot = fleet.snapshot(&members);
         for (&id, veh) in vehicles.iter_mut() {
-            let guidance = Guidance::from_command(
-                id,
-                k,
-                command.leaders.clone(),
-                &snapshot,
-                command.inter,
-                command.leader,
-                command.damping,
-                command.velocity,
-            );
+            let guidance = Guidance {
+                tick: k,
+                leaders: command.leaders.clone(),
+                neighbours: Vec::new(),
+                inter: command.inter,
+                leader: command.leader,
+                damping: command.damping,
+                velocity: command.velocity,
+            }
+            .with_neighbours(id, &snapshot);
             veh.on_command(fleet.model(), guidance, k, dt);
         }
         fleet.end_tick();

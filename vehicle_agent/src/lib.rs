@@ -173,33 +173,20 @@ pub struct Guidance {
 }
 
 impl Guidance {
-    /// The guidance of a body command for vehicle `id`: leaders, potentials, and as
-    /// neighbours every member or admitted vehicle of the snapshot but itself.
-    pub fn from_command(
+    /// This guidance for vehicle `id` of a body command: as neighbours every member or
+    /// admitted vehicle of the command's snapshot but itself.
+    pub fn with_neighbours(
+        mut self,
         id: u32,
-        tick: u64,
-        leaders: Vec<Vec3>,
         snapshot: &[shared::msg::coordinator_to_agent::SnapshotEntry],
-        inter: PairPotential,
-        leader: PairPotential,
-        damping: f64,
-        velocity: Vec3,
     ) -> Self {
         use shared::msg::coordinator_to_agent::SnapshotEntry;
-        let neighbours = snapshot
+        self.neighbours = snapshot
             .iter()
             .filter(|e| e.id != id && e.alive != SnapshotEntry::LOST)
             .map(|e| shared::msg::to_vec3(&e.position))
             .collect();
-        Self {
-            tick,
-            leaders,
-            neighbours,
-            inter,
-            leader,
-            damping,
-            velocity,
-        }
+        self
     }
 
     /// The guidance a vehicle starts with before it hears anything: the leaders of the

@@ -268,24 +268,21 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
             let n_l = body.n_leaders as usize;
             let n_v = body.n_vehicles as usize;
             let snapshot = &body.snapshot[..n_v];
-            let guidance = Guidance::from_command(
-                id,
-                h.tick,
-                body.leaders[..n_l].iter().map(to_vec3).collect(),
-                snapshot,
-                shared::math::potential::PairPotential {
-                    alpha: body.inter[0],
-                    d0: body.inter[1],
-                    d1: body.inter[2],
-                },
-                shared::math::potential::PairPotential {
-                    alpha: body.leader[0],
-                    d0: body.leader[1],
-                    d1: body.leader[2],
-                },
-                body.damping,
-                to_vec3(&body.velocity),
-            );
+            let pot = |p: &[f64; 3]| shared::math::potential::PairPotential {
+                alpha: p[0],
+                d0: p[1],
+                d1: p[2],
+            };
+            let guidance = Guidance {
+                tick: h.tick,
+                leaders: body.leaders[..n_l].iter().map(to_vec3).collect(),
+                neighbours: Vec::new(),
+                inter: pot(&body.inter),
+                leader: pot(&body.leader),
+                damping: body.damping,
+                velocity: to_vec3(&body.velocity),
+            }
+            .with_neighbours(id, snapshot);
             let own = snapshot.iter().find(|e| e.id == id).copied();
             newest = Some((h.tick, guidance, own));
         }
