@@ -40,13 +40,44 @@ pub struct Fleet {
 
 impl Fleet {
     /// The fleet of `mission` at the start: vehicles `ids` alive, nothing heard yet.
+    ///
+    /// Until a vehicle's first report arrives, the coordinator assumes it where it was
+    /// deployed: at rest in its slot of the initial formation around `vehicles.start` (what
+    /// the operators planned), so a link that delays the first reports does not make the
+    /// formation look smaller than it is.
     pub fn new(mission: &Mission, ids: &[u32]) -> Self {
+        let planned = shared::math::formation::design_regular(
+            mission.vehicles.count,
+            mission.mission.dim,
+            mission.formation.radius,
+            mission.formation.alpha,
+            mission.formation.alpha,
+        )
+        .map(|d| d.slots)
+        .unwrap_or_default();
+        let latest = ids
+            .iter()
+            .filter_map(|&id| {
+                planned.get(id as usize).map(|slot| {
+                    (
+                        id,
+                        Report {
+                            id,
+                            tick: 0,
+                            position: mission.start_vec() + slot,
+                            velocity: Vec3::zeros(),
+                            measurement: f64::NAN,
+                        },
+                    )
+                })
+            })
+            .collect();
         Self {
             model: LinkModel::new(mission),
             links: BTreeMap::new(),
             inbox: DelayQueue::default(),
             alive: ids.iter().copied().collect(),
-            latest: BTreeMap::new(),
+            latest,
             last_truth: BTreeMap::new(),
             lost: BTreeSet::new(),
             admitted: Vec::new(),
