@@ -195,34 +195,7 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
         Cmd::Replay(args) => crate::replay::main(&args),
         Cmd::Batch(args) => crate::batch::main(&args),
         Cmd::Bench(args) => crate::bench::main(&args),
-        Cmd::Analyze { run_dir, json } => {
-            if !run_dir.join("logs").is_dir() {
-                return Err(InvalidInput(format!(
-                    "{}: not a run directory (no logs/)",
-                    run_dir.display()
-                ))
-                .into());
-            }
-            let dir = RunDir { root: run_dir };
-            let report = crate::analyze::analyze(&dir)?;
-            if json {
-                println!("{}", serde_json::to_string_pretty(&report)?);
-            } else {
-                println!(
-                    "{:<14} {:>9} {:>10} {:>10} {:>10} {:>10}",
-                    "hop", "delivered", "p50 µs", "p90 µs", "p99 µs", "max µs"
-                );
-                for (hop, h) in &report.hops {
-                    let p = h.transport_us;
-                    println!(
-                        "{hop:<14} {:>9} {:>10.1} {:>10.1} {:>10.1} {:>10.1}",
-                        h.delivered, p.p50, p.p90, p.p99, p.max
-                    );
-                }
-                println!("late ticks: {}", report.late_ticks);
-            }
-            Ok(EXIT_OK)
-        }
+        Cmd::Analyze { run_dir, json } => crate::analyze::main(&run_dir, json),
     }
 }
 

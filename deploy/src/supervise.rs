@@ -439,7 +439,7 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
     if let Some(s) = summary.as_mut() {
         s.wall_time_s = wall.elapsed().as_secs_f64();
         if let Ok(report) = analyze::analyze(dir) {
-            s.latency_us = report.latency_summary();
+            report.fill_summary(s);
         }
         s.agent_rejected = count_agent_rejections(dir);
         s.write(dir).context("writing summary.json")?;
