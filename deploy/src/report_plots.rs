@@ -781,7 +781,8 @@ fn fmt_tick(v: f64, step: f64) -> String {
         return format!("{v:.1e}").replace(".0e", "e");
     }
     let decimals = if step >= 1.0 {
-        0
+        // A step of 2.5 needs one decimal (2.5, 7.5, ...).
+        usize::from(step.fract().abs() > 1e-9)
     } else {
         (-step.log10() - 1e-9).ceil().max(0.0) as usize + usize::from(is_25(step))
     };
