@@ -14,7 +14,7 @@ use shared::msg::coordinator_to_agent::BodyCommand;
 use shared::msg::{from_vec3, to_vec3, wall_ns, Header, MAX_LEADERS, MAX_VEHICLES};
 use shared::rundir::{MessageCounts, RunDir};
 use shared::telemetry::MSG_TARGET;
-use shared::topics::{self, wait_for_wake, Domain, Limits, Wake};
+use shared::topics::{self, wait_for_wake, wait_for_wake_ids, Domain, Limits, Wake};
 use tracing::{debug, info, warn};
 
 use crate::checkpoint::{Checkpoint, CheckpointWriter, PeerMark};
@@ -58,7 +58,33 @@ impl Inbox {
         fleet: &Fleet,
         k: u64,
     ) -> Result<()> {
-        for (id, sub) in subscribers.iter().enumerate() {
+        self.drain_some(subscribers, fleet, k, None)
+    }
+
+    /// [`Inbox::drain`] of the subscribers whose vehicles woke us (`woken`: event ids),
+    /// or of all of them.
+    fn drain_some(
+        &mut self,
+        subscribers: &[iceoryx2::port::subscriber::Subscriber<ipc::Service, VehicleState, ()>],
+        fleet: &Fleet,
+        k: u64,
+        woken: Option<&[usize]>,
+    ) -> Result<()> {
+        let selected: Vec<usize> = match woken {
+            None => (0..subscribers.len()).collect(),
+            Some(ids) => {
+                let mut v: Vec<usize> = ids
+                    .iter()
+                    .filter_map(|e| e.checked_sub(topics::EVENT_VEHICLE_BASE))
+                    .filter(|i| *i < subscribers.len())
+                    .collect();
+                v.sort_unstable();
+                v.dedup();
+                v
+            }
+        };
+        for id in selected {
+            let sub = &subscribers[id];
             let id = id as u32;
             while let Some(sample) = sub
                 .receive()
@@ -331,8 +357,9 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
             LOCKSTEP_TIMEOUT
         };
         let gather_start = Instant::now();
+        let mut woken: Option<Vec<usize>> = None;
         loop {
-            inbox.drain(&subscribers, &fleet, k)?;
+            inbox.drain_some(&subscribers, &fleet, k, woken.as_deref())?;
             let missing: Vec<u32> = fleet
                 .alive()
                 .filter(|v| !admitted.contains(v))
@@ -418,9 +445,20 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
                     }
                 }
             };
-            if wait_for_wake(&waitset, &wake, timeout)? == Wake::Stop {
-                stopped = true;
-                break 'ticks;
+            let mut ids = Vec::new();
+            match wait_for_wake_ids(&waitset, &wake, timeout, &mut ids)? {
+                Wake::Stop => {
+                    stopped = true;
+                    break 'ticks;
+                }
+                // Only vehicle events: drain just those subscribers; anything else (a
+                // timeout, another event): drain all.
+                Wake::Events
+                    if !ids.is_empty() && ids.iter().all(|e| *e >= topics::EVENT_VEHICLE_BASE) =>
+                {
+                    woken = Some(ids)
+                }
+                _ => woken = None,
             }
         }
 

@@ -38,8 +38,16 @@ pub const EVENT_SAMPLE: EventId = EventId::new(2);
 pub const EVENT_DATA: EventId = EventId::new(3);
 /// Event id: a notifier of the service died (iceoryx2 dead-notifier event).
 pub const EVENT_NOTIFIER_DEAD: EventId = EventId::new(4);
-/// Largest event id in use.
+/// Largest event id of the shared event ids above.
 pub const EVENT_ID_MAX: usize = 8;
+/// A vehicle's state event on the coordinator's wake service is `EVENT_VEHICLE_BASE + id`,
+/// so the coordinator drains only the subscribers that have something.
+pub const EVENT_VEHICLE_BASE: usize = 16;
+
+/// The event id by which vehicle `id` wakes the coordinator.
+pub fn vehicle_event(id: u32) -> EventId {
+    EventId::new(EVENT_VEHICLE_BASE + id as usize)
+}
 
 /// Errors opening a service or a node; the service name is always in the message.
 #[derive(Debug, thiserror::Error)]
@@ -267,6 +275,7 @@ impl Domain {
         listeners: usize,
         notifiers: usize,
         limits: &Limits,
+        max_event_id: usize,
     ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
         let name = self.name(path)?;
         node.service_builder(&name)
@@ -274,7 +283,7 @@ impl Domain {
             .max_listeners(listeners)
             .max_notifiers(notifiers)
             .max_nodes(limits.max_nodes())
-            .event_id_max_value(EVENT_ID_MAX)
+            .event_id_max_value(max_event_id)
             .notifier_dead_event(EVENT_NOTIFIER_DEAD)
             .open_or_create()
             .map_err(|e| service_err(&name, e))
@@ -287,7 +296,14 @@ impl Domain {
         id: u32,
         limits: &Limits,
     ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
-        self.event_service(node, &format!("vehicle/{id}/wake"), 2, 6, limits)
+        self.event_service(
+            node,
+            &format!("vehicle/{id}/wake"),
+            2,
+            6,
+            limits,
+            EVENT_ID_MAX,
+        )
     }
 
     /// `<m>/coordinator/wake`: the coordinator listens, agents notify.
@@ -302,6 +318,7 @@ impl Domain {
             2,
             limits.fleet_ports() + 4,
             limits,
+            EVENT_VEHICLE_BASE + crate::msg::MAX_VEHICLES,
         )
     }
 
@@ -311,7 +328,14 @@ impl Domain {
         node: &Node<ipc::Service>,
         limits: &Limits,
     ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
-        self.event_service(node, "field/wake", 2, limits.fleet_ports() + 4, limits)
+        self.event_service(
+            node,
+            "field/wake",
+            2,
+            limits.fleet_ports() + 4,
+            limits,
+            EVENT_ID_MAX,
+        )
     }
 }
 
@@ -340,6 +364,46 @@ pub enum Wake {
     Timeout,
     /// SIGINT or SIGTERM: flush and exit cleanly.
     Stop,
+}
+
+/// [`wait_for_wake`] that also collects the ids of the events that arrived into `ids`.
+pub fn wait_for_wake_ids(
+    waitset: &iceoryx2::waitset::WaitSet<ipc::Service>,
+    listener: &iceoryx2::port::listener::Listener<ipc::Service>,
+    timeout: std::time::Duration,
+    ids: &mut Vec<usize>,
+) -> Result<Wake, TopicError> {
+    use iceoryx2::waitset::WaitSetRunResult;
+    let mut woke = false;
+    let result = waitset
+        .wait_and_process_once_with_timeout(
+            |_| {
+                woke = true;
+                CallbackProgression::Continue
+            },
+            timeout,
+        )
+        .map_err(|e| TopicError::Service {
+            service: "waitset".into(),
+            reason: format!("{e:?}"),
+        })?;
+    if matches!(
+        result,
+        WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt
+    ) {
+        return Ok(Wake::Stop);
+    }
+    let drained = listener
+        .try_wait(|a| ids.push(a.id.as_value()))
+        .map_err(|e| TopicError::Service {
+            service: "listener".into(),
+            reason: format!("{e:?}"),
+        })?;
+    Ok(if woke || drained > 0 {
+        Wake::Events
+    } else {
+        Wake::Timeout
+    })
 }
 
 /// Blocks in `waitset` (which has `listener` attached) until an event, the timeout or a

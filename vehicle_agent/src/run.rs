@@ -161,7 +161,7 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
             .map_err(|e| anyhow::anyhow!("publishing the state: {e:?}"))?;
         last_sent.set(Some(state));
         coordinator_notifier
-            .notify()
+            .notify_with_custom_event_id(topics::vehicle_event(id))
             .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
         Ok(())
     };
@@ -312,7 +312,7 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
                     .send_copy(again)
                     .map_err(|e| anyhow::anyhow!("re-publishing the state: {e:?}"))?;
                 coordinator_notifier
-                    .notify()
+                    .notify_with_custom_event_id(topics::vehicle_event(id))
                     .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
                 info!(
                     vehicle = id,
