@@ -2,7 +2,8 @@
 //! resume exactly where the dead one stopped — virtual body, filter, fleet and link state,
 //! running figures, counters, and the lengths of the files it had written.
 //!
-//! Written after every tick (atomically: a temporary file, then a rename), so a restarted
+//! The codec (postcard: compact, exact for f64) lives here and nowhere else. Written after
+//! every tick into one of two alternating files, so a restarted
 //! coordinator is never more than the tick in progress behind. In lockstep that tick is
 //! redone from the same inputs (the agents' states are still there, history 1), which
 //! makes a run with a coordinator crash byte-identical to one without.
@@ -42,12 +43,32 @@ pub struct Checkpoint {
     pub body: crate::run::BodyRecord,
 }
 
-impl Checkpoint {
+/// A checkpoint written from borrowed state (no clone of the planner or the fleet per
+/// tick); it reads back as a [`Checkpoint`].
+#[derive(Serialize)]
+pub struct CheckpointRef<'a> {
+    pub next_tick: u64,
+    pub planner: &'a Planner,
+    pub fleet: &'a Fleet,
+    pub stats: &'a RecorderStats,
+    pub offsets: FileOffsets,
+    pub counts: MessageCounts,
+    pub sent: u64,
+    pub late_ticks: u64,
+    pub detection_ms: &'a [f64],
+    pub rejoin_ms: &'a [f64],
+    pub peers: &'a [PeerMark],
+    pub body: &'a crate::run::BodyRecord,
+}
+
+impl CheckpointRef<'_> {
     /// Writes this checkpoint with `writer`.
     pub fn save_with(&self, writer: &mut CheckpointWriter) -> io::Result<()> {
         writer.save(self)
     }
+}
 
+impl Checkpoint {
     /// The newest valid checkpoint of `dir`, if any (a torn write fails to parse and the
     /// other slot is used).
     pub fn load(dir: &RunDir) -> io::Result<Option<Self>> {
@@ -55,7 +76,7 @@ impl Checkpoint {
         for path in slots(dir) {
             match std::fs::read(&path) {
                 Ok(bytes) => {
-                    if let Ok(cp) = serde_json::from_slice::<Self>(&bytes) {
+                    if let Ok(cp) = postcard::from_bytes::<Self>(&bytes) {
                         if best.as_ref().is_none_or(|b| cp.next_tick > b.next_tick) {
                             best = Some(cp);
                         }
@@ -72,8 +93,8 @@ impl Checkpoint {
 /// The two checkpoint slots of a run directory.
 fn slots(dir: &RunDir) -> [std::path::PathBuf; 2] {
     [
-        dir.root.join("coordinator.checkpoint.a.json"),
-        dir.root.join("coordinator.checkpoint.b.json"),
+        dir.root.join("coordinator.checkpoint.a"),
+        dir.root.join("coordinator.checkpoint.b"),
     ]
 }
 
@@ -106,10 +127,11 @@ impl CheckpointWriter {
     }
 
     /// Writes `cp` into the older slot.
-    pub fn save(&mut self, cp: &Checkpoint) -> io::Result<()> {
+    pub fn save(&mut self, cp: &impl Serialize) -> io::Result<()> {
         use std::os::unix::fs::FileExt;
         self.buffer.clear();
-        serde_json::to_writer(&mut self.buffer, cp)?;
+        self.buffer =
+            postcard::to_extend(cp, std::mem::take(&mut self.buffer)).map_err(io::Error::other)?;
         let file = &self.files[self.turn];
         file.set_len(0)?;
         file.write_all_at(&self.buffer, 0)?;

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use iceoryx2::prelude::*;
-use shared::config::{Mission, Pace};
+use shared::config::{Mission, Pace, RestartPolicy};
 use shared::faults::FaultPlan;
 use shared::link::Fate;
 use shared::msg::agent_to_coordinator::VehicleState;
@@ -17,7 +17,7 @@ use shared::telemetry::MSG_TARGET;
 use shared::topics::{self, wait_for_wake, wait_for_wake_ids, Domain, Limits, Wake};
 use tracing::{debug, info, warn};
 
-use crate::checkpoint::{Checkpoint, CheckpointWriter, PeerMark};
+use crate::checkpoint::{Checkpoint, CheckpointRef, CheckpointWriter, PeerMark};
 use crate::fleet::Fleet;
 use crate::planner::{Planner, PlannerParams, Report};
 use crate::record::Recorder;
@@ -250,7 +250,11 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
         late_ticks = cp.late_ticks;
         sent = cp.sent;
     }
-    let mut checkpoints = CheckpointWriter::open(dir).context("opening the checkpoint files")?;
+    // A coordinator that is never restarted needs no checkpoint.
+    let mut checkpoints = match mission.restart.coordinator {
+        RestartPolicy::Never => None,
+        _ => Some(CheckpointWriter::open(dir).context("opening the checkpoint files")?),
+    };
     let mut body = Box::new(BodyCommand::empty());
     info!(vehicles = n, ticks, start_tick = k, "coordinator up");
     on_ready();
@@ -517,30 +521,33 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
         fleet.end_tick();
         // Checkpoint before publishing: a coordinator restarted after this point
         // re-publishes this very command and goes on with the next tick.
-        recorder.flush()?;
-        Checkpoint {
-            next_tick: k + 1,
-            planner: planner.clone(),
-            fleet: fleet.clone(),
-            stats: recorder.stats().clone(),
-            offsets: dir.offsets()?,
-            counts: inbox.counts,
-            sent: sent + 1,
-            late_ticks,
-            detection_ms: detection_ms.clone(),
-            rejoin_ms: rejoin_ms.clone(),
-            peers: inbox
+        if let Some(writer) = checkpoints.as_mut() {
+            recorder.flush()?;
+            let peers: Vec<PeerMark> = inbox
                 .peers
                 .iter()
                 .map(|p| PeerMark {
                     pid: p.pid,
                     last_seq: p.last_seq,
                 })
-                .collect(),
-            body: record.clone(),
+                .collect();
+            CheckpointRef {
+                next_tick: k + 1,
+                planner: &planner,
+                fleet: &fleet,
+                stats: recorder.stats(),
+                offsets: dir.offsets()?,
+                counts: inbox.counts,
+                sent: sent + 1,
+                late_ticks,
+                detection_ms: &detection_ms,
+                rejoin_ms: &rejoin_ms,
+                peers: &peers,
+                body: &record,
+            }
+            .save_with(writer)
+            .context("writing the checkpoint")?;
         }
-        .save_with(&mut checkpoints)
-        .context("writing the checkpoint")?;
         publish(&mut body, &record, &body_pub)?;
         sent += 1;
         for notifier in &notifiers {
