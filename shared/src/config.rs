@@ -1557,6 +1557,11 @@ mod tests {
         ("[links]\nsurfacing_period = -1", "links.surfacing_period"),
         ("[links]\nsurfacing_period = 10\nsurfacing_window = 20", "links.surfacing_window"),
         ("[links]\nsurfacing_period = 10", "links.surfacing_window"),
+        ("[links]\nburst_enter = 1.5", "links.burst_enter"),
+        ("[links]\nburst_enter = 0.1\nburst_exit = 0.0", "links.burst_exit"),
+        ("[restart]\nbackoff = 0", "restart.backoff"),
+        ("[restart]\nvehicles = \"sometimes\"", "restart.vehicles"),
+        ("[[faults]]\nkind = \"kill\"\nvehicle = 1\nat = 10.0\nuntil = 20.0", "faults[0].until"),
         ("[[faults]]\nkind = \"kill\"\nvehicle = 4\nat = 1.0", "faults[0].vehicle"),
         ("[[faults]]\nkind = \"kill\"\nvehicle = 1\nat = -1.0", "faults[0].at"),
         ("[[faults]]\nkind = \"kill\"\nvehicle = 1\nat = 301.0", "faults[0].at"),
@@ -1688,6 +1693,12 @@ jitter = 0.5
 loss = 0.1
 surfacing_period = 60.0
 surfacing_window = 6.0
+surfacing_phase = "together"
+burst_enter = 0.01
+
+[restart]
+vehicles = "on-failure"
+backoff = 0.5
 
 [[faults]]
 kind = "kill"
