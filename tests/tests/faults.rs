@@ -318,11 +318,21 @@ fn measured_delay_and_loss_match_the_configured_link() {
     let mean = delays.iter().sum::<f64>() / delays.len() as f64;
     let se = 288.7 / (delays.len() as f64).sqrt();
     assert!((mean - 2000.0).abs() < 5.0 * se, "mean delay {mean} ms");
-    // The summary counts the same drops.
+    // The summary counts the same drops: these uplink ones plus the agents' downlink ones.
+    let downlink: usize = (0..4)
+        .map(|i| {
+            read(&tmp.join(&format!("run/logs/vehicle_agent_{i}.jsonl")))
+                .lines()
+                .filter(|l| l.contains("\"message\":\"drop\"") && l.contains("\"hop\":\"body\""))
+                .count()
+        })
+        .sum();
+    assert!(downlink > 0, "the downlink drops too");
     let s = summary(&tmp.join("run"));
     assert_eq!(
         s["messages"]["dropped_injected"].as_u64().unwrap() as usize,
-        drops
+        drops + downlink,
+        "{s}"
     );
 }
 
