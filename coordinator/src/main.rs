@@ -1,11 +1,11 @@
 //! `coordinator --mission FILE --run-dir DIR [--log FILE]`: the coordinator of a mission.
 
-use std::io::Write;
 use std::path::PathBuf;
 
 use clap::Parser;
-use shared::config::Mission;
-use shared::process::{die_with_parent, EXIT_FAILURE, EXIT_INVALID};
+use shared::process::{
+    announce_ready, die_with_parent, finish, load_mission_or_exit, EXIT_INVALID,
+};
 use shared::rundir::RunDir;
 
 /// The coordinator of a vbap mission (normally started by `vbap run`).
@@ -29,36 +29,12 @@ struct Args {
 fn main() {
     let args = Args::parse();
     die_with_parent(args.parent);
-    let mission = match Mission::load(&args.mission) {
-        Ok(m) => m,
-        Err(e) => {
-            eprintln!("coordinator: {e}");
-            std::process::exit(EXIT_INVALID);
-        }
-    };
-    let dir = match RunDir::create(&args.run_dir) {
-        Ok(d) => d,
-        Err(e) => {
-            eprintln!("coordinator: --run-dir {}: {e}", args.run_dir.display());
-            std::process::exit(EXIT_INVALID);
-        }
-    };
+    let mission = load_mission_or_exit("coordinator", &args.mission);
+    let dir = RunDir::create(&args.run_dir).unwrap_or_else(|e| {
+        eprintln!("coordinator: --run-dir {}: {e}", args.run_dir.display());
+        std::process::exit(EXIT_INVALID);
+    });
     let log = shared::telemetry::init("coordinator", args.log.as_deref());
-    let ready = || {
-        println!("ready");
-        let _ = std::io::stdout().flush();
-    };
-    let code = match coordinator::run::run(&mission, &dir, ready) {
-        Ok(()) => 0,
-        Err(e) => {
-            tracing::error!(error = format!("{e:#}"), "coordinator failed");
-            eprintln!("coordinator: {e:#}");
-            EXIT_FAILURE
-        }
-    };
-    if let Ok(g) = &log {
-        g.flush();
-    }
-    drop(log);
-    std::process::exit(code);
+    let result = coordinator::run::run(&mission, &dir, announce_ready);
+    finish("coordinator", result.err().map(|e| format!("{e:#}")), log);
 }

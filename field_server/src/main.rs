@@ -1,11 +1,9 @@
 //! `field_server --mission FILE [--log FILE]`: serves a mission's field.
 
-use std::io::Write;
 use std::path::PathBuf;
 
 use clap::Parser;
-use shared::config::Mission;
-use shared::process::{die_with_parent, EXIT_FAILURE, EXIT_INVALID};
+use shared::process::{announce_ready, die_with_parent, finish, load_mission_or_exit};
 
 /// The field server of a vbap mission (normally started by `vbap run`).
 #[derive(Parser, Debug)]
@@ -25,29 +23,8 @@ struct Args {
 fn main() {
     let args = Args::parse();
     die_with_parent(args.parent);
-    let mission = match Mission::load(&args.mission) {
-        Ok(m) => m,
-        Err(e) => {
-            eprintln!("field_server: {e}");
-            std::process::exit(EXIT_INVALID);
-        }
-    };
+    let mission = load_mission_or_exit("field_server", &args.mission);
     let log = shared::telemetry::init("field_server", args.log.as_deref());
-    let ready = || {
-        println!("ready");
-        let _ = std::io::stdout().flush();
-    };
-    let code = match field_server::run::run(&mission, ready) {
-        Ok(()) => 0,
-        Err(e) => {
-            tracing::error!(error = format!("{e:#}"), "field server failed");
-            eprintln!("field_server: {e:#}");
-            EXIT_FAILURE
-        }
-    };
-    if let Ok(g) = &log {
-        g.flush();
-    }
-    drop(log);
-    std::process::exit(code);
+    let result = field_server::run::run(&mission, announce_ready);
+    finish("field_server", result.err().map(|e| format!("{e:#}")), log);
 }

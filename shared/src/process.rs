@@ -34,3 +34,43 @@ pub fn sigkill(pid: u32) -> bool {
     // SAFETY: kill(2) takes a pid and a signal number and touches no memory of ours.
     unsafe { libc::kill(pid as libc::pid_t, libc::SIGKILL) == 0 }
 }
+
+/// Loads the mission file of a process, or exits with [`EXIT_INVALID`] naming what is wrong.
+pub fn load_mission_or_exit(process: &str, path: &std::path::Path) -> crate::config::Mission {
+    match crate::config::Mission::load(path) {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("{process}: {e}");
+            std::process::exit(EXIT_INVALID);
+        }
+    }
+}
+
+/// Tells the supervisor this process is ready: the line `ready` on stdout.
+pub fn announce_ready() {
+    use std::io::Write;
+    println!("ready");
+    let _ = std::io::stdout().flush();
+}
+
+/// Ends a process: logs a failure (`error`: the message with its causes), flushes the
+/// log, exits with [`EXIT_OK`] or [`EXIT_FAILURE`].
+pub fn finish(
+    process: &str,
+    error: Option<String>,
+    log: std::io::Result<crate::telemetry::LogGuard>,
+) -> ! {
+    let code = match error {
+        None => EXIT_OK,
+        Some(e) => {
+            tracing::error!(process, error = %e, "failed");
+            eprintln!("{process}: {e}");
+            EXIT_FAILURE
+        }
+    };
+    if let Ok(g) = &log {
+        g.flush();
+    }
+    drop(log);
+    std::process::exit(code);
+}

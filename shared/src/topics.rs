@@ -413,33 +413,5 @@ pub fn wait_for_wake(
     listener: &iceoryx2::port::listener::Listener<ipc::Service>,
     timeout: std::time::Duration,
 ) -> Result<Wake, TopicError> {
-    use iceoryx2::waitset::WaitSetRunResult;
-    let mut woke = false;
-    let result = waitset
-        .wait_and_process_once_with_timeout(
-            |_| {
-                woke = true;
-                CallbackProgression::Continue
-            },
-            timeout,
-        )
-        .map_err(|e| TopicError::Service {
-            service: "waitset".into(),
-            reason: format!("{e:?}"),
-        })?;
-    if matches!(
-        result,
-        WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt
-    ) {
-        return Ok(Wake::Stop);
-    }
-    let drained = listener.try_wait(|_| {}).map_err(|e| TopicError::Service {
-        service: "listener".into(),
-        reason: format!("{e:?}"),
-    })?;
-    Ok(if woke || drained > 0 {
-        Wake::Events
-    } else {
-        Wake::Timeout
-    })
+    wait_for_wake_ids(waitset, listener, timeout, &mut Vec::new())
 }

@@ -222,3 +222,25 @@ pub fn assert_same_tracks(a: &Path, b: &Path) {
 pub fn summary(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&read(&dir.join("summary.json"))).expect("summary.json is JSON")
 }
+
+/// Starts `vbap run FILE --out OUT --quiet` in the background (stdout discarded).
+pub fn spawn_run(file: &Path, out: &Path) -> ChildGuard {
+    ChildGuard(Some(
+        vbap()
+            .arg("run")
+            .arg(file)
+            .arg("--out")
+            .arg(out)
+            .arg("--quiet")
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .expect("spawning vbap run"),
+    ))
+}
+
+/// Lines in a file (0 when it does not exist yet).
+pub fn line_count(path: &Path) -> usize {
+    std::fs::read_to_string(path)
+        .map(|t| t.lines().count())
+        .unwrap_or(0)
+}

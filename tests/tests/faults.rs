@@ -131,12 +131,6 @@ fn pid_of(needle: &str) -> Option<u32> {
     processes_mentioning(needle).into_iter().next()
 }
 
-fn rows(path: &std::path::Path) -> usize {
-    std::fs::read_to_string(path)
-        .map(|t| t.lines().count())
-        .unwrap_or(0)
-}
-
 #[test]
 fn a_killed_coordinator_resumes_from_its_checkpoint_and_the_run_equals_the_simulator() {
     let tmp = TempDir::new("coordkill");
@@ -156,20 +150,10 @@ fn a_killed_coordinator_resumes_from_its_checkpoint_and_the_run_equals_the_simul
             .arg("--quiet"),
     );
     let out = tmp.join("run");
-    let mut run = ChildGuard(Some(
-        vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(&out)
-            .arg("--quiet")
-            .stdout(std::process::Stdio::null())
-            .spawn()
-            .unwrap(),
-    ));
+    let mut run = spawn_run(&file, &out);
     let body = out.join("body.csv");
     wait_until(
-        || rows(&body) > 1500,
+        || line_count(&body) > 1500,
         Duration::from_secs(60),
         "the run to get going",
     );
@@ -203,20 +187,10 @@ fn random_agent_kills_are_survived_and_the_restarted_agents_rejoin() {
     let extra = "[restart]\nvehicles = \"on-failure\"\nbackoff = 0.1\n";
     let file = write_mission(&tmp, "m.toml", &base(&name, 5, 30.0, "4.0", extra));
     let out = tmp.join("run");
-    let mut run = ChildGuard(Some(
-        vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(&out)
-            .arg("--quiet")
-            .stdout(std::process::Stdio::null())
-            .spawn()
-            .unwrap(),
-    ));
+    let mut run = spawn_run(&file, &out);
     let body = out.join("body.csv");
     wait_until(
-        || rows(&body) > 20,
+        || line_count(&body) > 20,
         Duration::from_secs(60),
         "the run to get going",
     );

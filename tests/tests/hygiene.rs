@@ -39,17 +39,7 @@ v_u = 10.0
     );
     let file = write_mission(&tmp, "m.toml", &text);
     let out = tmp.join("run");
-    let mut run = ChildGuard(Some(
-        vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(&out)
-            .arg("--quiet")
-            .stdout(std::process::Stdio::null())
-            .spawn()
-            .unwrap(),
-    ));
+    let mut run = spawn_run(&file, &out);
     wait_until(
         || {
             std::fs::read_to_string(out.join("body.csv"))

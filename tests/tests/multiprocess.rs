@@ -130,19 +130,7 @@ fn two_missions_at_once_do_not_interfere() {
     let b = write_mission(&tmp, "b.toml", &b_text);
     let mut runs: Vec<ChildGuard> = [(&a, "run_a"), (&b, "run_b")]
         .iter()
-        .map(|(file, out)| {
-            ChildGuard(Some(
-                vbap()
-                    .arg("run")
-                    .arg(file)
-                    .arg("--out")
-                    .arg(tmp.join(out))
-                    .arg("--quiet")
-                    .stdout(std::process::Stdio::null())
-                    .spawn()
-                    .expect("spawning vbap run"),
-            ))
-        })
+        .map(|(file, out)| spawn_run(file, &tmp.join(out)))
         .collect();
     for r in runs.iter_mut() {
         assert!(r.wait().success());
@@ -218,17 +206,7 @@ fn stop_with(sig: &str) {
     let name = unique_name("sig");
     let file = write_mission(&tmp, "long.toml", &mission_2d(&name, 4, 100000.0, "1.0"));
     let out = tmp.join("run");
-    let mut run = ChildGuard(Some(
-        vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(&out)
-            .arg("--quiet")
-            .stdout(std::process::Stdio::null())
-            .spawn()
-            .expect("spawning vbap run"),
-    ));
+    let mut run = spawn_run(&file, &out);
     let body = out.join("body.csv");
     wait_until(
         || {
