@@ -214,21 +214,29 @@ impl GradientFilter {
         if m == 0 {
             return Ok(());
         }
+        // R is diagonal (independent readings), so the batch update equals m scalar
+        // updates in turn: O(m·n²) instead of the O(m³) factorisation of the m×m
+        // innovation covariance (a surfacing glider delivers hundreds of readings at once).
+        // Each scalar update is in Joseph form.
         let n = self.dim + 1;
         let c = measurement_matrix(self.dim, rel_positions);
-        let r = DMatrix::from_diagonal(&DVector::from_column_slice(meas_var));
-        let mut s = &c * &self.p * c.transpose() + &r;
-        symmetrize(&mut s);
-        let chol = s.cholesky().ok_or(EstimateError::Numerical(
-            "innovation covariance not positive definite",
-        ))?;
-        // K = P Cᵀ S⁻¹ = (S⁻¹ C P)ᵀ
-        let k = chol.solve(&(&c * &self.p)).transpose();
-        let innov = DVector::from_column_slice(measurements) - &c * &self.x;
-        let x = &self.x + &k * innov;
-        let ikc = DMatrix::identity(n, n) - &k * &c;
-        let mut p = &ikc * &self.p * ikc.transpose() + &k * r * k.transpose();
-        symmetrize(&mut p);
+        let mut x = self.x.clone();
+        let mut p = self.p.clone();
+        let identity = DMatrix::<f64>::identity(n, n);
+        for i in 0..m {
+            let h = c.row(i).clone_owned();
+            let ph = &p * h.transpose();
+            let s = (&h * &ph)[(0, 0)] + meas_var[i];
+            if s.is_nan() || s <= 0.0 {
+                return Err(EstimateError::Numerical("innovation variance not positive"));
+            }
+            let k = ph / s;
+            let innov = measurements[i] - (&h * &x)[(0, 0)];
+            x += &k * innov;
+            let ikh = &identity - &k * &h;
+            p = &ikh * &p * ikh.transpose() + &k * k.transpose() * meas_var[i];
+            symmetrize(&mut p);
+        }
         if !(x.iter().all(|v| v.is_finite()) && p.iter().all(|v| v.is_finite())) {
             return Err(EstimateError::Numerical(
                 "update produced non-finite values",
