@@ -10,7 +10,7 @@ use shared::msg::agent_to_field::SampleRequest;
 use shared::msg::field_to_agent::SampleReply;
 use shared::msg::{to_vec3, wall_ns, Header};
 use shared::telemetry::MSG_TARGET;
-use shared::topics::{self, wait_for_wake, Domain, Limits, Wake};
+use shared::topics::{self, wait_for_wake_ids, Domain, Limits, Wake};
 use tracing::{debug, info, warn};
 
 use crate::World;
@@ -21,11 +21,18 @@ pub fn run(mission: &Mission, on_ready: impl FnOnce()) -> Result<()> {
     let domain = Domain::new(&mission.mission.name)?;
     let limits = Limits::for_fleet(mission.vehicles.count);
     let node = domain.node(topics::FIELD_SERVER_NODE)?;
-    let server = domain
-        .field_service(&node, &limits)?
-        .server_builder()
-        .create()
-        .map_err(|e| anyhow::anyhow!("creating the field server port: {e:?}"))?;
+    let mut servers = Vec::with_capacity(mission.vehicles.count);
+    for id in 0..mission.vehicles.count as u32 {
+        servers.push(
+            domain
+                .field_service(&node, id, &limits)?
+                .server_builder()
+                .create()
+                .map_err(|e| {
+                    anyhow::anyhow!("creating the field server port of vehicle {id}: {e:?}")
+                })?,
+        );
+    }
     let wake = domain
         .field_wake(&node, &limits)?
         .listener_builder()
@@ -52,67 +59,84 @@ pub fn run(mission: &Mission, on_ready: impl FnOnce()) -> Result<()> {
     let mut rejected = 0u64;
     info!(vehicles = n, "field server up");
     on_ready();
+    let mut ids = Vec::new();
     loop {
-        if wait_for_wake(&waitset, &wake, Duration::from_secs(3600))? == Wake::Stop {
+        ids.clear();
+        if wait_for_wake_ids(&waitset, &wake, Duration::from_secs(3600), &mut ids)? == Wake::Stop {
             break;
         }
-        while let Some(request) = server
-            .receive()
-            .map_err(|e| anyhow::anyhow!("receiving a request: {e:?}"))?
-        {
-            let req: SampleRequest = *request;
-            let h = req.header;
-            let recv_ns = wall_ns();
-            debug!(target: MSG_TARGET, hop = "field_request", sender = h.sender, tick = h.tick, seq = h.seq,
+        // Poll the servers of the vehicles that woke us; on anything else, all of them.
+        let targeted = !ids.is_empty() && ids.iter().all(|e| *e >= topics::EVENT_VEHICLE_BASE);
+        let mut slots: Vec<usize> = if targeted {
+            ids.iter()
+                .map(|e| e - topics::EVENT_VEHICLE_BASE)
+                .filter(|i| *i < servers.len())
+                .collect()
+        } else {
+            (0..servers.len()).collect()
+        };
+        slots.sort_unstable();
+        slots.dedup();
+        for &slot in &slots {
+            let server = &servers[slot];
+            while let Some(request) = server
+                .receive()
+                .map_err(|e| anyhow::anyhow!("receiving a request: {e:?}"))?
+            {
+                let req: SampleRequest = *request;
+                let h = req.header;
+                let recv_ns = wall_ns();
+                debug!(target: MSG_TARGET, hop = "field_request", sender = h.sender, tick = h.tick, seq = h.seq,
                    sent_ns = h.sent_ns, recv_ns, "recv");
-            let value = if h.sender < n {
-                world.sample(h.sender, h.tick, h.t, &to_vec3(&req.position))
-            } else {
-                None
-            };
-            if value.is_none() {
-                rejected += 1;
-                warn!(
-                    sender = h.sender,
-                    tick = h.tick,
-                    rejected,
-                    "rejected a sample request"
-                );
-            }
-            seq += 1;
-            let reply = SampleReply {
-                header: Header {
-                    sender: Header::FIELD_SERVER,
-                    flags: 0,
-                    tick: h.tick,
-                    t: h.t,
-                    seq,
-                    sent_ns: wall_ns(),
-                },
-                request_seq: h.seq,
-                value: value.unwrap_or(f64::NAN),
-                rejected: u32::from(value.is_none()),
-                _pad: 0,
-            };
-            request
-                .send_copy(reply)
-                .map_err(|e| anyhow::anyhow!("replying: {e:?}"))?;
-            served += 1;
-            if h.sender < n {
-                let notifier = match notifiers.entry(h.sender) {
-                    std::collections::btree_map::Entry::Occupied(o) => o.into_mut(),
-                    std::collections::btree_map::Entry::Vacant(v) => v.insert(
-                        domain
-                            .vehicle_wake(&node, h.sender, &limits)?
-                            .notifier_builder()
-                            .default_event_id(topics::EVENT_SAMPLE)
-                            .create()
-                            .map_err(|e| {
-                                anyhow::anyhow!("notifier for vehicle {}: {e:?}", h.sender)
-                            })?,
-                    ),
+                let value = if h.sender as usize == slot {
+                    world.sample(h.sender, h.tick, h.t, &to_vec3(&req.position))
+                } else {
+                    None
                 };
-                let _ = notifier.notify();
+                if value.is_none() {
+                    rejected += 1;
+                    warn!(
+                        sender = h.sender,
+                        tick = h.tick,
+                        rejected,
+                        "rejected a sample request"
+                    );
+                }
+                seq += 1;
+                let reply = SampleReply {
+                    header: Header {
+                        sender: Header::FIELD_SERVER,
+                        flags: 0,
+                        tick: h.tick,
+                        t: h.t,
+                        seq,
+                        sent_ns: wall_ns(),
+                    },
+                    request_seq: h.seq,
+                    value: value.unwrap_or(f64::NAN),
+                    rejected: u32::from(value.is_none()),
+                    _pad: 0,
+                };
+                request
+                    .send_copy(reply)
+                    .map_err(|e| anyhow::anyhow!("replying: {e:?}"))?;
+                served += 1;
+                if h.sender as usize == slot {
+                    let notifier = match notifiers.entry(h.sender) {
+                        std::collections::btree_map::Entry::Occupied(o) => o.into_mut(),
+                        std::collections::btree_map::Entry::Vacant(v) => v.insert(
+                            domain
+                                .vehicle_wake(&node, h.sender, &limits)?
+                                .notifier_builder()
+                                .default_event_id(topics::EVENT_SAMPLE)
+                                .create()
+                                .map_err(|e| {
+                                    anyhow::anyhow!("notifier for vehicle {}: {e:?}", h.sender)
+                                })?,
+                        ),
+                    };
+                    let _ = notifier.notify();
+                }
             }
         }
         let mut finished = false;

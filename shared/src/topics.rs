@@ -11,7 +11,7 @@
 //! |---|---|---|---|
 //! | `<m>/vehicle/<id>/state` | pub-sub `VehicleState` | agent `id` (the only publisher: the lock against two agents with one id) | coordinator (+1 spare) |
 //! | `<m>/body` | pub-sub `BodyCommand` (history 1) | coordinator | every agent, in place |
-//! | `<m>/field/sample` | request-response | agents (clients) | field server |
+//! | `<m>/vehicle/<id>/sample` | request-response | agent `id` (client) | field server |
 //! | `<m>/vehicle/<id>/wake` | event | coordinator, field server | agent `id` |
 //! | `<m>/coordinator/wake` | event | agents | coordinator |
 //! | `<m>/field/wake` | event | agents | field server |
@@ -40,8 +40,8 @@ pub const EVENT_DATA: EventId = EventId::new(3);
 pub const EVENT_NOTIFIER_DEAD: EventId = EventId::new(4);
 /// Largest event id of the shared event ids above.
 pub const EVENT_ID_MAX: usize = 8;
-/// A vehicle's state event on the coordinator's wake service is `EVENT_VEHICLE_BASE + id`,
-/// so the coordinator drains only the subscribers that have something.
+/// A vehicle's event on the coordinator's and the field server's wake services is
+/// `EVENT_VEHICLE_BASE + id`, so they poll only the ports that have something.
 pub const EVENT_VEHICLE_BASE: usize = 16;
 
 /// The event id by which vehicle `id` wakes the coordinator.
@@ -245,20 +245,23 @@ impl Domain {
             .map_err(|e| service_err(&name, e))
     }
 
-    /// `<m>/field/sample`.
+    /// `<m>/vehicle/<id>/sample`: vehicle `id`'s sensor reads. One service per vehicle, so a
+    /// reply never scans the other vehicles' connections (a shared service makes every
+    /// reply O(N), every tick O(N²)).
     pub fn field_service(
         &self,
         node: &Node<ipc::Service>,
+        id: u32,
         limits: &Limits,
     ) -> Result<
         request_response::PortFactory<ipc::Service, SampleRequest, (), SampleReply, ()>,
         TopicError,
     > {
-        let name = self.name("field/sample")?;
+        let name = self.name(&format!("vehicle/{id}/sample"))?;
         node.service_builder(&name)
             .request_response::<SampleRequest, SampleReply>()
             .max_servers(2)
-            .max_clients(limits.fleet_ports())
+            .max_clients(2)
             .max_nodes(limits.max_nodes())
             .max_active_requests_per_client(4)
             .max_response_buffer_size(4)
@@ -334,7 +337,7 @@ impl Domain {
             2,
             limits.fleet_ports() + 4,
             limits,
-            EVENT_ID_MAX,
+            EVENT_VEHICLE_BASE + crate::msg::MAX_VEHICLES,
         )
     }
 }

@@ -50,7 +50,7 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
         .create()
         .map_err(|e| anyhow::anyhow!("subscribing to the body service: {e:?}"))?;
     let client = domain
-        .field_service(&node, &limits)?
+        .field_service(&node, id, &limits)?
         .client_builder()
         .create()
         .map_err(|e| anyhow::anyhow!("creating the field client: {e:?}"))?;
@@ -113,7 +113,7 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
             .send_copy(request)
             .map_err(|e| anyhow::anyhow!("sending a sample request: {e:?}"))?;
         field_notifier
-            .notify()
+            .notify_with_custom_event_id(topics::vehicle_event(id))
             .map_err(|e| anyhow::anyhow!("waking the field server: {e:?}"))?;
         let started = std::time::Instant::now();
         loop {
@@ -208,7 +208,10 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
                     return Ok(());
                 }
                 Wake::Timeout => {
-                    if hold_after.is_some() && !joining {
+                    // Hold station only once the mission is under way: before its first
+                    // command a vehicle waits where it was deployed (the set may still be
+                    // starting up).
+                    if hold_after.is_some() && !joining && last_body_seq.is_some() {
                         // Nothing heard (paced runs): fly the last visible guidance.
                         vehicle.hold_station(dt);
                         k += 1;
