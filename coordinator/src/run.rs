@@ -39,6 +39,9 @@ struct Peer {
     last_seq: Option<u64>,
     last_recv: Option<Instant>,
     join_request: Option<Instant>,
+    /// Silence before a new process of this vehicle spoke (its predecessor's last message to
+    /// the new one's first), ms: an upper bound of the detection latency of a restart.
+    restart_gap_ms: Option<f64>,
 }
 
 /// The coordinator's I/O state, apart from the pure planner and fleet.
@@ -118,6 +121,9 @@ impl Inbox {
                 }
                 peer.last_seq = Some(h.seq);
                 peer.pid = s.pid;
+                if new_process {
+                    peer.restart_gap_ms = peer.last_recv.map(|t| t.elapsed().as_secs_f64() * 1e3);
+                }
                 peer.last_recv = Some(Instant::now());
                 if joining || fleet.is_lost(id) {
                     if new_process {
@@ -340,6 +346,7 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
             if fleet.is_alive(v) {
                 // Its process was restarted before we noticed it die.
                 fleet.lose(v);
+                detection_ms.extend(inbox.peers[v as usize].restart_gap_ms.take());
                 recorder.lost(k, v, "process restarted")?;
             }
             if fleet.admit(v).is_some() {
@@ -371,10 +378,7 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
                 .collect();
             // Liveness: tell a dead process from a slow one.
             let scan_due = last_scan.elapsed() >= LIVENESS_EVERY;
-            if !missing.is_empty()
-                && scan_due
-                && (paced.is_some() || gather_start.elapsed() >= LIVENESS_AFTER)
-            {
+            if !missing.is_empty() && scan_due && gather_start.elapsed() >= LIVENESS_AFTER {
                 last_scan = Instant::now();
                 let states = domain.node_states();
                 let mut any_dead = false;

@@ -210,15 +210,26 @@ impl ProcessSet<'_> {
 
     /// Starts the process of `slot` (first start or restart) and waits until it is ready.
     async fn start(&mut self, slot: usize) -> Result<()> {
+        let (name, mut child) = self.launch(slot).await?;
+        let ready = await_ready(&name, &mut child).await;
+        self.watch(slot, child);
+        ready
+    }
+
+    /// Spawns the process of `slot` without waiting for it to be ready.
+    async fn launch(&mut self, slot: usize) -> Result<(String, Child)> {
         let role = self.procs[slot].role;
         let (exe, args) = self.args(role, self.procs[slot].generation > 0);
         let name = role.name();
-        let mut child = spawn(&exe, &name, &args, self.dir).await?;
-        let pid = child.id();
-        self.procs[slot].pid = pid;
+        let child = spawn(&exe, &name, &args, self.dir).await?;
+        self.procs[slot].pid = child.id();
         self.procs[slot].generation += 1;
+        Ok((name, child))
+    }
+
+    /// Reports the end of `child` (the process of `slot`) on the exit channel.
+    fn watch(&self, slot: usize, mut child: Child) {
         let generation = self.procs[slot].generation;
-        let ready = await_ready(&name, &mut child).await;
         let exits = self.exits.clone();
         tokio::spawn(async move {
             let status = child.wait().await;
@@ -228,7 +239,6 @@ impl ProcessSet<'_> {
                 status,
             });
         });
-        ready
     }
 
     /// Sends `sig` to every running process.
@@ -332,13 +342,25 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
     };
     let mut interrupted = false;
     let start = async {
-        // Field server, then coordinator, each ready before the next; then every agent.
+        // Field server, then coordinator, each ready before the next; then every agent
+        // at once (they start in parallel), each awaited.
         set.start(0).await?;
         set.start(1).await?;
+        let mut launched = Vec::new();
         for slot in 2..set.procs.len() {
-            set.start(slot).await?;
+            launched.push((slot, set.launch(slot).await?));
         }
-        anyhow::Ok(())
+        let mut first_error = None;
+        for (slot, (name, mut child)) in launched {
+            if let Err(e) = await_ready(&name, &mut child).await {
+                first_error.get_or_insert(e);
+            }
+            set.watch(slot, child);
+        }
+        match first_error {
+            Some(e) => Err(e),
+            None => anyhow::Ok(()),
+        }
     };
     let started = tokio::select! {
         r = start => r,

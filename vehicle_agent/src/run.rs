@@ -35,7 +35,7 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
     let dt = mission.mission.dt;
     let domain = Domain::new(name)?;
     let limits = Limits::for_fleet(mission.vehicles.count);
-    let node = domain.node(&topics::agent_node_name(id))?;
+    let node = domain.agent_node(&topics::agent_node_name(id))?;
 
     let state_service = domain.state_service(&node, id, &limits)?;
     let state_pub = state_service.publisher_builder().create().map_err(|e| {
