@@ -15,6 +15,9 @@ use tracing::{debug, info, warn};
 
 use crate::World;
 
+/// Wall time without any event after which every vehicle's port is polled once.
+const FALLBACK_POLL: Duration = Duration::from_millis(100);
+
 /// Serves `mission`'s field until the mission ends or a termination signal.
 /// `on_ready` is called once every port exists.
 pub fn run(mission: &Mission, on_ready: impl FnOnce()) -> Result<()> {
@@ -62,7 +65,9 @@ pub fn run(mission: &Mission, on_ready: impl FnOnce()) -> Result<()> {
     let mut ids = Vec::new();
     loop {
         ids.clear();
-        if wait_for_wake_ids(&waitset, &wake, Duration::from_secs(3600), &mut ids)? == Wake::Stop {
+        // A deadline as a safety net: with no event for FALLBACK_POLL, poll every port once
+        // (a lost wake-up costs at most that, never a stall).
+        if wait_for_wake_ids(&waitset, &wake, FALLBACK_POLL, &mut ids)? == Wake::Stop {
             break;
         }
         // Poll the servers of the vehicles that woke us; on anything else, all of them.

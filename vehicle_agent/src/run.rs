@@ -23,6 +23,8 @@ use tracing::{debug, info, warn};
 
 use crate::{initial_agent, initial_design, Agent, Guidance, Vehicle};
 
+/// How long an agent waits for a sensor reading before it wakes the field server again.
+const RENOTIFY_AFTER: Duration = Duration::from_millis(500);
 /// How long an agent waits for its sensor reading before it gives up (wall time).
 const SAMPLE_TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -133,8 +135,20 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
             if left.is_zero() {
                 bail!("no sensor reading from the field server within {SAMPLE_TIMEOUT:?}");
             }
-            if wait_for_wake(&waitset, &wake, left)? == Wake::Stop {
-                return Ok(None);
+            match wait_for_wake(&waitset, &wake, left.min(RENOTIFY_AFTER))? {
+                Wake::Stop => return Ok(None),
+                // No reply yet: ring again (a lost wake-up must not stall the mission).
+                Wake::Timeout => {
+                    warn!(
+                        vehicle = id,
+                        tick = k,
+                        "no sensor reading yet: waking the field server again"
+                    );
+                    field_notifier
+                        .notify_with_custom_event_id(topics::vehicle_event(id))
+                        .map_err(|e| anyhow::anyhow!("waking the field server: {e:?}"))?;
+                }
+                Wake::Events => {}
             }
         }
     };
@@ -201,7 +215,9 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
     let mut idle = false;
     loop {
         if idle {
-            let timeout = hold_after.unwrap_or(Duration::from_secs(3600));
+            // Lockstep: a deadline as a safety net, so a lost wake-up costs a second, not the
+            // mission (on a timeout the body subscriber is read once).
+            let timeout = hold_after.unwrap_or(Duration::from_secs(1));
             match wait_for_wake(&waitset, &wake, timeout)? {
                 Wake::Stop => {
                     info!(vehicle = id, tick = k, "stopped by signal");
@@ -223,8 +239,8 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
                         if !report(&mut vehicle, k, &mut seq, VehicleState::HOLDING)? {
                             return Ok(());
                         }
+                        continue;
                     }
-                    continue;
                 }
                 Wake::Events => {}
             }
