@@ -377,6 +377,9 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
             _ => {}
         }
         k = tick + 1;
+        if k >= mission.ticks() {
+            continue; // the last tick's state is never used: wait for the end of the mission
+        }
         if !report(&mut vehicle, k, &mut seq, 0)? {
             info!(vehicle = id, tick = k, "stopped by signal");
             return Ok(());
