@@ -139,6 +139,9 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
     match cmd {
         Cmd::Check { mission } => {
             let m = Mission::load(&mission)?;
+            if let Some(w) = m.stiffness_warning() {
+                eprintln!("vbap: warning: {w}");
+            }
             println!(
                 "{}: valid ({} vehicles, {} ticks, dim {})",
                 mission.display(),
@@ -222,6 +225,9 @@ fn prepare(args: &RunArgs) -> Result<(Mission, RunDir)> {
         pace,
     };
     let mission = Mission::load(&args.mission)?.with_overrides(&overrides)?;
+    if let Some(w) = mission.stiffness_warning() {
+        eprintln!("vbap: warning: {w}");
+    }
     let root = match &args.out {
         Some(p) => p.clone(),
         None => default_run_dir(&mission.mission.name)?,

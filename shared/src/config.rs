@@ -1236,6 +1236,39 @@ impl Mission {
         Ok(())
     }
 
+    /// A warning when the formation is too stiff for the time step: the semi-implicit Euler
+    /// integration of (II.1) is stable for ω·dt < 2 and damping·dt < 2, and accurate only
+    /// well below. ω² ≈ 2 α/d0² + α/h0² (two neighbours and the central leader at their
+    /// equilibrium distances, f'(d0) = α/d0²), at the smallest formation scale. `None` when
+    /// ω·dt ≤ 1 and damping·dt ≤ 1.
+    pub fn stiffness_warning(&self) -> Option<String> {
+        let design = crate::math::formation::design_regular(
+            self.vehicles.count,
+            self.mission.dim,
+            self.formation.radius,
+            self.formation.alpha,
+            self.formation.alpha,
+        )
+        .ok()?;
+        let k = self.formation.min_scale;
+        let (d0, h0) = (design.inter.d0 * k, design.leader.d0 * k);
+        let alpha = self.formation.alpha;
+        let omega = (2.0 * alpha / (d0 * d0) + alpha / (h0 * h0)).sqrt();
+        let dt = self.mission.dt;
+        let damping = self.vehicles.damping * dt;
+        (omega * dt > 1.0 || damping > 1.0).then(|| {
+            format!(
+                "{}: the formation is stiff for mission.dt = {dt}: ω·dt = {:.2}, damping·dt = {damping:.2} \
+                 (neighbour spacing {:.4} at formation.min_scale = {k}); above 1 the integration is \
+                 inaccurate, above 2 unstable: lower formation.alpha or mission.dt, or raise \
+                 formation.radius",
+                self.origin,
+                omega * dt,
+                d0
+            )
+        })
+    }
+
     /// The resolved mission as TOML, every default filled in; it parses back to an equal
     /// mission.
     ///
@@ -1851,5 +1884,38 @@ value = -0.5
                 m.ticks()
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod stiffness_tests {
+    use super::*;
+
+    #[test]
+    fn shipped_missions_are_not_stiff_and_a_crowded_formation_is() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../deploy/missions");
+        for name in [
+            "paper.toml",
+            "glider.toml",
+            "glider_surfacing.toml",
+            "quadratic3d.toml",
+        ] {
+            let m = Mission::load(&std::path::Path::new(dir).join(name)).unwrap();
+            assert_eq!(m.stiffness_warning(), None, "{name}");
+        }
+        let m = Mission::load(&std::path::Path::new(dir).join("paper.toml")).unwrap();
+        let crowded = m
+            .with_overrides(&Overrides {
+                vehicles: Some(32),
+                ..Overrides::default()
+            })
+            .unwrap();
+        let w = crowded
+            .stiffness_warning()
+            .expect("32 vehicles on the paper's radius are stiff");
+        assert!(
+            w.contains("formation.alpha") && w.contains("mission.dt"),
+            "{w}"
+        );
     }
 }
