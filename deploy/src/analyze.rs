@@ -108,7 +108,14 @@ impl Report {
     /// counts (`sent`, `delivered`, `rejected`) are kept.
     pub fn fill_summary(&self, s: &mut Summary) {
         s.latency_us = self.latency_summary();
-        s.messages.dropped_injected = self.hops.values().map(|h| h.dropped_injected).sum();
+        // `messages` counts the vehicle ↔ coordinator links (state and body hops), the
+        // ones the link model acts on, as `vbap sim` does: sent = every message that
+        // reached its receiver's process, delivered = what the link model let through.
+        let link = |h: &str| self.hops.get(h);
+        let links = [link("state"), link("body")];
+        s.messages.sent = links.iter().flatten().map(|h| h.received).sum();
+        s.messages.delivered = links.iter().flatten().map(|h| h.delivered).sum();
+        s.messages.dropped_injected = links.iter().flatten().map(|h| h.dropped_injected).sum();
         s.messages.dropped_overflow = self.hops.values().map(|h| h.dropped_overflow).sum();
     }
 

@@ -327,13 +327,19 @@ impl Percentiles {
     }
 }
 
-/// Message counts of `summary.json`.
+/// Message counts of `summary.json`, over the vehicle ↔ coordinator links (both ways).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct MessageCounts {
+    /// Messages sent (states and body commands, per receiving vehicle for the latter).
     pub sent: u64,
+    /// Messages the link model delivered.
     pub delivered: u64,
+    /// Messages the link model dropped (loss, bursts, link down).
     pub dropped_injected: u64,
+    /// Messages lost to a full receive queue.
     pub dropped_overflow: u64,
+    /// Messages the coordinator rejected (non-finite, foreign, replayed, from the future);
+    /// the agents' rejections are in `agent_rejected`.
     pub rejected: u64,
 }
 
