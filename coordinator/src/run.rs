@@ -368,7 +368,8 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
             LOCKSTEP_TIMEOUT
         };
         let gather_start = Instant::now();
-        let mut woken: Option<Vec<usize>> = None;
+        // Everything was just drained (above): from here on, read only what wakes us.
+        let mut woken: Option<Vec<usize>> = Some(Vec::new());
         loop {
             inbox.drain_some(&subscribers, &fleet, k, woken.as_deref())?;
             let missing: Vec<u32> = fleet

@@ -566,13 +566,7 @@ fn describe(r: &SeedResult) -> String {
 }
 
 fn default_batch_dir(name: &str) -> Result<PathBuf> {
-    let now = time::OffsetDateTime::now_utc();
-    let stamp = now
-        .format(&time::format_description::parse_borrowed::<2>(
-            "[year][month][day]T[hour][minute][second]Z",
-        )?)
-        .context("formatting the timestamp")?;
-    Ok(Path::new("runs").join(format!("{name}-batch-{stamp}")))
+    crate::cli::default_run_dir(&format!("{name}-batch"))
 }
 
 fn seed_dir(out: &Path, seed: u64) -> PathBuf {

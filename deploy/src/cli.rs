@@ -248,14 +248,16 @@ fn prepare(args: &RunArgs) -> Result<(Mission, RunDir)> {
     Ok((mission, dir))
 }
 
-fn default_run_dir(name: &str) -> Result<PathBuf> {
+/// `runs/<label>-<UTC timestamp>`: the default place of a run (label: the mission name) or
+/// a batch (`<name>-batch`).
+pub(crate) fn default_run_dir(label: &str) -> Result<PathBuf> {
     let now = time::OffsetDateTime::now_utc();
     let stamp = now
         .format(&time::format_description::parse_borrowed::<2>(
             "[year][month][day]T[hour][minute][second]Z",
         )?)
         .context("formatting the timestamp")?;
-    Ok(Path::new("runs").join(format!("{name}-{stamp}")))
+    Ok(Path::new("runs").join(format!("{label}-{stamp}")))
 }
 
 fn print_summary(summary: &Summary, dir: &RunDir) -> Result<()> {

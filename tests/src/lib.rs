@@ -244,3 +244,15 @@ pub fn line_count(path: &Path) -> usize {
         .map(|t| t.lines().count())
         .unwrap_or(0)
 }
+
+/// Runs `vbap CMD FILE --out OUT --quiet` (CMD: `sim` or `run`) to success; returns its output.
+pub fn vbap_quiet(cmd: &str, file: &Path, out: &Path) -> Output {
+    run_ok(
+        vbap()
+            .arg(cmd)
+            .arg(file)
+            .arg("--out")
+            .arg(out)
+            .arg("--quiet"),
+    )
+}

@@ -39,25 +39,11 @@ start_spread = 0.3
 }
 
 fn sim(file: &Path, out: &Path) {
-    run_ok(
-        vbap()
-            .arg("sim")
-            .arg(file)
-            .arg("--out")
-            .arg(out)
-            .arg("--quiet"),
-    );
+    vbap_quiet("sim", file, out);
 }
 
 fn run(file: &Path, out: &Path, name: &str) {
-    run_ok(
-        vbap()
-            .arg("run")
-            .arg(file)
-            .arg("--out")
-            .arg(out)
-            .arg("--quiet"),
-    );
+    vbap_quiet("run", file, out);
     assert!(
         leftover_files(name).is_empty(),
         "shared memory left behind: {:?}",

@@ -96,22 +96,8 @@ until = 9.0
 "#;
     let name = unique_name("sched");
     let file = write_mission(&tmp, "m.toml", &base(&name, 5, 20.0, "\"lockstep\"", extra));
-    run_ok(
-        vbap()
-            .arg("sim")
-            .arg(&file)
-            .arg("--out")
-            .arg(tmp.join("sim"))
-            .arg("--quiet"),
-    );
-    run_ok(
-        vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(tmp.join("run"))
-            .arg("--quiet"),
-    );
+    vbap_quiet("sim", &file, &tmp.join("sim"));
+    vbap_quiet("run", &file, &tmp.join("run"));
     assert_same_tracks(&tmp.join("sim"), &tmp.join("run"));
     let s = summary(&tmp.join("run"));
     assert_eq!(s["vehicles_lost"], 2, "{s}");
@@ -141,14 +127,7 @@ fn a_killed_coordinator_resumes_from_its_checkpoint_and_the_run_equals_the_simul
         "m.toml",
         &base(&name, 4, 400.0, "\"lockstep\"", extra),
     );
-    run_ok(
-        vbap()
-            .arg("sim")
-            .arg(&file)
-            .arg("--out")
-            .arg(tmp.join("sim"))
-            .arg("--quiet"),
-    );
+    vbap_quiet("sim", &file, &tmp.join("sim"));
     let out = tmp.join("run");
     let mut run = spawn_run(&file, &out);
     let body = out.join("body.csv");
@@ -266,14 +245,7 @@ fn measured_delay_and_loss_match_the_configured_link() {
     let name = unique_name("linkstat");
     let extra = "[links]\ndelay = 2.0\njitter = 0.5\nloss = 0.2\n";
     let file = write_mission(&tmp, "m.toml", &base(&name, 4, 60.0, "\"lockstep\"", extra));
-    run_ok(
-        vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(tmp.join("run"))
-            .arg("--quiet"),
-    );
+    vbap_quiet("run", &file, &tmp.join("run"));
     let (delays, drops, total) = uplink_stats(&tmp.join("run"));
     assert_eq!(
         total,
@@ -322,14 +294,7 @@ fn nothing_is_delivered_outside_a_surfacing_window() {
         "m.toml",
         &base(&name, n, 30.0, "\"lockstep\"", &extra),
     );
-    run_ok(
-        vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(tmp.join("run"))
-            .arg("--quiet"),
-    );
+    vbap_quiet("run", &file, &tmp.join("run"));
     // Every report the planner received fresh was delivered while its vehicle was at the
     // surface: staggered phase i·period/N.
     let text = read(&tmp.join("run/planner_inputs.csv"));

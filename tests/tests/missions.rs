@@ -164,14 +164,7 @@ vehicle = 1
 at = 2.0
 "#;
     let file = write_mission(&tmp, "hold.toml", text);
-    run_ok(
-        vbap()
-            .arg("sim")
-            .arg(&file)
-            .arg("--out")
-            .arg(tmp.join("sim"))
-            .arg("--quiet"),
-    );
+    vbap_quiet("sim", &file, &tmp.join("sim"));
     let events = read(&tmp.join("sim/events.jsonl"));
     assert!(events.contains("\"holding\""), "{events}");
     let s = summary(&tmp.join("sim"));

@@ -60,22 +60,8 @@ start = [0.0, 0.0, 0.0]
 fn assert_run_equals_sim(text: &str) {
     let tmp = TempDir::new("eq");
     let file = write_mission(&tmp, "m.toml", text);
-    run_ok(
-        vbap()
-            .arg("sim")
-            .arg(&file)
-            .arg("--out")
-            .arg(tmp.join("sim"))
-            .arg("--quiet"),
-    );
-    let out = run_ok(
-        vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(tmp.join("run"))
-            .arg("--quiet"),
-    );
+    vbap_quiet("sim", &file, &tmp.join("sim"));
+    let out = vbap_quiet("run", &file, &tmp.join("run"));
     let printed: serde_json::Value =
         serde_json::from_slice(&out.stdout).expect("vbap run prints the summary as JSON");
     assert_eq!(printed["mode"], "multi-process");
@@ -135,22 +121,8 @@ fn two_missions_at_once_do_not_interfere() {
     for r in runs.iter_mut() {
         assert!(r.wait().success());
     }
-    run_ok(
-        vbap()
-            .arg("sim")
-            .arg(&a)
-            .arg("--out")
-            .arg(tmp.join("sim_a"))
-            .arg("--quiet"),
-    );
-    run_ok(
-        vbap()
-            .arg("sim")
-            .arg(&b)
-            .arg("--out")
-            .arg(tmp.join("sim_b"))
-            .arg("--quiet"),
-    );
+    vbap_quiet("sim", &a, &tmp.join("sim_a"));
+    vbap_quiet("sim", &b, &tmp.join("sim_b"));
     assert_same_tracks(&tmp.join("run_a"), &tmp.join("sim_a"));
     assert_same_tracks(&tmp.join("run_b"), &tmp.join("sim_b"));
 }
@@ -164,14 +136,7 @@ fn real_time_pace_runs_at_wall_speed_and_scaled() {
         "rt.toml",
         &mission_2d(&unique_name("rt1"), 4, 2.0, "1.0"),
     );
-    run_ok(
-        vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(tmp.join("rt1"))
-            .arg("--quiet"),
-    );
+    vbap_quiet("run", &file, &tmp.join("rt1"));
     let s = summary(&tmp.join("rt1"));
     assert_eq!(s["ticks"], 40);
     assert!(
@@ -185,14 +150,7 @@ fn real_time_pace_runs_at_wall_speed_and_scaled() {
         "rt60.toml",
         &mission_2d(&unique_name("rt60"), 4, 60.0, "60.0"),
     );
-    run_ok(
-        vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(tmp.join("rt60"))
-            .arg("--quiet"),
-    );
+    vbap_quiet("run", &file, &tmp.join("rt60"));
     let s = summary(&tmp.join("rt60"));
     assert_eq!(s["ticks"], 1200);
     assert!(
