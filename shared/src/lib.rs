@@ -6,6 +6,7 @@
 //! - [`rng`]: random streams keyed by (seed, stream, id, tick).
 //! - [`msg`], [`topics`]: zero-copy payloads and every service name and limit.
 //! - [`telemetry`]: the one tracing setup of every process.
+//! - [`msglog`]: the per-message records, `logs/<process>.msgs.csv` (writer and parser).
 //! - [`rundir`]: the run-directory files (CSV, JSON lines, summary).
 //! - [`plot`]: the mission plot.
 
@@ -15,6 +16,7 @@ pub mod field;
 pub mod link;
 pub mod math;
 pub mod msg;
+pub mod msglog;
 pub mod plot;
 pub mod process;
 pub mod rng;

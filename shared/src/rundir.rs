@@ -1,5 +1,6 @@
 //! The run directory (DESIGN §8): `mission.toml`, `summary.json`, `vehicles.csv`,
-//! `body.csv`, `events.jsonl`, `logs/`, `plot.svg`.
+//! `body.csv`, `events.jsonl`, `logs/` (`<process>.jsonl` tracing, `<process>.msgs.csv`
+//! message records), `plot.svg`.
 //!
 //! Floats in CSV are written with Rust's `Display` for `f64`, the shortest string that
 //! round-trips, so two runs can be compared byte for byte. Files are appended, never
@@ -64,6 +65,12 @@ impl RunDir {
     /// `logs/<process>.jsonl`.
     pub fn log(&self, process: &str) -> PathBuf {
         self.root.join("logs").join(format!("{process}.jsonl"))
+    }
+    /// `logs/<process>.msgs.csv`: the process's message records ([`crate::msglog`]).
+    pub fn msg_log(&self, process: &str) -> PathBuf {
+        self.root
+            .join("logs")
+            .join(format!("{process}{}", crate::msglog::MSG_SUFFIX))
     }
     /// `planner_inputs.csv`: every argument of every planner step (`vbap replay`).
     pub fn planner_inputs(&self) -> PathBuf {

@@ -6,11 +6,14 @@
 //! feature under the target `iceoryx2_bb_loggers::tracing`.
 //!
 //! Level meanings: `error` the process cannot go on; `warn` something was lost or rejected;
-//! `info` lifecycle and mission events; `debug` one line per message (latency analysis);
-//! `trace` inner loops.
+//! `info` lifecycle and mission events; `debug` details; `trace` inner loops.
 //!
-//! Message records (target [`MSG_TARGET`]) carry `hop`, `sender`, `tick`, `seq`, `sent_ns`,
-//! `recv_ns` as fields: `vbap analyze` reads them.
+//! Per-message records (latency analysis) are not tracing events: they go to
+//! `<process>.msgs.csv` beside the log file, through [`crate::msglog`], a cheaper format.
+//! The filter still switches them: they are written when it enables target [`MSG_TARGET`]
+//! at `debug` (the default), so `RUST_LOG=info` turns them off. Logs of earlier versions
+//! carry them as JSON lines of that target (fields `hop`, `sender`, `tick`, `seq`,
+//! `sent_ns`, `recv_ns`, …); `vbap analyze` reads both.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -20,7 +23,8 @@ use std::sync::{Arc, Mutex};
 use tracing_subscriber::fmt::MakeWriter;
 use tracing_subscriber::EnvFilter;
 
-/// Target of per-message records.
+/// Target of per-message records: its level in the filter switches
+/// [`crate::msglog::MsgLog::beside`] on (`debug`) and off.
 pub const MSG_TARGET: &str = "vbap::msg";
 
 /// Default filter: info everywhere, message records included, iceoryx2 warnings only.
