@@ -1,16 +1,21 @@
-//! `vbap analyze RUN_DIR`: timing analysis of a run from its tracing logs.
+//! `vbap analyze RUN_DIR`: timing analysis of a run from its message records.
 //!
-//! Every receiver logs one record per message it receives over IPC (target `vbap::msg`,
-//! message `"recv"`) with the sender's wall-clock send time `sent_ns` and its own receive
-//! time `recv_ns` (all processes share one host clock): their difference is the hop's
-//! *transport* latency. The link model (DESIGN §6) works in mission time after reception
-//! and logs its verdicts as separate records: `"held"` (hop `<hop>_link`, with
-//! `injected_ms`, the delay it added) and `"drop"` (with `reason`: `"loss"`, `"burst"`,
-//! `"link_down"`, … are counted as *injected* drops, `"overflow"` as queue overflow). A
-//! hop's deliveries are then its receptions minus its injected drops, and the deliveries
-//! without a `"held"` record were delivered at once (0 ms). Reception records that carry
-//! `injected_ms` themselves are read too: then every reception is a delivery and the
-//! transport latency is `recv_ns − sent_ns − injected`.
+//! Every receiver records each message it receives over IPC (event `recv`) in
+//! `logs/<process>.msgs.csv` ([`shared::msglog`], the format and its units), with the
+//! sender's wall-clock send time `sent_ns` and its own receive time `recv_ns` (all
+//! processes share one host clock): their difference is the hop's *transport* latency. The
+//! link model (DESIGN §6) works in mission time after reception and records its verdicts
+//! separately: `held` (with `injected_ns`, the delay it added) and `drop` (with `reason`:
+//! `"loss"`, `"burst"`, `"link_down"`, … are counted as *injected* drops, `"overflow"` as
+//! queue overflow). A hop's deliveries are then its receptions minus its injected drops,
+//! and the deliveries without a `held` record were delivered at once (0 ms).
+//!
+//! Run directories of earlier versions carry the same records as JSON lines of target
+//! `vbap::msg` in `logs/<process>.jsonl` (message `"recv"`, `"held"` with hop `<hop>_link`
+//! and `injected_ms`, `"drop"`); they are read too, into the same figures, and a process
+//! may have records in both files. JSON reception records that carry `injected_ms`
+//! themselves are read as well: then every reception is a delivery and the transport
+//! latency is `recv_ns − sent_ns − injected`.
 //!
 //! Loops: an agent's loop is driven by the body commands it receives, so its period is the
 //! time between consecutive body receptions; the coordinator's period is the time between
@@ -19,9 +24,9 @@
 //! the median period in lockstep runs (as fast as possible: no nominal period). The field
 //! server answers requests and has no loop of its own.
 //!
-//! Logs of big fleets run to millions of lines: files are streamed and read in parallel,
-//! and only lines containing the target string are parsed (with a borrowed, typed
-//! deserializer, not a generic JSON tree).
+//! Logs of big fleets run to millions of lines: files are streamed and read in parallel;
+//! CSV lines are split in place, and of the JSON logs only lines containing the target
+//! string are parsed (with a borrowed, typed deserializer, not a generic JSON tree).
 //!
 //! [`analyze`] also writes `latency.svg` (per-hop distributions) and `loops.svg` (loop
 //! period over the run and jitter distributions) into the run directory.
@@ -34,6 +39,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use shared::config::{Mission, Pace};
+use shared::msglog::{self, MsgEvent, MSG_HEADER, MSG_SUFFIX};
 use shared::rundir::{Percentiles, RunDir, Summary};
 use shared::telemetry::MSG_TARGET;
 
@@ -90,7 +96,7 @@ pub struct Report {
     pub pace: String,
     /// Message records read.
     pub records: u64,
-    /// Log lines of the target that could not be parsed.
+    /// Message-record lines that could not be parsed.
     pub unparsed: u64,
 }
 
@@ -321,8 +327,86 @@ impl HopAcc {
     }
 }
 
+/// One message record, from either format, the hop named plainly (no `_link`).
+struct Rec<'a> {
+    event: MsgEvent,
+    hop: &'a str,
+    tick: Option<u64>,
+    seq: Option<u64>,
+    sent_ns: Option<u64>,
+    recv_ns: Option<u64>,
+    /// The injected delay, ms of mission time (`held` records, or old reception records
+    /// that carry it).
+    injected_ms: Option<f64>,
+    reason: Option<&'a str>,
+}
+
+impl Partial {
+    /// Adds one record of a process (`is_agent`: a vehicle agent's).
+    fn add(&mut self, r: Rec<'_>, is_agent: bool) {
+        self.records += 1;
+        let acc = match self.hops.get_mut(r.hop) {
+            Some(a) => a,
+            None => self.hops.entry(r.hop.to_string()).or_default(),
+        };
+        match r.event {
+            // Dropped: by a full queue, or by the link model (loss, burst, link_down).
+            MsgEvent::Drop => match r.reason {
+                Some("overflow") => acc.dropped_overflow += 1,
+                _ => acc.dropped_injected += 1,
+            },
+            // Held by the link model for `injected_ms` (mission time) before delivery.
+            MsgEvent::Held => {
+                if let Some(v) = r.injected_ms.filter(|v| v.is_finite()) {
+                    acc.held_ms.push(v);
+                }
+            }
+            MsgEvent::Recv => {
+                let (Some(sent), Some(recv)) = (r.sent_ns, r.recv_ns) else {
+                    self.unparsed += 1;
+                    return;
+                };
+                let injected_ms = r.injected_ms.filter(|v| v.is_finite()).unwrap_or(0.0);
+                // Integer difference first: the timestamps (~1.8e18 ns) do not fit f64's
+                // 53-bit mantissa.
+                let wire_ns = recv as i128 - sent as i128;
+                acc.transport_us
+                    .push(wire_ns as f64 / 1e3 - injected_ms * 1e3);
+                if r.injected_ms.is_some() {
+                    acc.inline_ms.push(injected_ms);
+                }
+                if is_agent && r.hop == "body" {
+                    let tick = r.tick.unwrap_or(0);
+                    self.body_recv.push((tick, recv));
+                    self.body_sent.push((r.seq.unwrap_or(0), tick, sent));
+                }
+            }
+        }
+    }
+}
+
+/// The format of a log file.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Format {
+    /// `<process>.jsonl`: tracing JSON lines, message records among them (earlier versions).
+    Json,
+    /// `<process>.msgs.csv`: message records only ([`shared::msglog`]).
+    Csv,
+}
+
+/// A log file of `logs/`: its format and process, or None for any other file.
+fn log_file(path: &Path) -> Option<(Format, String)> {
+    let name = path.file_name()?.to_str()?;
+    if let Some(process) = name.strip_suffix(MSG_SUFFIX) {
+        Some((Format::Csv, process.to_string()))
+    } else {
+        name.strip_suffix(".jsonl")
+            .map(|process| (Format::Json, process.to_string()))
+    }
+}
+
 /// Parses one log file.
-fn read_log(path: &Path, is_agent: bool) -> Result<Partial> {
+fn read_log(path: &Path, format: Format, is_agent: bool) -> Result<Partial> {
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let mut reader = std::io::BufReader::with_capacity(1 << 18, file);
     let mut part = Partial::default();
@@ -335,67 +419,79 @@ fn read_log(path: &Path, is_agent: bool) -> Result<Partial> {
         if n == 0 {
             break;
         }
-        // Cheap filter first: most lines of a big log are records, but not all lines are.
         let Ok(text) = std::str::from_utf8(&buf) else {
+            part.unparsed += u64::from(format == Format::Csv);
             continue;
         };
-        if !text.contains(MSG_TARGET) {
-            continue;
-        }
-        let Ok(line) = serde_json::from_str::<Line<'_>>(text) else {
-            part.unparsed += 1;
-            continue;
-        };
-        if line.target != MSG_TARGET {
-            continue;
-        }
-        let f = line.fields;
-        let Some(hop) = f.hop else {
-            part.unparsed += 1;
-            continue;
-        };
-        part.records += 1;
-        // The link model's records name the hop `<hop>_link`.
-        let name = hop.strip_suffix("_link").unwrap_or(&hop);
-        let acc = match part.hops.get_mut(name) {
-            Some(a) => a,
-            None => part.hops.entry(name.to_string()).or_default(),
-        };
-        match f.message.as_deref() {
-            // Dropped: by a full queue, or by the link model (loss, burst, link_down).
-            Some("drop") => match f.reason.as_deref() {
-                Some("overflow") => acc.dropped_overflow += 1,
-                _ => acc.dropped_injected += 1,
-            },
-            // Held by the link model for `injected_ms` (mission time) before delivery.
-            Some("held") => {
-                if let Some(v) = f.injected_ms.filter(|v| v.is_finite()) {
-                    acc.held_ms.push(v);
-                }
-            }
-            _ => {
-                let (Some(sent), Some(recv)) = (f.sent_ns, f.recv_ns) else {
-                    part.unparsed += 1;
-                    continue;
-                };
-                let injected_ms = f.injected_ms.filter(|v| v.is_finite()).unwrap_or(0.0);
-                // Integer difference first: the timestamps (~1.8e18 ns) do not fit f64's
-                // 53-bit mantissa.
-                let wire_ns = recv as i128 - sent as i128;
-                acc.transport_us
-                    .push(wire_ns as f64 / 1e3 - injected_ms * 1e3);
-                if f.injected_ms.is_some() {
-                    acc.inline_ms.push(injected_ms);
-                }
-                if is_agent && hop == "body" {
-                    let tick = f.tick.unwrap_or(0);
-                    part.body_recv.push((tick, recv));
-                    part.body_sent.push((f.seq.unwrap_or(0), tick, sent));
-                }
-            }
+        match format {
+            Format::Csv => read_csv_line(text, &mut part, is_agent),
+            Format::Json => read_json_line(text, &mut part, is_agent),
         }
     }
     Ok(part)
+}
+
+/// One line of a `.msgs.csv` file.
+fn read_csv_line(text: &str, part: &mut Partial, is_agent: bool) {
+    let Some(r) = msglog::parse(text) else {
+        let line = text.trim_end();
+        if !line.is_empty() && line != MSG_HEADER {
+            part.unparsed += 1;
+        }
+        return;
+    };
+    part.add(
+        Rec {
+            event: r.event,
+            hop: r.hop,
+            tick: Some(r.tick),
+            seq: r.seq,
+            sent_ns: r.sent_ns,
+            recv_ns: r.recv_ns,
+            injected_ms: r.injected_ns.map(|ns| ns as f64 / 1e6),
+            reason: r.reason,
+        },
+        is_agent,
+    );
+}
+
+/// One line of a `.jsonl` file (records of earlier versions, target `vbap::msg`).
+fn read_json_line(text: &str, part: &mut Partial, is_agent: bool) {
+    // Cheap filter first: most lines of a big log are records, but not all lines are.
+    if !text.contains(MSG_TARGET) {
+        return;
+    }
+    let Ok(line) = serde_json::from_str::<Line<'_>>(text) else {
+        part.unparsed += 1;
+        return;
+    };
+    if line.target != MSG_TARGET {
+        return;
+    }
+    let f = line.fields;
+    let Some(hop) = f.hop else {
+        part.unparsed += 1;
+        return;
+    };
+    let event = match f.message.as_deref() {
+        Some("drop") => MsgEvent::Drop,
+        Some("held") => MsgEvent::Held,
+        _ => MsgEvent::Recv,
+    };
+    part.add(
+        Rec {
+            event,
+            // The link model's records name the hop `<hop>_link`.
+            hop: hop.strip_suffix("_link").unwrap_or(&hop),
+            tick: f.tick,
+            seq: f.seq,
+            sent_ns: f.sent_ns,
+            recv_ns: f.recv_ns,
+            injected_ms: f.injected_ms,
+            reason: f.reason.as_deref(),
+        },
+        is_agent,
+    );
 }
 
 /// Periods (ms) between consecutive times (ns), each tagged with the later tick.
@@ -409,18 +505,13 @@ fn periods(times: &[(u64, u64)]) -> Vec<(u64, f64)> {
 /// Reads the logs of `dir` and computes the report and the distributions behind it.
 pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
     let logs = dir.root.join("logs");
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&logs)
+    let mut files: Vec<(PathBuf, Format, String)> = std::fs::read_dir(&logs)
         .with_context(|| format!("reading {}", logs.display()))?
         .flatten()
         .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|e| e == "jsonl"))
+        .filter_map(|p| log_file(&p).map(|(format, process)| (p, format, process)))
         .collect();
-    files.sort();
-    let process_of = |p: &Path| {
-        p.file_stem()
-            .map(|s| s.to_string_lossy().to_string())
-            .unwrap_or_default()
-    };
+    files.sort_by(|a, b| a.0.cmp(&b.0));
 
     // Parse the files in parallel, one worker per core.
     let workers = std::thread::available_parallelism()
@@ -434,9 +525,11 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
                     let mut mine = Vec::new();
                     loop {
                         let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(path) = files.get(i) else { break };
-                        let is_agent = process_of(path).starts_with("vehicle_agent");
-                        mine.push((i, read_log(path, is_agent)?));
+                        let Some((path, format, process)) = files.get(i) else {
+                            break;
+                        };
+                        let is_agent = process.starts_with("vehicle_agent");
+                        mine.push((i, read_log(path, *format, is_agent)?));
                     }
                     Ok(mine)
                 })
@@ -466,6 +559,8 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
     let mut dists = Distributions::default();
     let mut hops: BTreeMap<String, HopAcc> = BTreeMap::new();
     let mut published: Vec<(u64, u64, u64)> = Vec::new();
+    // Body receptions per process (a process may have records in both formats).
+    let mut received: BTreeMap<&str, Vec<(u64, u64)>> = BTreeMap::new();
     for (i, part) in parts {
         report.records += part.records;
         report.unparsed += part.unparsed;
@@ -473,14 +568,13 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
             hops.entry(hop).or_default().merge(acc);
         }
         published.extend(part.body_sent.into_iter().filter(|p| p.1 < last_tick));
-        let mut recv: Vec<(u64, u64)> = part
-            .body_recv
-            .into_iter()
-            .filter(|p| p.0 < last_tick)
-            .collect();
+        let recv = received.entry(files[i].2.as_str()).or_default();
+        recv.extend(part.body_recv.into_iter().filter(|p| p.0 < last_tick));
+    }
+    for (process, mut recv) in received {
         if !recv.is_empty() {
             recv.sort_by_key(|&(_, t)| t);
-            dists.periods.insert(process_of(&files[i]), periods(&recv));
+            dists.periods.insert(process.to_string(), periods(&recv));
         }
     }
     // The coordinator's publications: every agent saw the same (seq, sent_ns).
@@ -947,6 +1041,107 @@ mod tests {
         analyze(&dir).unwrap();
         assert!(root.join(LATENCY_SVG).is_file());
         assert!(root.join(LOOPS_SVG).is_file());
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
+    #[test]
+    fn latency_drops_and_loops_from_csv_records() {
+        use shared::msglog::MsgLog;
+        let root = std::env::temp_dir().join(format!("vbap-analyze-csv-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        std::fs::create_dir_all(root.join("logs")).unwrap();
+        let dir = RunDir { root: root.clone() };
+        // The tracing logs now carry lifecycle lines only.
+        std::fs::write(
+            dir.log("vehicle_agent_0"),
+            "{\"timestamp\":\"x\",\"level\":\"INFO\",\"fields\":{\"message\":\"agent up\"},\"target\":\"vehicle_agent::run\"}\n",
+        )
+        .unwrap();
+        let t0: u64 = 1_795_437_897_283_832_923;
+        const COORD: u32 = u32::MAX - 1;
+        {
+            // Receptions on arrival over IPC, then the link model's verdicts.
+            let mut agent = MsgLog::open(&dir.msg_log("vehicle_agent_0")).unwrap();
+            for k in 0..6u64 {
+                let sent = t0 + k * 1_000_000;
+                agent.recv("body", COORD, 0, k, k + 1, sent, sent + 20_000);
+            }
+            agent.held("body", COORD, 0, 3, 0.005);
+            agent.drop("body", COORD, 0, 5, "loss");
+            agent.drop("state", 0, COORD, 6, "overflow");
+            let mut coord = MsgLog::open(&dir.msg_log("coordinator")).unwrap();
+            for k in 0..3u64 {
+                coord.recv("state", 0, COORD, k, k, t0 + k, t0 + k + 7_000);
+            }
+            coord.held("state", 0, COORD, 0, 0.05);
+            coord.drop("state", 0, COORD, 1, "loss");
+        }
+        let mut csv = std::fs::read_to_string(dir.msg_log("vehicle_agent_0")).unwrap();
+        csv.push_str("recv,body,1,2\n");
+        std::fs::write(dir.msg_log("vehicle_agent_0"), csv).unwrap();
+
+        let (r, d) = compute(&dir).unwrap();
+        assert_eq!((r.records, r.unparsed), (14, 1));
+        let body = &r.hops["body"];
+        assert_eq!(
+            (body.received, body.delivered, body.dropped_injected),
+            (6, 5, 1)
+        );
+        assert_eq!((body.injected_ms.p50, body.injected_ms.max), (0.0, 5.0));
+        assert!(d.transport_us["body"]
+            .iter()
+            .all(|&v| (v - 20.0).abs() < 1e-9));
+        // The same figures as from the JSON records of `write_logs`.
+        let state = &r.hops["state"];
+        assert_eq!(
+            (
+                state.received,
+                state.delivered,
+                state.dropped_injected,
+                state.dropped_overflow
+            ),
+            (3, 2, 1, 1)
+        );
+        assert_eq!((state.injected_ms.p50, state.injected_ms.max), (0.0, 50.0));
+        assert_eq!(state.transport_us.max, 7.0);
+        assert_eq!(r.loops["coordinator"].period_ms.p50, 1.0);
+        let a = &r.loops["vehicle_agent_0"];
+        assert_eq!((a.iterations, a.period_ms.max), (6, 1.0));
+        let mut s = Summary::default();
+        r.fill_summary(&mut s);
+        assert_eq!(s.messages.dropped_injected, 2);
+        assert_eq!(s.messages.dropped_overflow, 1);
+        assert_eq!(s.latency_us["body"].p50, 20.0);
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
+    #[test]
+    fn a_process_may_have_records_in_both_formats() {
+        let root = std::env::temp_dir().join(format!("vbap-analyze-mixed-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        std::fs::create_dir_all(root.join("logs")).unwrap();
+        let dir = RunDir { root: root.clone() };
+        let t0: u64 = 1_795_437_897_283_832_923;
+        let mut json = String::new();
+        for k in 0..3u64 {
+            let sent = t0 + k * 1_000_000;
+            json.push_str(&format!(
+                "{{\"fields\":{{\"message\":\"recv\",\"hop\":\"body\",\"sender\":4294967294,\"receiver\":0,\"tick\":{k},\"seq\":{k},\"sent_ns\":{sent},\"recv_ns\":{}}},\"target\":\"vbap::msg\"}}\n",
+                sent + 10_000
+            ));
+        }
+        std::fs::write(dir.log("vehicle_agent_0"), json).unwrap();
+        let mut log = shared::msglog::MsgLog::open(&dir.msg_log("vehicle_agent_0")).unwrap();
+        for k in 3..6u64 {
+            let sent = t0 + k * 1_000_000;
+            log.recv("body", u32::MAX - 1, 0, k, k, sent, sent + 10_000);
+        }
+        drop(log);
+        let (r, _) = compute(&dir).unwrap();
+        assert_eq!(r.hops["body"].received, 6);
+        let a = &r.loops["vehicle_agent_0"];
+        assert_eq!((a.iterations, a.period_ms.max), (6, 1.0));
+        assert_eq!(r.loops["coordinator"].iterations, 6);
         let _ = std::fs::remove_dir_all(&root);
     }
 

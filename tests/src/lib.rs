@@ -1,11 +1,15 @@
 //! Helpers of the end-to-end tests: building and locating the real binaries, temporary
-//! run directories, mission files, process guards, waiting on conditions.
+//! run directories, mission files, process guards, waiting on conditions, reading the
+//! message records of a run.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
+
+pub use shared::msglog::MsgEvent;
+use shared::msglog::{self, MsgRecord, MSG_SUFFIX};
 
 /// The workspace root.
 pub fn workspace() -> PathBuf {
@@ -255,4 +259,141 @@ pub fn vbap_quiet(cmd: &str, file: &Path, out: &Path) -> Output {
             .arg(out)
             .arg("--quiet"),
     )
+}
+
+/// A message record of a run, owned; from `logs/<process>.msgs.csv` or, in the JSON logs
+/// of earlier versions, `logs/<process>.jsonl`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OwnedRecord {
+    pub event: MsgEvent,
+    /// The plain hop (`state`, `body`, …): the JSON `held` records' `<hop>_link` is mapped
+    /// back.
+    pub hop: String,
+    /// Absent from some JSON records.
+    pub sender: Option<u32>,
+    /// Absent from some JSON records.
+    pub receiver: Option<u32>,
+    pub tick: Option<u64>,
+    pub seq: Option<u64>,
+    pub sent_ns: Option<u64>,
+    pub recv_ns: Option<u64>,
+    /// Held: the delay the link model added, ns of mission time (JSON `injected_ms`
+    /// converted, rounded).
+    pub injected_ns: Option<u64>,
+    pub reason: Option<String>,
+}
+
+impl From<MsgRecord<'_>> for OwnedRecord {
+    fn from(r: MsgRecord<'_>) -> Self {
+        Self {
+            event: r.event,
+            hop: r.hop.to_string(),
+            sender: Some(r.sender),
+            receiver: Some(r.receiver),
+            tick: Some(r.tick),
+            seq: r.seq,
+            sent_ns: r.sent_ns,
+            recv_ns: r.recv_ns,
+            injected_ns: r.injected_ns,
+            reason: r.reason.map(str::to_string),
+        }
+    }
+}
+
+impl OwnedRecord {
+    /// The injected delay in ms (held records).
+    pub fn injected_ms(&self) -> Option<f64> {
+        self.injected_ns.map(|ns| ns as f64 / 1e6)
+    }
+
+    /// A JSON record of target `vbap::msg` (earlier versions); None for any other line.
+    fn from_json(line: &str) -> Option<Self> {
+        let v: serde_json::Value = serde_json::from_str(line).ok()?;
+        if v["target"].as_str() != Some(shared::telemetry::MSG_TARGET) {
+            return None;
+        }
+        let f = &v["fields"];
+        let event = match f["message"].as_str()? {
+            "recv" => MsgEvent::Recv,
+            "held" => MsgEvent::Held,
+            "drop" => MsgEvent::Drop,
+            _ => return None,
+        };
+        let hop = f["hop"].as_str()?;
+        let u32_of = |k: &str| f[k].as_u64().and_then(|v| u32::try_from(v).ok());
+        Some(Self {
+            event,
+            hop: hop.strip_suffix("_link").unwrap_or(hop).to_string(),
+            sender: u32_of("sender"),
+            receiver: u32_of("receiver"),
+            tick: f["tick"].as_u64(),
+            seq: f["seq"].as_u64(),
+            sent_ns: f["sent_ns"].as_u64(),
+            recv_ns: f["recv_ns"].as_u64(),
+            injected_ns: f["injected_ms"]
+                .as_f64()
+                .map(|ms| (ms * 1e6).round() as u64),
+            reason: f["reason"].as_str().map(str::to_string),
+        })
+    }
+}
+
+/// The message records of `process` in the run directory `run_dir`: from
+/// `logs/<process>.msgs.csv` when it exists, else the JSON records of
+/// `logs/<process>.jsonl` (panics when neither can be read).
+pub fn msg_records(run_dir: &Path, process: &str) -> Vec<OwnedRecord> {
+    let logs = run_dir.join("logs");
+    let csv = logs.join(format!("{process}{MSG_SUFFIX}"));
+    if csv.exists() {
+        read(&csv)
+            .lines()
+            .filter_map(msglog::parse)
+            .map(OwnedRecord::from)
+            .collect()
+    } else {
+        read(&logs.join(format!("{process}.jsonl")))
+            .lines()
+            .filter_map(OwnedRecord::from_json)
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod unit {
+    use super::*;
+
+    #[test]
+    fn records_read_alike_from_csv_and_json() {
+        let tmp = TempDir::new("msgrecords");
+        let logs = tmp.join("logs");
+        std::fs::create_dir_all(&logs).unwrap();
+        std::fs::write(
+            logs.join("coordinator.jsonl"),
+            concat!(
+                "{\"fields\":{\"message\":\"started\"},\"target\":\"coordinator\"}\n",
+                "{\"fields\":{\"message\":\"recv\",\"hop\":\"state\",\"sender\":2,\"tick\":4,\"seq\":5,\"sent_ns\":10,\"recv_ns\":30},\"target\":\"vbap::msg\"}\n",
+                "{\"fields\":{\"message\":\"held\",\"hop\":\"state_link\",\"sender\":2,\"tick\":4,\"injected_ms\":1550.0},\"target\":\"vbap::msg\"}\n",
+                "{\"fields\":{\"message\":\"drop\",\"hop\":\"state\",\"sender\":2,\"tick\":5,\"reason\":\"loss\"},\"target\":\"vbap::msg\"}\n",
+            ),
+        )
+        .unwrap();
+        let json = msg_records(&tmp.path, "coordinator");
+        let mut log = shared::msglog::MsgLog::open(&logs.join("coordinator.msgs.csv")).unwrap();
+        log.recv("state", 2, u32::MAX - 1, 4, 5, 10, 30);
+        log.held("state", 2, u32::MAX - 1, 4, 1.55);
+        log.drop("state", 2, u32::MAX - 1, 5, "loss");
+        drop(log);
+        let csv = msg_records(&tmp.path, "coordinator");
+        assert_eq!(json.len(), 3);
+        assert_eq!(csv.len(), 3);
+        for (j, c) in json.iter().zip(&csv) {
+            assert_eq!(j.receiver, None);
+            let c = OwnedRecord {
+                receiver: None,
+                ..c.clone()
+            };
+            assert_eq!(*j, c);
+        }
+        assert_eq!(csv[1].injected_ms(), Some(1550.0));
+    }
 }

@@ -218,22 +218,20 @@ fn random_agent_kills_are_survived_and_the_restarted_agents_rejoin() {
     assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
 }
 
-/// Parses the coordinator's message records: (injected delays ms, dropped count, all).
+/// The coordinator's message records of the state hop: (injected delays ms, dropped count,
+/// received count).
 fn uplink_stats(dir: &std::path::Path) -> (Vec<f64>, usize, usize) {
     let mut delays = Vec::new();
     let mut drops = 0;
     let mut total = 0;
-    for line in read(&dir.join("logs/coordinator.jsonl")).lines() {
-        let v: serde_json::Value = match serde_json::from_str(line) {
-            Ok(v) => v,
-            Err(_) => continue,
-        };
-        let f = &v["fields"];
-        match (f["hop"].as_str(), f["message"].as_str()) {
-            (Some("state_link"), Some("held")) => delays.push(f["injected_ms"].as_f64().unwrap()),
-            (Some("state"), Some("drop")) => drops += 1,
-            (Some("state"), Some("recv")) => total += 1,
-            _ => {}
+    for r in msg_records(dir, "coordinator") {
+        if r.hop != "state" {
+            continue;
+        }
+        match r.event {
+            MsgEvent::Held => delays.push(r.injected_ms().expect("a held record's delay")),
+            MsgEvent::Drop => drops += 1,
+            MsgEvent::Recv => total += 1,
         }
     }
     (delays, drops, total)
@@ -267,9 +265,9 @@ fn measured_delay_and_loss_match_the_configured_link() {
     // The summary counts the same drops: these uplink ones plus the agents' downlink ones.
     let downlink: usize = (0..4)
         .map(|i| {
-            read(&tmp.join(&format!("run/logs/vehicle_agent_{i}.jsonl")))
-                .lines()
-                .filter(|l| l.contains("\"message\":\"drop\"") && l.contains("\"hop\":\"body\""))
+            msg_records(&tmp.join("run"), &format!("vehicle_agent_{i}"))
+                .iter()
+                .filter(|r| r.event == MsgEvent::Drop && r.hop == "body")
                 .count()
         })
         .sum();

@@ -3,7 +3,8 @@
 //!
 //! What is read from a run, and how:
 //! - **ticks per second** of the mission loop, start-up and shut-down excluded: from the
-//!   coordinator's message records (`logs/coordinator.jsonl`, hop `state`). Tick k is
+//!   coordinator's message records (`logs/coordinator.msgs.csv`, `recv` of hop `state`;
+//!   the JSON records of `logs/coordinator.jsonl` in runs of earlier versions). Tick k is
 //!   complete when the last state of tick k has arrived, at T_k = max `recv_ns` over the
 //!   states of tick k; rate = (K − k₀) / (T_K − T_k₀) with k₀ a tenth of the way in (the
 //!   first ticks warm caches and page in shared memory) and K the last tick. Without
@@ -33,6 +34,7 @@ use anyhow::{Context, Result};
 use serde::Serialize;
 use shared::config::Mission;
 use shared::msg::wall_ns;
+use shared::msglog::{self, MsgEvent};
 use shared::rundir::{RunDir, Summary};
 use shared::topics::Domain;
 
@@ -400,6 +402,39 @@ fn sample_pss_of(dir: &str) -> PssSample {
 /// Ticks per second of the mission loop, from the coordinator's `state` message records
 /// (see the module documentation).
 fn tick_rate(dir: &RunDir) -> Option<f64> {
+    let complete = state_arrivals_csv(dir)
+        .filter(|c| !c.is_empty())
+        .or_else(|| state_arrivals_json(dir))?;
+    let ticks: Vec<(u64, u64)> = complete.into_iter().collect();
+    if ticks.len() < 3 {
+        return None;
+    }
+    let (k0, t0) = ticks[(ticks.len() / 10).max(1)];
+    let (k1, t1) = *ticks.last()?;
+    (k1 > k0 && t1 > t0).then(|| (k1 - k0) as f64 / ((t1 - t0) as f64 / 1e9))
+}
+
+/// Tick → the latest `recv_ns` of its states at the coordinator, from
+/// `logs/coordinator.msgs.csv` (None without the file).
+fn state_arrivals_csv(dir: &RunDir) -> Option<BTreeMap<u64, u64>> {
+    let file = std::fs::File::open(dir.msg_log("coordinator")).ok()?;
+    let mut complete: BTreeMap<u64, u64> = BTreeMap::new();
+    for line in std::io::BufReader::new(file).lines() {
+        let Ok(line) = line else { continue };
+        let Some(r) = msglog::parse(&line) else {
+            continue;
+        };
+        if let (MsgEvent::Recv, "state", Some(recv)) = (r.event, r.hop, r.recv_ns) {
+            let t = complete.entry(r.tick).or_insert(recv);
+            *t = (*t).max(recv);
+        }
+    }
+    Some(complete)
+}
+
+/// The same from the JSON message records of `logs/coordinator.jsonl` (runs of earlier
+/// versions).
+fn state_arrivals_json(dir: &RunDir) -> Option<BTreeMap<u64, u64>> {
     let file = std::fs::File::open(dir.log("coordinator")).ok()?;
     let mut complete: BTreeMap<u64, u64> = BTreeMap::new();
     for line in std::io::BufReader::new(file).lines() {
@@ -416,13 +451,7 @@ fn tick_rate(dir: &RunDir) -> Option<f64> {
             *t = (*t).max(recv);
         }
     }
-    let ticks: Vec<(u64, u64)> = complete.into_iter().collect();
-    if ticks.len() < 3 {
-        return None;
-    }
-    let (k0, t0) = ticks[(ticks.len() / 10).max(1)];
-    let (k1, t1) = *ticks.last()?;
-    (k1 > k0 && t1 > t0).then(|| (k1 - k0) as f64 / ((t1 - t0) as f64 / 1e9))
+    Some(complete)
 }
 
 /// Lifecycle marks of a run, from the `info`/`warn` lines of every process log.
@@ -550,5 +579,40 @@ mod tests {
         assert_eq!(parse_utc("2000-03-01T00:00:01.5Z"), Some(951_868_801.5));
         assert_eq!(parse_utc("2024-02-29T23:59:59Z"), Some(1_709_251_199.0));
         assert_eq!(parse_utc("2024-02-29 23:59:59"), None);
+    }
+
+    #[test]
+    fn tick_rate_from_either_format() {
+        let root = std::env::temp_dir().join(format!("vbap-bench-rate-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = RunDir::create(&root).unwrap();
+        let t0: u64 = 1_795_437_897_283_832_923;
+        // JSON records only (runs of earlier versions): 20 ticks, 10 ms apart.
+        let mut json = String::from("{\"fields\":{\"message\":\"started\"}}\n");
+        for k in 0..20u64 {
+            for v in 0..2u64 {
+                json.push_str(&format!(
+                    "{{\"fields\":{{\"message\":\"recv\",\"hop\":\"state\",\"sender\":{v},\"tick\":{k},\"seq\":{k},\"sent_ns\":{t0},\"recv_ns\":{}}},\"target\":\"vbap::msg\"}}\n",
+                    t0 + k * 10_000_000 + v
+                ));
+            }
+        }
+        std::fs::write(dir.log("coordinator"), json).unwrap();
+        let rate = tick_rate(&dir).unwrap();
+        assert!((rate - 100.0).abs() < 1e-3, "{rate}");
+        // The CSV records come first: 20 ticks, 5 ms apart.
+        let mut log = msglog::MsgLog::open(&dir.msg_log("coordinator")).unwrap();
+        for k in 0..20u64 {
+            for v in 0..2u32 {
+                let recv = t0 + k * 5_000_000 + u64::from(v);
+                log.recv("state", v, u32::MAX - 1, k, k, t0, recv);
+                log.drop("state", v, u32::MAX - 1, k, "loss");
+            }
+            log.recv("body", u32::MAX - 1, 0, k, k, t0, t0 + 10_000_000_000);
+        }
+        drop(log);
+        let rate = tick_rate(&dir).unwrap();
+        assert!((rate - 200.0).abs() < 1e-3, "{rate}");
+        let _ = std::fs::remove_dir_all(&root);
     }
 }
