@@ -35,6 +35,7 @@ fn main() {
         std::process::exit(EXIT_INVALID);
     });
     let log = shared::telemetry::init("coordinator", args.log.as_deref());
-    let result = coordinator::run::run(&mission, &dir, announce_ready);
+    let msgs = shared::process::message_log(args.log.as_deref());
+    let result = coordinator::run::run(&mission, &dir, msgs, announce_ready);
     finish("coordinator", result.err().map(|e| format!("{e:#}")), log);
 }

@@ -1,5 +1,6 @@
-//! The coordinator process: gathers states, applies the link model, detects lost and
-//! returning vehicles, applies scheduled kills, steps the planner, publishes the body.
+//! The coordinator process: gathers states, reads the tick's sensors through the field
+//! server (one batched request), applies the link model, detects lost and returning
+//! vehicles, applies scheduled kills, steps the planner, publishes the body.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
@@ -11,9 +12,11 @@ use shared::faults::FaultPlan;
 use shared::link::Fate;
 use shared::msg::agent_to_coordinator::VehicleState;
 use shared::msg::coordinator_to_agent::BodyCommand;
+use shared::msg::coordinator_to_field::{SampleBatch, SensorRead};
+use shared::msg::field_to_coordinator::ReadingBatch;
 use shared::msg::{from_vec3, to_vec3, wall_ns, Header, MAX_LEADERS, MAX_VEHICLES};
+use shared::msglog::MsgLog;
 use shared::rundir::{MessageCounts, RunDir};
-use shared::telemetry::MSG_TARGET;
 use shared::topics::{self, wait_for_wake, wait_for_wake_ids, Domain, Limits, Wake};
 use tracing::{debug, info, warn};
 
@@ -31,6 +34,11 @@ const LIVENESS_AFTER: Duration = Duration::from_millis(50);
 const LIVENESS_EVERY: Duration = Duration::from_millis(250);
 /// How long a scheduled kill waits for the victim's node to be seen dead.
 const KILL_TIMEOUT: Duration = Duration::from_secs(5);
+/// How long the coordinator waits for the readings of a tick before it wakes the field
+/// server again (a lost wake-up must not stall the mission).
+const RENOTIFY_AFTER: Duration = Duration::from_millis(500);
+/// How long the coordinator waits for the readings of a tick before it gives up.
+const SAMPLE_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// What the coordinator knows of each vehicle's process.
 #[derive(Clone, Copy, Debug, Default)]
@@ -50,6 +58,7 @@ struct Inbox {
     peers: Vec<Peer>,
     joins: BTreeSet<u32>,
     counts: MessageCounts,
+    msgs: MsgLog,
 }
 
 impl Inbox {
@@ -95,8 +104,15 @@ impl Inbox {
             {
                 let s: VehicleState = *sample;
                 let h = s.header;
-                debug!(target: MSG_TARGET, hop = "state", sender = h.sender, tick = h.tick, seq = h.seq,
-                       sent_ns = h.sent_ns, recv_ns = wall_ns(), "recv");
+                self.msgs.recv(
+                    "state",
+                    h.sender,
+                    Header::COORDINATOR,
+                    h.tick,
+                    h.seq,
+                    h.sent_ns,
+                    wall_ns(),
+                );
                 let peer = &mut self.peers[id as usize];
                 let joining = h.flags & VehicleState::JOINING != 0;
                 // A join request comes from a new process (another pid): flagged, or any
@@ -151,9 +167,121 @@ impl Inbox {
     }
 }
 
-/// Runs the coordinator of `mission`, writing into `dir`. `on_ready` is called once every
-/// port exists. Returns when the mission is over or on a termination signal.
-pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<()> {
+/// The client side of the field server's batched sensor reads.
+struct SensorReads {
+    client: iceoryx2::port::client::Client<ipc::Service, SampleBatch, (), ReadingBatch, ()>,
+    field: iceoryx2::port::notifier::Notifier<ipc::Service>,
+    batch: Box<SampleBatch>,
+    seq: u64,
+}
+
+impl SensorReads {
+    /// Reads the sensor of every state in `states` at its own position and time (tick
+    /// `k`'s batch): the readings, in order (None: rejected by the field server), or None
+    /// on a termination signal. Blocks on the coordinator's wake-up listener; vehicle
+    /// events consumed meanwhile are harmless (every tick starts with a full drain).
+    fn read(
+        &mut self,
+        k: u64,
+        dt: f64,
+        states: &[&VehicleState],
+        waitset: &iceoryx2::waitset::WaitSet<ipc::Service>,
+        wake: &iceoryx2::port::listener::Listener<ipc::Service>,
+        msgs: &mut MsgLog,
+    ) -> Result<Option<Vec<Option<f64>>>> {
+        if states.is_empty() {
+            return Ok(Some(Vec::new()));
+        }
+        self.seq += 1;
+        let n = states.len().min(MAX_VEHICLES);
+        for (slot, s) in self.batch.reads.iter_mut().zip(states) {
+            *slot = SensorRead {
+                vehicle: s.header.sender,
+                _pad: 0,
+                tick: s.header.tick,
+                t: s.header.t,
+                position: s.position,
+            };
+        }
+        self.batch.n = n as u32;
+        self.batch.header = Header {
+            sender: Header::COORDINATOR,
+            flags: 0,
+            tick: k,
+            t: k as f64 * dt,
+            seq: self.seq,
+            sent_ns: wall_ns(),
+        };
+        let pending = self
+            .client
+            .send_copy(*self.batch)
+            .map_err(|e| anyhow::anyhow!("sending the sensor reads of tick {k}: {e:?}"))?;
+        self.field
+            .notify()
+            .map_err(|e| anyhow::anyhow!("waking the field server: {e:?}"))?;
+        let started = Instant::now();
+        loop {
+            if let Some(reply) = pending
+                .receive()
+                .map_err(|e| anyhow::anyhow!("receiving the readings of tick {k}: {e:?}"))?
+            {
+                let h = reply.header;
+                msgs.recv(
+                    "field_reply",
+                    h.sender,
+                    Header::COORDINATOR,
+                    h.tick,
+                    h.seq,
+                    h.sent_ns,
+                    wall_ns(),
+                );
+                let readings = reply.readings();
+                anyhow::ensure!(
+                    h.sender == Header::FIELD_SERVER
+                        && reply.request_seq == self.seq
+                        && readings.len() == n,
+                    "the field server answered tick {k}'s sensor reads out of turn \
+                     (sender {}, request {}, {} readings for {n})",
+                    h.sender,
+                    reply.request_seq,
+                    readings.len()
+                );
+                let values = readings
+                    .iter()
+                    .zip(states)
+                    .map(|(r, s)| {
+                        let matches = r.vehicle == s.header.sender && r.tick == s.header.tick;
+                        (matches && r.rejected == 0 && r.value.is_finite()).then_some(r.value)
+                    })
+                    .collect();
+                return Ok(Some(values));
+            }
+            let left = SAMPLE_TIMEOUT.saturating_sub(started.elapsed());
+            anyhow::ensure!(
+                !left.is_zero(),
+                "no sensor readings from the field server within {SAMPLE_TIMEOUT:?} (tick {k})"
+            );
+            match wait_for_wake(waitset, wake, left.min(RENOTIFY_AFTER))? {
+                Wake::Stop => return Ok(None),
+                Wake::Timeout => {
+                    warn!(
+                        tick = k,
+                        "no sensor readings yet: waking the field server again"
+                    );
+                    self.field
+                        .notify()
+                        .map_err(|e| anyhow::anyhow!("waking the field server: {e:?}"))?;
+                }
+                Wake::Events => {}
+            }
+        }
+    }
+}
+
+/// Runs the coordinator of `mission`, writing into `dir`. `msgs` receives the message
+/// records; `on_ready` is called once every port exists. Returns when the mission is over
+/// or on a termination signal.
+pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce()) -> Result<()> {
     let n = mission.vehicles.count;
     let dt = mission.mission.dt;
     let ticks = mission.ticks();
@@ -187,12 +315,21 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
         .map_err(|e| {
             anyhow::anyhow!("publishing the body (is another coordinator running?): {e:?}")
         })?;
-    let field_notifier = domain
-        .field_wake(&node, &limits)?
-        .notifier_builder()
-        .default_event_id(topics::EVENT_BODY)
-        .create()
-        .map_err(|e| anyhow::anyhow!("field notifier: {e:?}"))?;
+    let mut sensors = SensorReads {
+        client: domain
+            .sample_service(&node, &limits)?
+            .client_builder()
+            .create()
+            .map_err(|e| anyhow::anyhow!("creating the sensor-read client: {e:?}"))?,
+        field: domain
+            .field_wake(&node, &limits)?
+            .notifier_builder()
+            .default_event_id(topics::EVENT_DATA)
+            .create()
+            .map_err(|e| anyhow::anyhow!("field notifier: {e:?}"))?,
+        batch: Box::new(SampleBatch::empty()),
+        seq: 0,
+    };
     let wake = domain
         .coordinator_wake(&node, &limits)?
         .listener_builder()
@@ -213,6 +350,7 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
         peers: vec![Peer::default(); n],
         joins: BTreeSet::new(),
         counts: MessageCounts::default(),
+        msgs,
     };
     // A restarted coordinator resumes from its checkpoint.
     let mut republish: Option<BodyRecord> = None;
@@ -471,28 +609,49 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
             }
         }
 
-        let truth: Vec<Report> = fleet
+        // The states of the tick, and their sensor readings in one batched read.
+        let states: Vec<&VehicleState> = fleet
             .alive()
             .filter(|v| !admitted.contains(v))
             .filter_map(|v| inbox.latest.get(&v))
             .filter(|s| paced.is_some() || s.header.tick == k)
-            .map(|s| Report {
+            .collect();
+        let Some(readings) = sensors.read(k, dt, &states, &waitset, &wake, &mut inbox.msgs)? else {
+            stopped = true;
+            break 'ticks;
+        };
+        let mut truth: Vec<Report> = Vec::with_capacity(states.len());
+        for (s, reading) in states.iter().zip(readings) {
+            let Some(measurement) = reading else {
+                inbox.counts.rejected += 1;
+                warn!(
+                    vehicle = s.header.sender,
+                    tick = s.header.tick,
+                    "the field server rejected this vehicle's sensor read: state dropped"
+                );
+                continue;
+            };
+            truth.push(Report {
                 id: s.header.sender,
                 tick: s.header.tick,
                 position: to_vec3(&s.position),
                 velocity: to_vec3(&s.velocity),
-                measurement: s.measurement,
-            })
-            .collect();
+                measurement,
+            });
+        }
         let t = k as f64 * dt;
         let fates = fleet.receive(k, dt, &truth);
         for (v, fate) in &fates {
             match fate {
                 Fate::Deliver { injected, .. } if *injected > 0.0 => {
-                    debug!(target: MSG_TARGET, hop = "state_link", sender = v, tick = k, injected_ms = injected * 1e3, "held")
+                    inbox
+                        .msgs
+                        .held("state", *v, Header::COORDINATOR, k, *injected)
                 }
                 Fate::Drop(reason) => {
-                    debug!(target: MSG_TARGET, hop = "state", sender = v, tick = k, reason = reason.as_str(), "drop")
+                    inbox
+                        .msgs
+                        .drop("state", *v, Header::COORDINATOR, k, reason.as_str())
                 }
                 _ => {}
             }
@@ -576,7 +735,8 @@ pub fn run(mission: &Mission, dir: &RunDir, on_ready: impl FnOnce()) -> Result<(
     for notifier in &notifiers {
         let _ = notifier.notify();
     }
-    let _ = field_notifier.notify();
+    let _ = sensors.field.notify();
+    inbox.msgs.flush();
 
     recorder.flush()?;
     let mut summary = recorder.summary(&planner, "multi-process");

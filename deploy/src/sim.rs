@@ -1,7 +1,7 @@
 //! `vbap sim`: the in-process reference simulator.
 //!
 //! The same mission as `vbap run`, through the same pure steps ([`Agent::step`],
-//! [`Planner::step`], [`World::sample`]) and the same recorder, in one process with no
+//! [`Planner::step`], [`Sensors::read`]) and the same recorder, in one process with no
 //! IPC. In lockstep the multi-process system must reproduce its files byte for byte; it
 //! is also the speed baseline of the IPC system.
 
@@ -11,7 +11,7 @@ use anyhow::{Context, Result};
 use coordinator::fleet::Fleet;
 use coordinator::planner::{Planner, PlannerParams, Report};
 use coordinator::record::Recorder;
-use field_server::World;
+use field_server::Sensors;
 use shared::config::Mission;
 use shared::faults::FaultPlan;
 use shared::rundir::{RunDir, Summary};
@@ -40,7 +40,7 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
             )
         })
         .collect();
-    let world = World::new(mission);
+    let mut sensors = Sensors::new(mission);
     let field = mission.field();
     let mut fleet = Fleet::new(mission, &ids);
     let mut planner = Planner::new(
@@ -80,15 +80,15 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
             .iter_mut()
             .filter(|(id, _)| !admitted.contains(id))
             .map(|(&id, veh)| {
-                let raw = world
-                    .sample(id, k, t, &veh.agent.position)
+                let measurement = sensors
+                    .read(id, k, t, &veh.agent.position)
                     .unwrap_or(f64::NAN);
                 Report {
                     id,
                     tick: k,
                     position: veh.agent.position,
                     velocity: veh.agent.velocity,
-                    measurement: veh.read_sensor(&plan, t, raw),
+                    measurement,
                 }
             })
             .collect();

@@ -1,12 +1,14 @@
 //! The field server: owns the environment and answers sensor reads.
 //!
 //! [`World::sample`] is pure: the true field value plus the sensor noise keyed by
-//! (seed, vehicle, tick), exactly what the in-process simulator draws. [`run`] serves it
-//! over iceoryx2 request-response.
+//! (seed, vehicle, tick), exactly what the in-process simulator draws. [`Sensors`] adds the
+//! mission's sensor faults. [`run`] serves the coordinator's batched reads over iceoryx2
+//! request-response.
 
 pub mod run;
 
 use shared::config::Mission;
+use shared::faults::{FaultPlan, SensorState};
 use shared::field::{measure, Field};
 use shared::math::Vec3;
 
@@ -45,5 +47,31 @@ impl World {
             self.noise_std,
         );
         v.is_finite().then_some(v)
+    }
+}
+
+/// The sensors of a mission: the field, the noise and the scheduled sensor faults.
+pub struct Sensors {
+    world: World,
+    plan: FaultPlan,
+    memory: Vec<SensorState>,
+}
+
+impl Sensors {
+    /// The sensors of `mission`'s vehicles.
+    pub fn new(mission: &Mission) -> Self {
+        Self {
+            world: World::new(mission),
+            plan: FaultPlan::new(mission),
+            memory: vec![SensorState::default(); mission.vehicles.count],
+        }
+    }
+
+    /// What vehicle `v`'s sensor reports at tick `k` (time `t`, s) at `position`; None for
+    /// an unknown vehicle or a non-finite position.
+    pub fn read(&mut self, v: u32, k: u64, t: f64, position: &Vec3) -> Option<f64> {
+        let memory = self.memory.get_mut(v as usize)?;
+        let raw = self.world.sample(v, k, t, position)?;
+        Some(self.plan.sensor(v, t, raw, memory))
     }
 }

@@ -25,6 +25,7 @@ fn main() {
     die_with_parent(args.parent);
     let mission = load_mission_or_exit("field_server", &args.mission);
     let log = shared::telemetry::init("field_server", args.log.as_deref());
-    let result = field_server::run::run(&mission, announce_ready);
+    let msgs = shared::process::message_log(args.log.as_deref());
+    let result = field_server::run::run(&mission, msgs, announce_ready);
     finish("field_server", result.err().map(|e| format!("{e:#}")), log);
 }

@@ -1,53 +1,55 @@
-//! The field-server process: answers every pending sample request when woken.
+//! The field-server process: answers the coordinator's batched sensor reads when woken.
+//!
+//! One request per tick carries every vehicle's sensor read (vehicle, tick, time,
+//! position); the reply carries the readings in the same order. The field server simulates
+//! the sensors too: each reading is the field plus the keyed noise of (seed, vehicle,
+//! tick), with the mission's sensor faults applied (a stuck sensor remembers its last good
+//! reading here, across restarts of the vehicle's process, as a sensor would).
 
-use std::collections::BTreeMap;
 use std::time::Duration;
 
 use anyhow::Result;
 use iceoryx2::prelude::*;
 use shared::config::Mission;
-use shared::msg::agent_to_field::SampleRequest;
-use shared::msg::field_to_agent::SampleReply;
+use shared::msg::coordinator_to_field::SampleBatch;
+use shared::msg::field_to_coordinator::{Reading, ReadingBatch};
 use shared::msg::{to_vec3, wall_ns, Header};
-use shared::telemetry::MSG_TARGET;
-use shared::topics::{self, wait_for_wake_ids, Domain, Limits, Wake};
-use tracing::{debug, info, warn};
+use shared::msglog::MsgLog;
+use shared::topics::{self, wait_for_wake, Domain, Limits, Wake};
+use tracing::{info, warn};
 
-use crate::World;
+use crate::Sensors;
 
-/// Wall time without any event after which every vehicle's port is polled once.
+/// Wall time without any event after which the request port is polled once.
 const FALLBACK_POLL: Duration = Duration::from_millis(100);
 
 /// Serves `mission`'s field until the mission ends or a termination signal.
-/// `on_ready` is called once every port exists.
-pub fn run(mission: &Mission, on_ready: impl FnOnce()) -> Result<()> {
+/// `on_ready` is called once every port exists; `msgs` receives the message records.
+pub fn run(mission: &Mission, mut msgs: MsgLog, on_ready: impl FnOnce()) -> Result<()> {
     let domain = Domain::new(&mission.mission.name)?;
     let limits = Limits::for_fleet(mission.vehicles.count);
     let node = domain.node(topics::FIELD_SERVER_NODE)?;
-    let mut servers = Vec::with_capacity(mission.vehicles.count);
-    for id in 0..mission.vehicles.count as u32 {
-        servers.push(
-            domain
-                .field_service(&node, id, &limits)?
-                .server_builder()
-                .create()
-                .map_err(|e| {
-                    anyhow::anyhow!("creating the field server port of vehicle {id}: {e:?}")
-                })?,
-        );
-    }
+    let server = domain
+        .sample_service(&node, &limits)?
+        .server_builder()
+        .create()
+        .map_err(|e| anyhow::anyhow!("creating the sample server: {e:?}"))?;
     let wake = domain
         .field_wake(&node, &limits)?
         .listener_builder()
         .create()
         .map_err(|e| anyhow::anyhow!("creating the field wake listener: {e:?}"))?;
+    let coordinator = domain
+        .coordinator_wake(&node, &limits)?
+        .notifier_builder()
+        .default_event_id(topics::EVENT_SAMPLE)
+        .create()
+        .map_err(|e| anyhow::anyhow!("creating the coordinator notifier: {e:?}"))?;
     let body_sub = domain
         .body_service(&node, &limits)?
         .subscriber_builder()
         .create()
         .map_err(|e| anyhow::anyhow!("subscribing to the body: {e:?}"))?;
-    // One notifier per vehicle's wake service, opened when first needed.
-    let mut notifiers = BTreeMap::new();
     let waitset = WaitSetBuilder::new()
         .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
         .create::<ipc::Service>()
@@ -55,46 +57,40 @@ pub fn run(mission: &Mission, on_ready: impl FnOnce()) -> Result<()> {
     let _guard = waitset
         .attach_notification(&wake)
         .map_err(|e| anyhow::anyhow!("attaching: {e:?}"))?;
-    let world = World::new(mission);
+    let mut sensors = Sensors::new(mission);
     let n = mission.vehicles.count as u32;
     let mut seq = 0u64;
     let mut served = 0u64;
     let mut rejected = 0u64;
+    let mut reply = Box::new(ReadingBatch::empty());
     info!(vehicles = n, "field server up");
     on_ready();
-    let mut ids = Vec::new();
     loop {
-        ids.clear();
-        // A deadline as a safety net: with no event for FALLBACK_POLL, poll every port once
+        // A deadline as a safety net: with no event for FALLBACK_POLL, poll the port once
         // (a lost wake-up costs at most that, never a stall).
-        if wait_for_wake_ids(&waitset, &wake, FALLBACK_POLL, &mut ids)? == Wake::Stop {
+        if wait_for_wake(&waitset, &wake, FALLBACK_POLL)? == Wake::Stop {
             break;
         }
-        // Poll the servers of the vehicles that woke us; on anything else, all of them.
-        let targeted = !ids.is_empty() && ids.iter().all(|e| *e >= topics::EVENT_VEHICLE_BASE);
-        let mut slots: Vec<usize> = if targeted {
-            ids.iter()
-                .map(|e| e - topics::EVENT_VEHICLE_BASE)
-                .filter(|i| *i < servers.len())
-                .collect()
-        } else {
-            (0..servers.len()).collect()
-        };
-        slots.sort_unstable();
-        slots.dedup();
-        for &slot in &slots {
-            let server = &servers[slot];
-            while let Some(request) = server
-                .receive()
-                .map_err(|e| anyhow::anyhow!("receiving a request: {e:?}"))?
-            {
-                let req: SampleRequest = *request;
-                let h = req.header;
-                let recv_ns = wall_ns();
-                debug!(target: MSG_TARGET, hop = "field_request", sender = h.sender, tick = h.tick, seq = h.seq,
-                   sent_ns = h.sent_ns, recv_ns, "recv");
-                let value = if h.sender as usize == slot {
-                    world.sample(h.sender, h.tick, h.t, &to_vec3(&req.position))
+        while let Some(request) = server
+            .receive()
+            .map_err(|e| anyhow::anyhow!("receiving a request: {e:?}"))?
+        {
+            let batch: &SampleBatch = &request;
+            let h = batch.header;
+            msgs.recv(
+                "field_request",
+                h.sender,
+                Header::FIELD_SERVER,
+                h.tick,
+                h.seq,
+                h.sent_ns,
+                wall_ns(),
+            );
+            let from_coordinator = h.sender == Header::COORDINATOR;
+            reply.n = 0;
+            for read in batch.reads() {
+                let value = if from_coordinator && read.tick <= h.tick + 1 {
+                    sensors.read(read.vehicle, read.tick, read.t, &to_vec3(&read.position))
                 } else {
                     None
                 };
@@ -102,47 +98,34 @@ pub fn run(mission: &Mission, on_ready: impl FnOnce()) -> Result<()> {
                     rejected += 1;
                     warn!(
                         sender = h.sender,
-                        tick = h.tick,
+                        vehicle = read.vehicle,
+                        tick = read.tick,
                         rejected,
-                        "rejected a sample request"
+                        "rejected a sensor read"
                     );
                 }
-                seq += 1;
-                let reply = SampleReply {
-                    header: Header {
-                        sender: Header::FIELD_SERVER,
-                        flags: 0,
-                        tick: h.tick,
-                        t: h.t,
-                        seq,
-                        sent_ns: wall_ns(),
-                    },
-                    request_seq: h.seq,
-                    value: value.unwrap_or(f64::NAN),
+                reply.readings[reply.n as usize] = Reading {
+                    vehicle: read.vehicle,
                     rejected: u32::from(value.is_none()),
-                    _pad: 0,
+                    tick: read.tick,
+                    value: value.unwrap_or(f64::NAN),
                 };
-                request
-                    .send_copy(reply)
-                    .map_err(|e| anyhow::anyhow!("replying: {e:?}"))?;
-                served += 1;
-                if h.sender as usize == slot {
-                    let notifier = match notifiers.entry(h.sender) {
-                        std::collections::btree_map::Entry::Occupied(o) => o.into_mut(),
-                        std::collections::btree_map::Entry::Vacant(v) => v.insert(
-                            domain
-                                .vehicle_wake(&node, h.sender, &limits)?
-                                .notifier_builder()
-                                .default_event_id(topics::EVENT_SAMPLE)
-                                .create()
-                                .map_err(|e| {
-                                    anyhow::anyhow!("notifier for vehicle {}: {e:?}", h.sender)
-                                })?,
-                        ),
-                    };
-                    let _ = notifier.notify();
-                }
+                reply.n += 1;
             }
+            seq += 1;
+            reply.header = Header {
+                sender: Header::FIELD_SERVER,
+                flags: 0,
+                tick: h.tick,
+                t: h.t,
+                seq,
+                sent_ns: wall_ns(),
+            };
+            reply.request_seq = h.seq;
+            served += u64::from(reply.n);
+            // A reply to a client that died meanwhile is lost, which is fine.
+            let _ = request.send_copy(*reply);
+            let _ = coordinator.notify();
         }
         let mut finished = false;
         while let Some(sample) = body_sub
@@ -160,6 +143,7 @@ pub fn run(mission: &Mission, on_ready: impl FnOnce()) -> Result<()> {
             break;
         }
     }
+    msgs.flush();
     info!(served, rejected, "field server done");
     Ok(())
 }

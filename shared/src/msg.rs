@@ -62,11 +62,12 @@ pub fn from_vec3(v: &Vec3) -> [f64; 3] {
 pub mod agent_to_coordinator {
     use super::*;
 
-    /// A vehicle's state and its sensor reading at tick `header.tick`
-    /// (service `<mission>/vehicle/<id>/state`).
+    /// A vehicle's state at tick `header.tick` (service `<mission>/vehicle/<id>/state`).
+    /// Its sensor reading is taken where and when this state says, by the field server,
+    /// batched for the whole tick (see [`super::coordinator_to_field`]).
     #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.VehicleState.v2")]
+    #[type_name("vbap.VehicleState.v3")]
     pub struct VehicleState {
         pub header: Header,
         /// OS process id of the agent (the coordinator SIGKILLs it for a scheduled kill).
@@ -76,8 +77,6 @@ pub mod agent_to_coordinator {
         pub position: [f64; 3],
         /// Velocity ẋ_i, length unit/s.
         pub velocity: [f64; 3],
-        /// Sensor reading T_m(x_i, t) (field unit), taken at `position` and `header.t`.
-        pub measurement: f64,
     }
 
     impl VehicleState {
@@ -92,7 +91,6 @@ pub mod agent_to_coordinator {
             self.header.t.is_finite()
                 && self.position.iter().all(|v| v.is_finite())
                 && self.velocity.iter().all(|v| v.is_finite())
-                && self.measurement.is_finite()
         }
     }
 }
@@ -211,38 +209,109 @@ pub mod coordinator_to_agent {
     }
 }
 
-/// Vehicle → field server.
-pub mod agent_to_field {
+/// Coordinator → field server: the sensor reads of one tick, in one request.
+///
+/// Every vehicle's sensor reads where and when its state says. The coordinator, which
+/// gathers the states of a tick anyway, asks the field server for all of them at once: one
+/// round trip per tick instead of one per vehicle, and each agent wakes once per tick
+/// (for its command) instead of twice. The readings are the same numbers the vehicles
+/// would have read themselves: noise keyed by (seed, vehicle, tick), sensor faults applied
+/// by the field server, which simulates the sensors.
+pub mod coordinator_to_field {
     use super::*;
 
-    /// "What does my sensor read at this position and time?" (service `<mission>/field/sample`).
-    /// `header.sender` and `header.tick` key the sensor noise.
+    /// Where and when one vehicle's sensor reads.
     #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.SampleRequest.v1")]
-    pub struct SampleRequest {
-        pub header: Header,
+    #[type_name("vbap.SensorRead.v1")]
+    pub struct SensorRead {
+        /// Vehicle id (keys the sensor noise).
+        pub vehicle: u32,
+        pub _pad: u32,
+        /// Tick of the reading (keys the sensor noise).
+        pub tick: u64,
+        /// Mission time of the reading, s.
+        pub t: f64,
         /// Sensor position, length unit.
         pub position: [f64; 3],
     }
+
+    /// The sensor reads of one tick (service `<mission>/field/sample`).
+    #[derive(Debug, Clone, Copy, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.SampleBatch.v1")]
+    pub struct SampleBatch {
+        pub header: Header,
+        /// Number of valid entries in `reads`.
+        pub n: u32,
+        pub _pad: u32,
+        pub reads: [SensorRead; MAX_VEHICLES],
+    }
+
+    impl SampleBatch {
+        /// An empty batch.
+        pub fn empty() -> Self {
+            Self {
+                header: Header::default(),
+                n: 0,
+                _pad: 0,
+                reads: [SensorRead::default(); MAX_VEHICLES],
+            }
+        }
+        /// The valid entries.
+        pub fn reads(&self) -> &[SensorRead] {
+            &self.reads[..(self.n as usize).min(MAX_VEHICLES)]
+        }
+    }
 }
 
-/// Field server → vehicle.
-pub mod field_to_agent {
+/// Field server → coordinator.
+pub mod field_to_coordinator {
     use super::*;
 
-    /// The noisy reading T(p, t) + N(0, σ_M²).
+    /// One vehicle's noisy reading T(p, t) + N(0, σ_M²), sensor faults applied.
     #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.SampleReply.v1")]
-    pub struct SampleReply {
+    #[type_name("vbap.Reading.v1")]
+    pub struct Reading {
+        /// Vehicle id.
+        pub vehicle: u32,
+        /// 1 when the read was rejected (non-finite position, unknown vehicle).
+        pub rejected: u32,
+        /// Tick of the reading.
+        pub tick: u64,
+        /// The reading, field unit (NaN when rejected).
+        pub value: f64,
+    }
+
+    /// The answer to a [`super::coordinator_to_field::SampleBatch`], entry by entry.
+    #[derive(Debug, Clone, Copy, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.ReadingBatch.v1")]
+    pub struct ReadingBatch {
         pub header: Header,
         /// Sequence number of the request answered.
         pub request_seq: u64,
-        /// The reading, field unit.
-        pub value: f64,
-        /// 1 when the request was rejected (non-finite position, unknown vehicle).
-        pub rejected: u32,
+        /// Number of valid entries in `readings`.
+        pub n: u32,
         pub _pad: u32,
+        pub readings: [Reading; MAX_VEHICLES],
+    }
+
+    impl ReadingBatch {
+        /// An empty batch.
+        pub fn empty() -> Self {
+            Self {
+                header: Header::default(),
+                request_seq: 0,
+                n: 0,
+                _pad: 0,
+                readings: [Reading::default(); MAX_VEHICLES],
+            }
+        }
+        /// The valid entries.
+        pub fn readings(&self) -> &[Reading] {
+            &self.readings[..(self.n as usize).min(MAX_VEHICLES)]
+        }
     }
 }

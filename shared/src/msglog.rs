@@ -249,14 +249,15 @@ impl MsgLog {
     }
 
     /// The message log beside a process's tracing log: `X/<p>.jsonl` -> `X/<p>.msgs.csv`.
-    /// Disabled when `log_file` is None, or when the tracing filter does not enable
-    /// target `vbap::msg` at DEBUG (`tracing::enabled!(target: MSG_TARGET, tracing::Level::DEBUG)`;
-    /// so `RUST_LOG=info` still turns the records off as before). Call after telemetry::init.
+    /// Disabled when `log_file` is None, or when the tracing filter does not enable events
+    /// of target `vbap::msg` at DEBUG (so `RUST_LOG=info` turns the records off). Asked with
+    /// `tracing::event_enabled!`: plain `enabled!` asks about a hint, which the env filter
+    /// of [`crate::telemetry`] never enables. Call after `telemetry::init`.
     pub fn beside(log_file: Option<&Path>) -> std::io::Result<Self> {
         let Some(log_file) = log_file else {
             return Ok(Self::disabled());
         };
-        if !tracing::enabled!(target: MSG_TARGET, tracing::Level::DEBUG) {
+        if !tracing::event_enabled!(target: MSG_TARGET, tracing::Level::DEBUG) {
             return Ok(Self::disabled());
         }
         Self::open(&log_file.with_extension(&MSG_SUFFIX[1..]))

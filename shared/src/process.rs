@@ -74,3 +74,13 @@ pub fn finish(
     drop(log);
     std::process::exit(code);
 }
+
+/// The message-record log beside a process's tracing log (`logs/<process>.msgs.csv`);
+/// disabled, with a warning, when it cannot be opened (records are for analysis, never a
+/// reason to stop a mission). Call after the tracing setup.
+pub fn message_log(log_file: Option<&std::path::Path>) -> crate::msglog::MsgLog {
+    crate::msglog::MsgLog::beside(log_file).unwrap_or_else(|e| {
+        tracing::warn!(error = %e, "cannot open the message-record file: records are off");
+        crate::msglog::MsgLog::disabled()
+    })
+}

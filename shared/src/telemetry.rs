@@ -51,6 +51,17 @@ impl Write for SharedFileWriter {
     }
 }
 
+/// Every event is flushed to the file as soon as it is written: the tracing log holds the
+/// lifecycle lines only (message records go to their own file, `crate::msglog`), few
+/// enough for a write each, and a user tailing a running process's log sees them at once.
+impl Drop for SharedFileWriter {
+    fn drop(&mut self) {
+        if let Ok(mut f) = self.0.lock() {
+            let _ = f.flush();
+        }
+    }
+}
+
 impl<'a> MakeWriter<'a> for SharedFile {
     type Writer = SharedFileWriter;
     fn make_writer(&'a self) -> Self::Writer {

@@ -11,10 +11,10 @@
 //! |---|---|---|---|
 //! | `<m>/vehicle/<id>/state` | pub-sub `VehicleState` | agent `id` (the only publisher: the lock against two agents with one id) | coordinator (+1 spare) |
 //! | `<m>/body` | pub-sub `BodyCommand` (history 1) | coordinator | every agent, in place |
-//! | `<m>/vehicle/<id>/sample` | request-response | agent `id` (client) | field server |
-//! | `<m>/vehicle/<id>/wake` | event | coordinator, field server | agent `id` |
-//! | `<m>/coordinator/wake` | event | agents | coordinator |
-//! | `<m>/field/wake` | event | agents | field server |
+//! | `<m>/field/sample` | request-response `SampleBatch` → `ReadingBatch`: every sensor read of a tick at once | coordinator (client) | field server |
+//! | `<m>/vehicle/<id>/wake` | event | coordinator | agent `id` |
+//! | `<m>/coordinator/wake` | event | agents (event id per vehicle), field server | coordinator |
+//! | `<m>/field/wake` | event | coordinator | field server |
 
 use iceoryx2::config::Config;
 use iceoryx2::node::{Node, NodeBuilder, NodeState};
@@ -26,13 +26,13 @@ use iceoryx2::service::port_factory::{event, publish_subscribe, request_response
 use iceoryx2::signal_handling_mode::SignalHandlingMode;
 
 use crate::msg::agent_to_coordinator::VehicleState;
-use crate::msg::agent_to_field::SampleRequest;
 use crate::msg::coordinator_to_agent::BodyCommand;
-use crate::msg::field_to_agent::SampleReply;
+use crate::msg::coordinator_to_field::SampleBatch;
+use crate::msg::field_to_coordinator::ReadingBatch;
 
 /// Event id: a new body command was published.
 pub const EVENT_BODY: EventId = EventId::new(1);
-/// Event id: a sample reply is ready.
+/// Event id: the readings of a sample batch are ready.
 pub const EVENT_SAMPLE: EventId = EventId::new(2);
 /// Event id: a vehicle state was published / a request was sent.
 pub const EVENT_DATA: EventId = EventId::new(3);
@@ -263,26 +263,24 @@ impl Domain {
             .map_err(|e| service_err(&name, e))
     }
 
-    /// `<m>/vehicle/<id>/sample`: vehicle `id`'s sensor reads. One service per vehicle, so a
-    /// reply never scans the other vehicles' connections (a shared service makes every
-    /// reply O(N), every tick O(N²)).
-    pub fn field_service(
+    /// `<m>/field/sample`: the sensor reads of a tick, one batch per tick (coordinator →
+    /// field server). One client and one server: a reply scans one connection.
+    pub fn sample_service(
         &self,
         node: &Node<ipc::Service>,
-        id: u32,
         limits: &Limits,
     ) -> Result<
-        request_response::PortFactory<ipc::Service, SampleRequest, (), SampleReply, ()>,
+        request_response::PortFactory<ipc::Service, SampleBatch, (), ReadingBatch, ()>,
         TopicError,
     > {
-        let name = self.name(&format!("vehicle/{id}/sample"))?;
+        let name = self.name("field/sample")?;
         node.service_builder(&name)
-            .request_response::<SampleRequest, SampleReply>()
+            .request_response::<SampleBatch, ReadingBatch>()
             .max_servers(2)
             .max_clients(2)
             .max_nodes(limits.max_nodes())
-            .max_active_requests_per_client(4)
-            .max_response_buffer_size(4)
+            .max_active_requests_per_client(2)
+            .max_response_buffer_size(2)
             .enable_safe_overflow_for_requests(true)
             .enable_safe_overflow_for_responses(true)
             .open_or_create()
@@ -310,7 +308,7 @@ impl Domain {
             .map_err(|e| service_err(&name, e))
     }
 
-    /// `<m>/vehicle/<id>/wake`: the agent listens, coordinator and field server notify.
+    /// `<m>/vehicle/<id>/wake`: the agent listens, the coordinator notifies.
     pub fn vehicle_wake(
         &self,
         node: &Node<ipc::Service>,
@@ -327,7 +325,7 @@ impl Domain {
         )
     }
 
-    /// `<m>/coordinator/wake`: the coordinator listens, agents notify.
+    /// `<m>/coordinator/wake`: the coordinator listens, agents and the field server notify.
     pub fn coordinator_wake(
         &self,
         node: &Node<ipc::Service>,
@@ -343,20 +341,13 @@ impl Domain {
         )
     }
 
-    /// `<m>/field/wake`: the field server listens, agents notify.
+    /// `<m>/field/wake`: the field server listens, the coordinator notifies.
     pub fn field_wake(
         &self,
         node: &Node<ipc::Service>,
         limits: &Limits,
     ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
-        self.event_service(
-            node,
-            "field/wake",
-            2,
-            limits.fleet_ports() + 4,
-            limits,
-            EVENT_VEHICLE_BASE + crate::msg::MAX_VEHICLES,
-        )
+        self.event_service(node, "field/wake", 2, 4, limits, EVENT_ID_MAX)
     }
 }
 

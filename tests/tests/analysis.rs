@@ -155,10 +155,10 @@ fn analyze_json_of_a_multi_process_run() {
     }
     let delivered = |hop: &str| r["hops"][hop]["delivered"].as_u64().unwrap();
     // One state per vehicle per tick; one body command per vehicle per tick (+ the final
-    // "finished" command); one sensor read per vehicle per tick (+ the agents' last report).
+    // "finished" command); one batched sensor read per tick, answered once.
     assert_eq!(delivered("state"), n * TICKS);
     assert!((n * TICKS..=n * (TICKS + 1)).contains(&delivered("body")));
-    assert!((n * TICKS..=n * (TICKS + 1)).contains(&delivered("field_request")));
+    assert_eq!(delivered("field_request"), TICKS);
     assert_eq!(delivered("field_reply"), delivered("field_request"));
     let mut loops: Vec<&String> = r["loops"].as_object().unwrap().keys().collect();
     loops.sort();

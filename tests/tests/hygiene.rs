@@ -133,10 +133,9 @@ v_u = 10.0
             _pad: 0,
             position: [0.0; 3],
             velocity: [0.0; 3],
-            measurement: 1.0,
         };
         let mut nan = good;
-        nan.measurement = f64::NAN;
+        nan.velocity[1] = f64::NAN;
         let mut foreign = good;
         foreign.header.sender = 2;
         foreign.header.seq = 11;

@@ -10,7 +10,6 @@ pub mod run;
 
 use rand::Rng;
 use shared::config::Mission;
-use shared::faults::{FaultPlan, SensorState};
 use shared::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
 use shared::math::body::VirtualBody;
 use shared::math::control::{control_law, integrate};
@@ -229,7 +228,6 @@ pub struct Vehicle {
     link: LinkState,
     inbox: DelayQueue<Guidance>,
     current: Guidance,
-    sensor: SensorState,
     /// Downlink counters.
     pub counts: DownlinkCounts,
 }
@@ -242,15 +240,8 @@ impl Vehicle {
             link: LinkState::default(),
             inbox: DelayQueue::default(),
             current: initial,
-            sensor: SensorState::default(),
             counts: DownlinkCounts::default(),
         }
-    }
-
-    /// What the sensor reports at time `t` (s) when the field reads `raw`: the
-    /// mission's sensor faults applied.
-    pub fn read_sensor(&mut self, faults: &FaultPlan, t: f64, raw: f64) -> f64 {
-        faults.sensor(self.agent.id, t, raw, &mut self.sensor)
     }
 
     /// Nothing heard from the coordinator: hold station around the last visible leaders

@@ -41,6 +41,7 @@ fn main() {
     }
     let process = format!("vehicle_agent_{}", args.id);
     let log = shared::telemetry::init(&process, args.log.as_deref());
-    let result = vehicle_agent::run::run(&mission, args.id, args.rejoin, announce_ready);
+    let msgs = shared::process::message_log(args.log.as_deref());
+    let result = vehicle_agent::run::run(&mission, args.id, args.rejoin, msgs, announce_ready);
     finish(&process, result.err().map(|e| format!("{e:#}")), log);
 }

@@ -5,34 +5,38 @@
 //! (re)started agent that finds a mission under way asks to join (state flag
 //! `JOINING`) and waits until the coordinator admits it, then resumes from the state the
 //! coordinator hands back.
+//!
+//! One wake-up per tick: the command arrives, the vehicle steps, publishes its new state
+//! and waits again. Its sensor reading is taken by the field server where and when that
+//! state says, in the coordinator's batched read of the tick (see
+//! `shared::msg::coordinator_to_field`).
 
 use std::time::Duration;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use iceoryx2::prelude::*;
 use shared::config::{Mission, Pace};
-use shared::faults::FaultPlan;
 use shared::link::{Fate, LinkModel};
 use shared::msg::agent_to_coordinator::VehicleState;
-use shared::msg::agent_to_field::SampleRequest;
 use shared::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
 use shared::msg::{from_vec3, to_vec3, wall_ns, Header};
-use shared::telemetry::MSG_TARGET;
+use shared::msglog::MsgLog;
 use shared::topics::{self, wait_for_wake, Domain, Limits, Wake};
-use tracing::{debug, info, warn};
+use tracing::{info, warn};
 
 use crate::{initial_agent, initial_design, Agent, Guidance, Vehicle};
 
-/// How long an agent waits for a sensor reading before it wakes the field server again.
-const RENOTIFY_AFTER: Duration = Duration::from_millis(500);
-/// How long an agent waits for its sensor reading before it gives up (wall time).
-const SAMPLE_TIMEOUT: Duration = Duration::from_secs(10);
-
 /// Runs vehicle `id` of `mission` until the mission ends or a termination signal.
 /// `rejoin`: the process is a restart (the supervisor says so) and asks to join the
-/// mission under way instead of starting at tick 0. `on_ready` is called once every port
-/// exists.
-pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) -> Result<()> {
+/// mission under way instead of starting at tick 0. `msgs` receives the message records;
+/// `on_ready` is called once every port exists.
+pub fn run(
+    mission: &Mission,
+    id: u32,
+    rejoin: bool,
+    mut msgs: MsgLog,
+    on_ready: impl FnOnce(),
+) -> Result<()> {
     let name = &mission.mission.name;
     let dt = mission.mission.dt;
     let domain = Domain::new(name)?;
@@ -51,11 +55,6 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
         .subscriber_builder()
         .create()
         .map_err(|e| anyhow::anyhow!("subscribing to the body service: {e:?}"))?;
-    let client = domain
-        .field_service(&node, id, &limits)?
-        .client_builder()
-        .create()
-        .map_err(|e| anyhow::anyhow!("creating the field client: {e:?}"))?;
     let wake = domain
         .vehicle_wake(&node, id, &limits)?
         .listener_builder()
@@ -67,12 +66,6 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
         .default_event_id(topics::EVENT_DATA)
         .create()
         .map_err(|e| anyhow::anyhow!("creating the coordinator notifier: {e:?}"))?;
-    let field_notifier = domain
-        .field_wake(&node, &limits)?
-        .notifier_builder()
-        .default_event_id(topics::EVENT_DATA)
-        .create()
-        .map_err(|e| anyhow::anyhow!("creating the field notifier: {e:?}"))?;
     let waitset = WaitSetBuilder::new()
         .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
         .create::<ipc::Service>()
@@ -84,7 +77,6 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
     let design = initial_design(mission).context("initial formation design")?;
     let initial = Guidance::initial(mission, &design);
     let model = LinkModel::new(mission);
-    let plan = FaultPlan::new(mission);
     let mut vehicle = Vehicle::new(initial_agent(mission, &design, id), initial.clone());
     // Paced runs hold station when the coordinator is silent for a few ticks.
     let hold_after = match mission.mission.pace {
@@ -96,64 +88,8 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
     let mut last_body_seq: Option<u64> = None;
     let mut rejected: u64 = 0;
 
-    // Reads the sensor at the vehicle's position at tick k (through the field server).
-    let sample = |agent: &Agent, k: u64, seq: &mut u64| -> Result<Option<f64>> {
-        let t = k as f64 * dt;
-        *seq += 1;
-        let request = SampleRequest {
-            header: Header {
-                sender: id,
-                flags: 0,
-                tick: k,
-                t,
-                seq: *seq,
-                sent_ns: wall_ns(),
-            },
-            position: from_vec3(&agent.position),
-        };
-        let pending = client
-            .send_copy(request)
-            .map_err(|e| anyhow::anyhow!("sending a sample request: {e:?}"))?;
-        field_notifier
-            .notify_with_custom_event_id(topics::vehicle_event(id))
-            .map_err(|e| anyhow::anyhow!("waking the field server: {e:?}"))?;
-        let started = std::time::Instant::now();
-        loop {
-            if let Some(reply) = pending
-                .receive()
-                .map_err(|e| anyhow::anyhow!("receiving a sample: {e:?}"))?
-            {
-                let h = reply.header;
-                debug!(target: MSG_TARGET, hop = "field_reply", sender = h.sender, receiver = id, tick = h.tick,
-                       seq = h.seq, sent_ns = h.sent_ns, recv_ns = wall_ns(), "recv");
-                if reply.rejected != 0 || !reply.value.is_finite() {
-                    bail!("the field server rejected our sample request at tick {k}");
-                }
-                return Ok(Some(reply.value));
-            }
-            let left = SAMPLE_TIMEOUT.saturating_sub(started.elapsed());
-            if left.is_zero() {
-                bail!("no sensor reading from the field server within {SAMPLE_TIMEOUT:?}");
-            }
-            match wait_for_wake(&waitset, &wake, left.min(RENOTIFY_AFTER))? {
-                Wake::Stop => return Ok(None),
-                // No reply yet: ring again (a lost wake-up must not stall the mission).
-                Wake::Timeout => {
-                    warn!(
-                        vehicle = id,
-                        tick = k,
-                        "no sensor reading yet: waking the field server again"
-                    );
-                    field_notifier
-                        .notify_with_custom_event_id(topics::vehicle_event(id))
-                        .map_err(|e| anyhow::anyhow!("waking the field server: {e:?}"))?;
-                }
-                Wake::Events => {}
-            }
-        }
-    };
     let last_sent: std::cell::Cell<Option<VehicleState>> = std::cell::Cell::new(None);
-    let publish = |agent: &Agent, k: u64, value: f64, flags: u32, seq: &mut u64| -> Result<()> {
+    let publish = |agent: &Agent, k: u64, flags: u32, seq: &mut u64| -> Result<()> {
         *seq += 1;
         let state = VehicleState {
             header: Header {
@@ -168,7 +104,6 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
             _pad: 0,
             position: from_vec3(&agent.position),
             velocity: from_vec3(&agent.velocity),
-            measurement: value,
         };
         state_pub
             .send_copy(state)
@@ -179,16 +114,6 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
             .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
         Ok(())
     };
-    // Measure at tick k (sensor faults applied) and report. False on a stop signal.
-    let report = |vehicle: &mut Vehicle, k: u64, seq: &mut u64, flags: u32| -> Result<bool> {
-        let Some(raw) = sample(&vehicle.agent, k, seq)? else {
-            return Ok(false);
-        };
-        let value = vehicle.read_sensor(&plan, k as f64 * dt, raw);
-        publish(&vehicle.agent, k, value, flags, seq)?;
-        Ok(true)
-    };
-
     // A restarted process asks to join the mission under way; the coordinator admits it
     // by handing its last known state back in the snapshot.
     let mut joining = rejoin;
@@ -203,15 +128,10 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
         "agent up"
     );
     on_ready();
-    if joining {
-        publish(&vehicle.agent, k, 0.0, VehicleState::JOINING, &mut seq)?;
-    } else if !report(&mut vehicle, k, &mut seq, 0)? {
-        info!(vehicle = id, "stopped by signal");
-        return Ok(());
-    }
+    let flags = if joining { VehicleState::JOINING } else { 0 };
+    publish(&vehicle.agent, k, flags, &mut seq)?;
 
-    // Check for commands first, wait only when there is nothing to act on: a command may
-    // have arrived (and its wake-up been consumed) while we waited for a sensor reading.
+    // Check for commands first, wait only when there is nothing to act on.
     let mut idle = false;
     loop {
         if idle {
@@ -236,9 +156,7 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
                             tick = k,
                             "coordinator silent: holding station"
                         );
-                        if !report(&mut vehicle, k, &mut seq, VehicleState::HOLDING)? {
-                            return Ok(());
-                        }
+                        publish(&vehicle.agent, k, VehicleState::HOLDING, &mut seq)?;
                         continue;
                     }
                 }
@@ -256,8 +174,7 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
         {
             let body: &BodyCommand = &sample;
             let h = body.header;
-            debug!(target: MSG_TARGET, hop = "body", sender = h.sender, receiver = id, tick = h.tick, seq = h.seq,
-                   sent_ns = h.sent_ns, recv_ns = wall_ns(), "recv");
+            msgs.recv("body", h.sender, id, h.tick, h.seq, h.sent_ns, wall_ns());
             if h.sender == Header::COORDINATOR && last_body_seq == Some(h.seq) {
                 // A duplicate: a restarted coordinator re-sends its last command. Send our
                 // last state again so it gets it (a new subscriber's history arrives only
@@ -369,20 +286,15 @@ pub fn run(mission: &Mission, id: u32, rejoin: bool, on_ready: impl FnOnce()) ->
         let fate = vehicle.on_command(&model, guidance, tick, dt);
         match fate {
             Fate::Deliver { injected, .. } if injected > 0.0 => {
-                debug!(target: MSG_TARGET, hop = "body_link", receiver = id, tick, injected_ms = injected * 1e3, "held")
+                msgs.held("body", Header::COORDINATOR, id, tick, injected)
             }
-            Fate::Drop(reason) => {
-                debug!(target: MSG_TARGET, hop = "body", receiver = id, tick, reason = reason.as_str(), "drop")
-            }
+            Fate::Drop(reason) => msgs.drop("body", Header::COORDINATOR, id, tick, reason.as_str()),
             _ => {}
         }
         k = tick + 1;
         if k >= mission.ticks() {
             continue; // the last tick's state is never used: wait for the end of the mission
         }
-        if !report(&mut vehicle, k, &mut seq, 0)? {
-            info!(vehicle = id, tick = k, "stopped by signal");
-            return Ok(());
-        }
+        publish(&vehicle.agent, k, 0, &mut seq)?;
     }
 }

@@ -65,7 +65,7 @@ const PEER_TIMEOUT: Duration = Duration::from_secs(10);
 /// Bytes of a [`VehicleState`] on the wire (UDP): the size of the struct itself.
 const WIRE: usize = std::mem::size_of::<VehicleState>();
 /// Bytes [`encode`] fills (every field of the layout it knows); the rest stays zero.
-const ENCODED: usize = 40 + 8 + 7 * 8;
+const ENCODED: usize = 40 + 8 + 6 * 8;
 const _: () = assert!(ENCODED <= WIRE);
 
 /// One floor of the hop.
@@ -279,17 +279,16 @@ fn ping(i: u64, flags: u32) -> VehicleState {
         pid: std::process::id(),
         position: [1.0 + i as f64, 2.0, 0.0],
         velocity: [0.5, -0.25, 0.0],
-        measurement: 3.5,
         ..VehicleState::default()
     }
 }
 
 /// The answer to `ping`, received at `recv_ns`: carries the ping's one-way latency (ns)
-/// in `measurement`, and its own send stamp.
+/// in `position[2]` (a ping's is always 0), and its own send stamp.
 fn pong(ping: &VehicleState, recv_ns: u64) -> VehicleState {
     let mut reply = *ping;
     reply.header.sender = 1;
-    reply.measurement = recv_ns.saturating_sub(ping.header.sent_ns) as f64;
+    reply.position[2] = recv_ns.saturating_sub(ping.header.sent_ns) as f64;
     reply.header.sent_ns = wall_ns();
     reply
 }
@@ -303,7 +302,7 @@ struct Samples {
 
 impl Samples {
     fn push(&mut self, reply: &VehicleState, recv_ns: u64, rtt: Duration) {
-        self.one_way_us.push(reply.measurement / 1e3);
+        self.one_way_us.push(reply.position[2] / 1e3);
         self.one_way_us
             .push(recv_ns.saturating_sub(reply.header.sent_ns) as f64 / 1e3);
         self.round_trip_us.push(rtt.as_secs_f64() * 1e6);
@@ -465,7 +464,7 @@ fn encode(s: &VehicleState) -> [u8; WIRE] {
         out[at..at + f.len()].copy_from_slice(f);
         at += f.len();
     }
-    for v in s.position.iter().chain(&s.velocity).chain([&s.measurement]) {
+    for v in s.position.iter().chain(&s.velocity) {
         out[at..at + 8].copy_from_slice(&v.to_le_bytes());
         at += 8;
     }
@@ -490,7 +489,6 @@ fn decode(b: &[u8; WIRE]) -> VehicleState {
         pid: u32_at(40),
         position: [f64_at(48), f64_at(56), f64_at(64)],
         velocity: [f64_at(72), f64_at(80), f64_at(88)],
-        measurement: f64_at(96),
         ..VehicleState::default()
     }
 }
@@ -769,7 +767,7 @@ mod tests {
         let s = ping(7, 3);
         assert_eq!(decode(&encode(&s)), s);
         let mut odd = s;
-        odd.measurement = -0.0;
+        odd.velocity[2] = -0.0;
         odd.position = [f64::MAX, f64::MIN_POSITIVE, 1e-300];
         assert_eq!(encode(&decode(&encode(&odd))), encode(&odd));
     }
