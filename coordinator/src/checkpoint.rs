@@ -4,7 +4,16 @@
 //!
 //! The codec (postcard: compact, exact for f64) lives here and nowhere else. Written after
 //! every tick into one of two alternating files, so a restarted
-//! coordinator is never more than the tick in progress behind. In lockstep that tick is
+//! coordinator is never more than the tick in progress behind.
+//!
+//! What grows with the mission is journaled instead of rewritten every tick: the reports
+//! the link model holds (a glider's two hours under water are hundreds of reports per
+//! vehicle) and the body track kept for dead reckoning. Each is appended once, when first
+//! seen, to `coordinator.journal.reports` / `coordinator.journal.track` (records of a
+//! little-endian u32 length and a postcard body); the checkpoint records how many bytes
+//! of each it covers and the small marks that tell which journaled entries are still held
+//! ([`Fleet::restore_journaled`]). A checkpoint so costs what changed in the tick, not
+//! what is in flight. In lockstep that tick is
 //! redone from the same inputs (the agents' states are still there, history 1), which
 //! makes a run with a coordinator crash byte-identical to one without.
 
@@ -14,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use shared::rundir::{FileOffsets, MessageCounts, RunDir};
 
 use crate::fleet::Fleet;
-use crate::planner::Planner;
+use crate::planner::{Planner, Report};
 use crate::record::RecorderStats;
 
 /// What a peer process was last known as.
@@ -41,6 +50,23 @@ pub struct Checkpoint {
     pub peers: Vec<PeerMark>,
     /// The command of the last tick, re-published on resume.
     pub body: crate::run::BodyRecord,
+    /// What of the journals this checkpoint covers.
+    pub journal: JournalMarks,
+}
+
+/// The part of the journals a checkpoint covers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct JournalMarks {
+    /// Bytes of `coordinator.journal.reports` covered.
+    pub reports_bytes: u64,
+    /// Sequence number of the next held report.
+    pub reports_next: u64,
+    /// Bytes of `coordinator.journal.track` covered.
+    pub track_bytes: u64,
+    /// First tick of the body track still kept (None: empty).
+    pub track_from: Option<u64>,
+    /// Last tick journaled (None: none yet).
+    pub track_last: Option<u64>,
 }
 
 /// A checkpoint written from borrowed state (no clone of the planner or the fleet per
@@ -59,12 +85,15 @@ pub struct CheckpointRef<'a> {
     pub rejoin_ms: &'a [f64],
     pub peers: &'a [PeerMark],
     pub body: &'a crate::run::BodyRecord,
+    /// Filled in by [`CheckpointWriter::save`].
+    pub journal: JournalMarks,
 }
 
 impl CheckpointRef<'_> {
-    /// Writes this checkpoint with `writer`.
-    pub fn save_with(&self, writer: &mut CheckpointWriter) -> io::Result<()> {
-        writer.save(self)
+    /// Writes this checkpoint with `writer` (journal first, then the checkpoint).
+    pub fn save_with(mut self, writer: &mut CheckpointWriter) -> io::Result<()> {
+        self.journal = writer.journal(self.fleet)?;
+        writer.save(&self)
     }
 }
 
@@ -86,8 +115,65 @@ impl Checkpoint {
                 Err(e) => return Err(e),
             }
         }
-        Ok(best)
+        let Some(mut cp) = best else {
+            return Ok(None);
+        };
+        let [reports, track] = journals(dir);
+        let held: Vec<(f64, u64, Report)> = read_journal(&reports, cp.journal.reports_bytes)?;
+        let kept: Vec<(u64, shared::math::Vec3)> = read_journal(&track, cp.journal.track_bytes)?;
+        cp.fleet
+            .restore_journaled(cp.journal.reports_next, held, kept, cp.journal.track_from);
+        Ok(Some(cp))
     }
+}
+
+/// The two journals of a run directory: held reports, body track.
+fn journals(dir: &RunDir) -> [std::path::PathBuf; 2] {
+    [
+        dir.root.join("coordinator.journal.reports"),
+        dir.root.join("coordinator.journal.track"),
+    ]
+}
+
+/// The records of the first `len` bytes of journal `path` (absent: none).
+fn read_journal<T: for<'de> Deserialize<'de>>(
+    path: &std::path::Path,
+    len: u64,
+) -> io::Result<Vec<T>> {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == io::ErrorKind::NotFound && len == 0 => return Ok(Vec::new()),
+        Err(e) => return Err(e),
+    };
+    let bad = |what: &str| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!("{}: {what}", path.display()),
+        )
+    };
+    let mut rest = bytes
+        .get(..len as usize)
+        .ok_or_else(|| bad("shorter than its checkpoint says"))?;
+    let mut out = Vec::new();
+    while !rest.is_empty() {
+        let (head, tail) = rest.split_at_checked(4).ok_or_else(|| bad("torn record"))?;
+        let n = u32::from_le_bytes(head.try_into().expect("4 bytes")) as usize;
+        let (body, tail) = tail.split_at_checked(n).ok_or_else(|| bad("torn record"))?;
+        out.push(postcard::from_bytes(body).map_err(|e| bad(&e.to_string()))?);
+        rest = tail;
+    }
+    Ok(out)
+}
+
+/// Appends length-prefixed postcard records to a journal buffer.
+fn append_record(buf: &mut Vec<u8>, value: &impl Serialize) -> io::Result<()> {
+    let at = buf.len();
+    buf.extend_from_slice(&[0; 4]);
+    let mut taken = postcard::to_extend(value, std::mem::take(buf)).map_err(io::Error::other)?;
+    let n = (taken.len() - at - 4) as u32;
+    taken[at..at + 4].copy_from_slice(&n.to_le_bytes());
+    *buf = taken;
+    Ok(())
 }
 
 /// The two checkpoint slots of a run directory.
@@ -105,11 +191,16 @@ pub struct CheckpointWriter {
     files: [std::fs::File; 2],
     turn: usize,
     buffer: Vec<u8>,
+    /// Journals of held reports and of the body track, appended to.
+    journals: [std::fs::File; 2],
+    marks: JournalMarks,
 }
 
 impl CheckpointWriter {
-    /// Opens (creating) the two slots of `dir`.
-    pub fn open(dir: &RunDir) -> io::Result<Self> {
+    /// Opens (creating) the two slots and the journals of `dir`; `resumed`: the marks of
+    /// the checkpoint a restarted coordinator resumes from (the journals are cut back to
+    /// them), None for a new run (empty journals).
+    pub fn open(dir: &RunDir, resumed: Option<JournalMarks>) -> io::Result<Self> {
         let open = |p: &std::path::Path| {
             std::fs::OpenOptions::new()
                 .create(true)
@@ -119,11 +210,43 @@ impl CheckpointWriter {
                 .open(p)
         };
         let [a, b] = slots(dir);
+        let marks = resumed.unwrap_or_default();
+        let [reports, track] = journals(dir);
+        let (reports, track) = (open(&reports)?, open(&track)?);
+        reports.set_len(marks.reports_bytes)?;
+        track.set_len(marks.track_bytes)?;
         Ok(Self {
             files: [open(&a)?, open(&b)?],
             turn: 0,
             buffer: Vec::with_capacity(1 << 16),
+            journals: [reports, track],
+            marks,
         })
+    }
+
+    /// Appends to the journals what `fleet` holds that they do not have yet; returns the
+    /// marks of the journals as they now are.
+    fn journal(&mut self, fleet: &Fleet) -> io::Result<JournalMarks> {
+        use std::os::unix::fs::FileExt;
+        let (held, next) = fleet.held_reports();
+        self.buffer.clear();
+        for entry in held.iter().filter(|e| e.1 >= self.marks.reports_next) {
+            append_record(&mut self.buffer, entry)?;
+        }
+        self.journals[0].write_all_at(&self.buffer, self.marks.reports_bytes)?;
+        self.marks.reports_bytes += self.buffer.len() as u64;
+        self.marks.reports_next = next;
+        let track = fleet.body_track();
+        self.buffer.clear();
+        let after = self.marks.track_last;
+        for (k, r) in track.range(after.map_or(0, |l| l + 1)..) {
+            append_record(&mut self.buffer, &(*k, *r))?;
+            self.marks.track_last = Some(*k);
+        }
+        self.journals[1].write_all_at(&self.buffer, self.marks.track_bytes)?;
+        self.marks.track_bytes += self.buffer.len() as u64;
+        self.marks.track_from = track.keys().next().copied();
+        Ok(self.marks)
     }
 
     /// Writes `cp` into the older slot.
@@ -137,5 +260,84 @@ impl CheckpointWriter {
         file.write_all_at(&self.buffer, 0)?;
         self.turn = 1 - self.turn;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::planner::PlannerParams;
+    use crate::run::BodyRecord;
+    use shared::config::Mission;
+    use shared::math::Vec3;
+
+    /// Saves after every tick of a fleet whose links hold reports for a while, then reads
+    /// each checkpoint back: the journaled parts come back exactly.
+    #[test]
+    fn journals_restore_held_reports_and_body_track() {
+        let m = Mission::from_toml_str(
+            "[vehicles]\ncount = 4\n[links]\ndelay = 0.3\njitter = 0.2\nloss = 0.1\n\
+             surfacing_period = 4.0\nsurfacing_window = 1.0\n",
+            "<test>",
+        )
+        .unwrap();
+        let root = std::env::temp_dir().join(format!("vbap-cp-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = RunDir::create(&root).unwrap();
+        let ids = [0, 1, 2, 3];
+        let mut fleet = Fleet::new(&m, &ids);
+        let planner = Planner::new(PlannerParams::from_mission(&m), m.start_vec(), &ids).unwrap();
+        let stats = RecorderStats::default();
+        let body = BodyRecord::default();
+        let dt = 0.05;
+        let mut writer = CheckpointWriter::open(&dir, None).unwrap();
+        let mut held_at_some_point = 0;
+        for k in 0..400u64 {
+            if k == 150 {
+                fleet.lose(2);
+            }
+            let truth: Vec<Report> = fleet
+                .alive()
+                .map(|id| Report {
+                    id,
+                    tick: k,
+                    position: Vec3::new(k as f64, id as f64, 0.0),
+                    velocity: Vec3::new(1.0, 0.0, 0.0),
+                    measurement: 0.5 * k as f64,
+                })
+                .collect();
+            fleet.receive(k, dt, &truth);
+            fleet.track_body(k, Vec3::new(0.1 * k as f64, 0.0, 0.0));
+            fleet.deliver(k as f64 * dt, dt);
+            fleet.end_tick();
+            held_at_some_point = held_at_some_point.max(fleet.held_reports().0.len());
+            CheckpointRef {
+                next_tick: k + 1,
+                planner: &planner,
+                fleet: &fleet,
+                stats: &stats,
+                offsets: FileOffsets::default(),
+                counts: MessageCounts::default(),
+                sent: k,
+                late_ticks: 0,
+                detection_ms: &[],
+                rejoin_ms: &[],
+                peers: &[],
+                body: &body,
+                journal: JournalMarks::default(),
+            }
+            .save_with(&mut writer)
+            .unwrap();
+            let back = Checkpoint::load(&dir).unwrap().unwrap();
+            assert_eq!(back.next_tick, k + 1);
+            assert_eq!(back.fleet.held_reports(), fleet.held_reports(), "tick {k}");
+            assert_eq!(back.fleet.body_track(), fleet.body_track(), "tick {k}");
+        }
+        assert!(held_at_some_point > 20, "the links held reports");
+        // A restarted writer continues the journals where its checkpoint left them.
+        let marks = Checkpoint::load(&dir).unwrap().unwrap().journal;
+        let again = CheckpointWriter::open(&dir, Some(marks)).unwrap();
+        assert_eq!(again.marks, marks);
+        let _ = std::fs::remove_dir_all(&root);
     }
 }

@@ -26,13 +26,24 @@ pub struct UplinkCounts {
 pub struct Fleet {
     model: LinkModel,
     links: BTreeMap<u32, LinkState>,
+    /// Reports held by the link model. Not in the checkpoint itself: it can hold hours of
+    /// stored-and-forwarded reports, so the checkpoint journals it (see
+    /// [`Fleet::restore_journaled`]).
+    #[serde(skip)]
     inbox: DelayQueue<Report>,
+    /// Mission time of the last release from `inbox` (every report due by then is out).
+    last_release: f64,
+    /// (vehicle, sequence bound): the reports of a lost vehicle held before it was lost
+    /// (sequence numbers below the bound) were dropped.
+    purged: Vec<(u32, u64)>,
     alive: BTreeSet<u32>,
     latest: BTreeMap<u32, Report>,
     last_truth: BTreeMap<u32, Report>,
     lost: BTreeSet<u32>,
     admitted: Vec<Report>,
-    /// Virtual body centre at each tick still needed for dead reckoning.
+    /// Virtual body centre at each tick still needed for dead reckoning (journaled like
+    /// `inbox`).
+    #[serde(skip)]
     body_track: BTreeMap<u64, Vec3>,
     /// Uplink counters.
     pub counts: UplinkCounts,
@@ -76,6 +87,8 @@ impl Fleet {
             model: LinkModel::new(mission),
             links: BTreeMap::new(),
             inbox: DelayQueue::default(),
+            last_release: f64::NEG_INFINITY,
+            purged: Vec::new(),
             alive: ids.iter().copied().collect(),
             latest,
             last_truth: BTreeMap::new(),
@@ -106,6 +119,46 @@ impl Fleet {
         self.lost.contains(&v)
     }
 
+    /// The reports held by the link model: (delivery time, sequence number, report) in
+    /// the order they were held, and the sequence number of the next one.
+    pub fn held_reports(&self) -> (&[(f64, u64, Report)], u64) {
+        (self.inbox.held(), self.inbox.next_seq())
+    }
+
+    /// The body track kept for dead reckoning: tick → virtual body centre.
+    pub fn body_track(&self) -> &BTreeMap<u64, Vec3> {
+        &self.body_track
+    }
+
+    /// Restores the journaled parts of a fleet read back from a checkpoint: `held` is
+    /// every report ever held up to the checkpoint (in the order held; those released or
+    /// purged since are skipped), `next` the sequence number of the next one; `track` the
+    /// body track journal, of which the ticks from `track_from` on are kept.
+    pub fn restore_journaled(
+        &mut self,
+        next: u64,
+        held: impl IntoIterator<Item = (f64, u64, Report)>,
+        track: impl IntoIterator<Item = (u64, Vec3)>,
+        track_from: Option<u64>,
+    ) {
+        let kept = held
+            .into_iter()
+            .filter(|(at, seq, r)| {
+                *at > self.last_release
+                    && *seq < next
+                    && !self
+                        .purged
+                        .iter()
+                        .any(|(v, bound)| *v == r.id && *seq < *bound)
+            })
+            .collect();
+        self.inbox = DelayQueue::from_parts(next, kept);
+        self.body_track = match track_from {
+            Some(from) => track.into_iter().filter(|(k, _)| *k >= from).collect(),
+            None => BTreeMap::new(),
+        };
+    }
+
     /// Vehicle `v` is gone (killed, dead): forget what it sent that is still in flight.
     /// Returns false when it was not alive.
     pub fn lose(&mut self, v: u32) -> bool {
@@ -114,6 +167,7 @@ impl Fleet {
         }
         self.lost.insert(v);
         self.latest.remove(&v);
+        self.purged.push((v, self.inbox.next_seq()));
         self.inbox.retain(|r| r.id != v);
         self.admitted.retain(|r| r.id != v);
         true
@@ -180,6 +234,7 @@ impl Fleet {
     /// planner — the latest delivered report of every alive vehicle (ordered by id) and
     /// the reports delivered now (in delivery order).
     pub fn deliver(&mut self, t: f64, dt: f64) -> (Vec<Report>, Vec<Report>) {
+        self.last_release = t;
         let fresh: Vec<Report> = self
             .inbox
             .pop_due(t)

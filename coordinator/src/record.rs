@@ -23,7 +23,7 @@ const PLOT_SNAPSHOTS: usize = 6;
 const PLOT_POINTS: usize = 2000;
 
 /// The running figures of `summary.json` (checkpointed with the coordinator).
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RecorderStats {
     pub max_v_over_vu: f64,
     pub last_outside: Option<f64>,

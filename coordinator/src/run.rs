@@ -20,7 +20,7 @@ use shared::rundir::{MessageCounts, RunDir};
 use shared::topics::{self, wait_for_wake, wait_for_wake_ids, Domain, Limits, Wake};
 use tracing::{debug, info, warn};
 
-use crate::checkpoint::{Checkpoint, CheckpointRef, CheckpointWriter, PeerMark};
+use crate::checkpoint::{Checkpoint, CheckpointRef, CheckpointWriter, JournalMarks, PeerMark};
 use crate::fleet::Fleet;
 use crate::planner::{Planner, PlannerParams, Report};
 use crate::record::Recorder;
@@ -355,6 +355,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
     // A restarted coordinator resumes from its checkpoint.
     let mut republish: Option<BodyRecord> = None;
     let resumed = Checkpoint::load(dir).context("reading the checkpoint")?;
+    let resumed_marks = resumed.as_ref().map(|cp| cp.journal);
     let (mut planner, mut fleet, mut recorder, mut k) = match resumed {
         Some(cp) => {
             dir.truncate_to(&cp.offsets)
@@ -397,7 +398,9 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
     // A coordinator that is never restarted needs no checkpoint.
     let mut checkpoints = match mission.restart.coordinator {
         RestartPolicy::Never => None,
-        _ => Some(CheckpointWriter::open(dir).context("opening the checkpoint files")?),
+        _ => Some(
+            CheckpointWriter::open(dir, resumed_marks).context("opening the checkpoint files")?,
+        ),
     };
     let mut body = Box::new(BodyCommand::empty());
     info!(vehicles = n, ticks, start_tick = k, "coordinator up");
@@ -708,6 +711,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                 rejoin_ms: &rejoin_ms,
                 peers: &peers,
                 body: &record,
+                journal: JournalMarks::default(),
             }
             .save_with(writer)
             .context("writing the checkpoint")?;
@@ -762,7 +766,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
 }
 
 /// The content of one body command (kept in the checkpoint for a re-send).
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct BodyRecord {
     pub tick: u64,
     pub t: f64,

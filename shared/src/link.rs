@@ -260,6 +260,22 @@ impl<T> DelayQueue<T> {
         due.into_iter().map(|(_, _, item)| item).collect()
     }
 
+    /// The sequence number the next held item gets (items are numbered 0, 1, … as held).
+    pub fn next_seq(&self) -> u64 {
+        self.next
+    }
+
+    /// The held items as (delivery time, sequence number, item), in the order they were
+    /// held.
+    pub fn held(&self) -> &[(f64, u64, T)] {
+        &self.held
+    }
+
+    /// A queue holding `held` (in the order they were held), numbering from `next` on.
+    pub fn from_parts(next: u64, held: Vec<(f64, u64, T)>) -> Self {
+        Self { held, next }
+    }
+
     /// Drops every held item for which `keep` is false.
     pub fn retain(&mut self, mut keep: impl FnMut(&T) -> bool) {
         self.held.retain(|(_, _, item)| keep(item));

@@ -121,7 +121,9 @@ fn pid_of(needle: &str) -> Option<u32> {
 fn a_killed_coordinator_resumes_from_its_checkpoint_and_the_run_equals_the_simulator() {
     let tmp = TempDir::new("coordkill");
     let name = unique_name("coordkill");
-    let extra = "[links]\ndelay = 0.1\nloss = 0.05\n";
+    // Surfacing windows: the checkpoint's journals hold reports in flight across the kill.
+    let extra =
+        "[links]\ndelay = 0.1\nloss = 0.05\nsurfacing_period = 4.0\nsurfacing_window = 1.0\n";
     let file = write_mission(
         &tmp,
         "m.toml",
