@@ -54,7 +54,9 @@ struct Peer {
 
 /// The coordinator's I/O state, apart from the pure planner and fleet.
 struct Inbox {
-    latest: BTreeMap<u32, VehicleState>,
+    /// The states received and not used yet, per vehicle by tick (lockstep agents may run
+    /// ahead: see `vehicle_agent::Vehicle::ready_to_step`).
+    latest: BTreeMap<u32, BTreeMap<u64, VehicleState>>,
     peers: Vec<Peer>,
     joins: BTreeSet<u32>,
     counts: MessageCounts,
@@ -62,6 +64,30 @@ struct Inbox {
 }
 
 impl Inbox {
+    /// Vehicle `v`'s state for tick `k`: of that very tick in lockstep, the newest one in
+    /// paced runs.
+    fn state(&self, v: u32, k: u64, paced: bool) -> Option<&VehicleState> {
+        let states = self.latest.get(&v)?;
+        if paced {
+            states.values().next_back()
+        } else {
+            states.get(&k)
+        }
+    }
+
+    /// Forgets the states tick `k` has used (lockstep), or all but the newest (paced).
+    fn used(&mut self, k: u64, paced: bool) {
+        for states in self.latest.values_mut() {
+            if paced {
+                while states.len() > 1 {
+                    states.pop_first();
+                }
+            } else {
+                *states = states.split_off(&(k + 1));
+            }
+        }
+    }
+
     /// Drains every state subscriber; validates; keeps the newest state per alive vehicle
     /// and the join requests.
     fn drain(
@@ -120,7 +146,8 @@ impl Inbox {
                 // old process are not one.
                 let new_process = s.pid != peer.pid && (joining || fleet.is_lost(id));
                 let replay = !new_process && peer.last_seq.is_some_and(|q| h.seq <= q);
-                let future = h.tick > k + 1;
+                // Lockstep agents may run ahead by LOOKAHEAD_TICKS.
+                let future = h.tick > k + 1 + Limits::LOOKAHEAD_TICKS;
                 if h.sender != id || replay || future || !s.is_finite() {
                     self.counts.rejected += 1;
                     warn!(
@@ -154,13 +181,7 @@ impl Inbox {
                     continue;
                 }
                 self.counts.delivered += 1;
-                if self
-                    .latest
-                    .get(&id)
-                    .is_none_or(|old| h.tick >= old.header.tick)
-                {
-                    self.latest.insert(id, s);
-                }
+                self.latest.entry(id).or_default().insert(h.tick, s);
             }
         }
         Ok(())
@@ -184,7 +205,7 @@ impl SensorReads {
         &mut self,
         k: u64,
         dt: f64,
-        states: &[&VehicleState],
+        states: &[VehicleState],
         waitset: &iceoryx2::waitset::WaitSet<ipc::Service>,
         wake: &iceoryx2::port::listener::Listener<ipc::Service>,
         msgs: &mut MsgLog,
@@ -516,7 +537,11 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
             let missing: Vec<u32> = fleet
                 .alive()
                 .filter(|v| !admitted.contains(v))
-                .filter(|v| inbox.latest.get(v).is_none_or(|s| s.header.tick < k))
+                .filter(|&v| {
+                    inbox
+                        .state(v, k, paced.is_some())
+                        .is_none_or(|s| s.header.tick < k)
+                })
                 .collect();
             // Liveness: tell a dead process from a slow one.
             let scan_due = last_scan.elapsed() >= LIVENESS_EVERY;
@@ -613,11 +638,10 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
         }
 
         // The states of the tick, and their sensor readings in one batched read.
-        let states: Vec<&VehicleState> = fleet
+        let states: Vec<VehicleState> = fleet
             .alive()
             .filter(|v| !admitted.contains(v))
-            .filter_map(|v| inbox.latest.get(&v))
-            .filter(|s| paced.is_some() || s.header.tick == k)
+            .filter_map(|v| inbox.state(v, k, paced.is_some()).copied())
             .collect();
         let Some(readings) = sensors.read(k, dt, &states, &waitset, &wake, &mut inbox.msgs)? else {
             stopped = true;
@@ -642,6 +666,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                 measurement,
             });
         }
+        inbox.used(k, paced.is_some());
         let t = k as f64 * dt;
         let fates = fleet.receive(k, dt, &truth);
         for (v, fate) in &fates {

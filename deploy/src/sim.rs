@@ -36,7 +36,7 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
         .map(|&id| {
             (
                 id,
-                Vehicle::new(initial_agent(mission, &design, id), initial.clone()),
+                Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0),
             )
         })
         .collect();
@@ -71,7 +71,7 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
                     position: restore.position,
                     velocity: restore.velocity,
                 };
-                vehicles.insert(v, Vehicle::new(agent, initial.clone()));
+                vehicles.insert(v, Vehicle::new(agent, initial.clone(), k));
                 recorder.rejoined(k, v)?;
             }
         }

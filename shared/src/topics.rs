@@ -86,6 +86,10 @@ impl Limits {
     }
     /// Buffer of a vehicle-state subscriber: enough for a burst of stored-and-forwarded states.
     pub const STATE_BUFFER: usize = 64;
+    /// Ticks a lockstep agent may run ahead of the newest command it has received (the
+    /// conservative lookahead of `vehicle_agent::Vehicle::ready_to_step`): its states must
+    /// fit the coordinator's state buffer between two of its drains.
+    pub const LOOKAHEAD_TICKS: u64 = 48;
 }
 
 /// The iceoryx2 domain of one mission.

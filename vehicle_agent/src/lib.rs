@@ -8,6 +8,8 @@
 
 pub mod run;
 
+use std::collections::BTreeMap;
+
 use rand::Rng;
 use shared::config::Mission;
 use shared::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
@@ -221,6 +223,13 @@ pub struct DownlinkCounts {
 /// One vehicle with its side of the link: the per-tick logic of an agent, pure. The
 /// command of every tick arrives (it is the lockstep clock); the link model decides when
 /// its content becomes visible; the vehicle steers by the newest visible guidance.
+///
+/// The fates of commands are drawn in command order, from the key (seed, vehicle, tick)
+/// alone, so a vehicle can know before a command arrives that it will not be visible
+/// for a while (under water, or a long delay): [`Vehicle::ready_to_step`] says whether
+/// every command the next step needs is in. This is the conservative lookahead that lets
+/// a submerged glider run ahead of the coordinator and still move exactly as in the
+/// in-process simulator.
 #[derive(Clone, Debug)]
 pub struct Vehicle {
     /// The vehicle's dynamics.
@@ -228,18 +237,29 @@ pub struct Vehicle {
     link: LinkState,
     inbox: DelayQueue<Guidance>,
     current: Guidance,
+    /// The next command whose fate is to be drawn.
+    next_fate: u64,
+    /// Fates drawn for commands not received yet (command tick → fate).
+    ahead: BTreeMap<u64, Fate>,
+    /// Fates drawn since [`Vehicle::take_drawn`] was last called (for the logs).
+    drawn: Vec<(u64, Fate)>,
     /// Downlink counters.
     pub counts: DownlinkCounts,
 }
 
 impl Vehicle {
-    /// A vehicle starting with `initial` guidance.
-    pub fn new(agent: Agent, initial: Guidance) -> Self {
+    /// A vehicle starting with `initial` guidance, whose first command is that of tick
+    /// `first_command` (0 at the start of a mission, the tick of admission for a vehicle
+    /// admitted back).
+    pub fn new(agent: Agent, initial: Guidance, first_command: u64) -> Self {
         Self {
             agent,
             link: LinkState::default(),
             inbox: DelayQueue::default(),
             current: initial,
+            next_fate: first_command,
+            ahead: BTreeMap::new(),
+            drawn: Vec::new(),
             counts: DownlinkCounts::default(),
         }
     }
@@ -252,19 +272,76 @@ impl Vehicle {
             .hold_station(&g.leaders, &g.leader, g.damping, dt);
     }
 
-    /// The command of tick `k` arrives; the link model decides when its content is
-    /// visible; then the vehicle steps from tick k to k + 1 with the newest visible
-    /// guidance. Returns the fate of the command.
-    pub fn on_command(&mut self, model: &LinkModel, guidance: Guidance, k: u64, dt: f64) -> Fate {
-        let t = k as f64 * dt;
-        let fate = model.fate(&mut self.link, self.agent.id, Direction::Downlink, k, t);
-        match fate {
-            Fate::Deliver { at, .. } => {
-                self.counts.delivered += 1;
-                self.inbox.push(at, guidance);
+    /// Draws the fates of the commands up to tick `c` that have none yet, in order.
+    fn draw_fates(&mut self, model: &LinkModel, c: u64, dt: f64) {
+        while self.next_fate <= c {
+            let k = self.next_fate;
+            let t = k as f64 * dt;
+            let fate = model.fate(&mut self.link, self.agent.id, Direction::Downlink, k, t);
+            match fate {
+                Fate::Deliver { .. } => self.counts.delivered += 1,
+                Fate::Drop(_) => self.counts.dropped += 1,
             }
-            Fate::Drop(_) => self.counts.dropped += 1,
+            self.ahead.insert(k, fate);
+            self.drawn.push((k, fate));
+            self.next_fate += 1;
         }
+    }
+
+    /// The command of tick `c` arrives with `guidance`: held until the link delivers it.
+    /// Returns its fate (None: a command from before this vehicle's first, or one already
+    /// received).
+    pub fn receive(
+        &mut self,
+        model: &LinkModel,
+        guidance: Guidance,
+        c: u64,
+        dt: f64,
+    ) -> Option<Fate> {
+        self.draw_fates(model, c, dt);
+        let fate = self.ahead.remove(&c)?;
+        // Older commands that never came (a paced run skips late ones) are not waited for.
+        self.ahead = self.ahead.split_off(&c);
+        if let Fate::Deliver { at, .. } = fate {
+            self.inbox.push(at, guidance);
+        }
+        Some(fate)
+    }
+
+    /// True when the step from tick `j` has every command it needs: no command of a tick
+    /// up to `j` that has not arrived yet is delivered by t_j.
+    pub fn ready_to_step(&mut self, model: &LinkModel, j: u64, dt: f64) -> bool {
+        self.draw_fates(model, j, dt);
+        let t = j as f64 * dt;
+        !self
+            .ahead
+            .range(..=j)
+            .any(|(_, f)| matches!(f, Fate::Deliver { at, .. } if *at <= t))
+    }
+
+    /// The fates drawn since the last call, as (command tick, fate).
+    pub fn take_drawn(&mut self) -> Vec<(u64, Fate)> {
+        std::mem::take(&mut self.drawn)
+    }
+
+    /// The command of tick `k` arrives, then the vehicle steps from tick k to k + 1 (the
+    /// in-process simulator's tick). Returns the fate of the command ([`Vehicle::receive`]).
+    pub fn on_command(
+        &mut self,
+        model: &LinkModel,
+        guidance: Guidance,
+        k: u64,
+        dt: f64,
+    ) -> Option<Fate> {
+        let fate = self.receive(model, guidance, k, dt);
+        self.step(k, dt);
+        fate
+    }
+
+    /// Steps from tick `k` to k + 1 with the newest guidance visible at t_k (callers make
+    /// sure every command it may need has arrived: [`Vehicle::ready_to_step`]).
+    pub fn step(&mut self, k: u64, dt: f64) {
+        let t = k as f64 * dt;
         if let Some(newest) = self.inbox.pop_due(t).into_iter().last() {
             self.current = newest;
         }
@@ -293,6 +370,5 @@ impl Vehicle {
             };
             self.agent.step(&inputs, dt);
         }
-        fate
     }
 }

@@ -11,6 +11,8 @@
 //! state says, in the coordinator's batched read of the tick (see
 //! `shared::msg::coordinator_to_field`).
 
+use std::cell::RefCell;
+use std::collections::VecDeque;
 use std::time::Duration;
 
 use anyhow::{Context, Result};
@@ -77,7 +79,8 @@ pub fn run(
     let design = initial_design(mission).context("initial formation design")?;
     let initial = Guidance::initial(mission, &design);
     let model = LinkModel::new(mission);
-    let mut vehicle = Vehicle::new(initial_agent(mission, &design, id), initial.clone());
+    let mut vehicle = Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0);
+    let ticks = mission.ticks();
     // Paced runs hold station when the coordinator is silent for a few ticks.
     let hold_after = match mission.mission.pace {
         Pace::Lockstep => None,
@@ -88,7 +91,17 @@ pub fn run(
     let mut last_body_seq: Option<u64> = None;
     let mut rejected: u64 = 0;
 
-    let last_sent: std::cell::Cell<Option<VehicleState>> = std::cell::Cell::new(None);
+    // The states published lately: a restarted coordinator asks for them again.
+    let recent: RefCell<VecDeque<VehicleState>> = RefCell::new(VecDeque::new());
+    let send = |state: VehicleState| -> Result<()> {
+        state_pub
+            .send_copy(state)
+            .map_err(|e| anyhow::anyhow!("publishing the state: {e:?}"))?;
+        coordinator_notifier
+            .notify_with_custom_event_id(topics::vehicle_event(id))
+            .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
+        Ok(())
+    };
     let publish = |agent: &Agent, k: u64, flags: u32, seq: &mut u64| -> Result<()> {
         *seq += 1;
         let state = VehicleState {
@@ -105,15 +118,29 @@ pub fn run(
             position: from_vec3(&agent.position),
             velocity: from_vec3(&agent.velocity),
         };
-        state_pub
-            .send_copy(state)
-            .map_err(|e| anyhow::anyhow!("publishing the state: {e:?}"))?;
-        last_sent.set(Some(state));
-        coordinator_notifier
-            .notify_with_custom_event_id(topics::vehicle_event(id))
-            .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
+        send(state)?;
+        let mut recent = recent.borrow_mut();
+        recent.push_back(state);
+        while recent.len() > Limits::LOOKAHEAD_TICKS as usize + 2 {
+            recent.pop_front();
+        }
         Ok(())
     };
+    // The link model's verdicts on commands, for the message records.
+    let log_fates = |vehicle: &mut Vehicle, msgs: &mut MsgLog| {
+        for (tick, fate) in vehicle.take_drawn() {
+            match fate {
+                Fate::Deliver { injected, .. } if injected > 0.0 => {
+                    msgs.held("body", Header::COORDINATOR, id, tick, injected)
+                }
+                Fate::Drop(reason) => {
+                    msgs.drop("body", Header::COORDINATOR, id, tick, reason.as_str())
+                }
+                _ => {}
+            }
+        }
+    };
+
     // A restarted process asks to join the mission under way; the coordinator admits it
     // by handing its last known state back in the snapshot.
     let mut joining = rejoin;
@@ -131,6 +158,8 @@ pub fn run(
     let flags = if joining { VehicleState::JOINING } else { 0 };
     publish(&vehicle.agent, k, flags, &mut seq)?;
 
+    // Lockstep: the newest command received bounds how far the vehicle may run ahead.
+    let mut newest_command: Option<u64> = None;
     // Check for commands first, wait only when there is nothing to act on.
     let mut idle = false;
     loop {
@@ -164,10 +193,10 @@ pub fn run(
             }
         }
         idle = true;
-        // The newest valid body command, read in place.
-        let mut newest: Option<(u64, Guidance, Option<SnapshotEntry>)> = None;
+        // Every new valid body command, in order, read in place.
+        let mut commands: Vec<(u64, Guidance, Option<SnapshotEntry>)> = Vec::new();
         let mut finished = false;
-        let mut resend = false;
+        let mut resend_after: Option<u64> = None;
         while let Some(sample) = body_sub
             .receive()
             .map_err(|e| anyhow::anyhow!("receiving the body: {e:?}"))?
@@ -176,10 +205,10 @@ pub fn run(
             let h = body.header;
             msgs.recv("body", h.sender, id, h.tick, h.seq, h.sent_ns, wall_ns());
             if h.sender == Header::COORDINATOR && last_body_seq == Some(h.seq) {
-                // A duplicate: a restarted coordinator re-sends its last command. Send our
-                // last state again so it gets it (a new subscriber's history arrives only
-                // with the publisher's next sample).
-                resend = true;
+                // A duplicate: a restarted coordinator re-sends its last command. Send it
+                // our states since again (a new subscriber's history arrives only with
+                // the publisher's next sample).
+                resend_after = Some(h.tick);
                 continue;
             }
             let replay = last_body_seq.is_some_and(|s| h.seq < s);
@@ -220,9 +249,10 @@ pub fn run(
             }
             .with_neighbours(id, snapshot);
             let own = snapshot.iter().find(|e| e.id == id).copied();
-            newest = Some((h.tick, guidance, own));
+            commands.push((h.tick, guidance, own));
         }
         if finished {
+            log_fates(&mut vehicle, &mut msgs);
             info!(
                 vehicle = id,
                 tick = k,
@@ -233,68 +263,79 @@ pub fn run(
             );
             return Ok(());
         }
-        if resend && newest.is_none() {
-            if let Some(last) = last_sent.get() {
+        if let (Some(after), true) = (resend_after, commands.is_empty()) {
+            for last in recent.borrow().iter().filter(|s| s.header.tick > after) {
                 seq += 1;
-                let again = VehicleState {
+                send(VehicleState {
                     header: Header {
                         seq,
                         sent_ns: wall_ns(),
                         ..last.header
                     },
-                    ..last
-                };
-                state_pub
-                    .send_copy(again)
-                    .map_err(|e| anyhow::anyhow!("re-publishing the state: {e:?}"))?;
-                coordinator_notifier
-                    .notify_with_custom_event_id(topics::vehicle_event(id))
-                    .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
+                    ..*last
+                })?;
                 info!(
                     vehicle = id,
-                    tick = again.header.tick,
-                    "re-sent the last state to a restarted coordinator"
+                    tick = last.header.tick,
+                    "re-sent a state to a restarted coordinator"
                 );
             }
         }
-        let Some((tick, guidance, own)) = newest else {
-            continue;
-        };
-        let admitted = own.is_some_and(|e| e.alive == SnapshotEntry::ADMITTED);
-        if joining || admitted {
-            // Admitted when the coordinator hands our state back in the snapshot.
-            match own {
-                Some(e) if admitted => {
-                    vehicle = Vehicle::new(
-                        Agent {
-                            id,
-                            dim: mission.mission.dim,
-                            position: to_vec3(&e.position),
-                            velocity: to_vec3(&e.velocity),
-                        },
-                        initial.clone(),
-                    );
-                    joining = false;
-                    info!(vehicle = id, tick, "admitted back into the formation");
+        if hold_after.is_some() && commands.len() > 1 {
+            // Paced: only the newest command counts (the older ones are late).
+            commands.drain(..commands.len() - 1);
+        }
+        for (tick, guidance, own) in commands {
+            newest_command = Some(tick);
+            let admitted = own.is_some_and(|e| e.alive == SnapshotEntry::ADMITTED);
+            if joining || admitted {
+                // Admitted when the coordinator hands our state back in the snapshot.
+                match own {
+                    Some(e) if admitted => {
+                        vehicle = Vehicle::new(
+                            Agent {
+                                id,
+                                dim: mission.mission.dim,
+                                position: to_vec3(&e.position),
+                                velocity: to_vec3(&e.velocity),
+                            },
+                            initial.clone(),
+                            tick,
+                        );
+                        joining = false;
+                        k = tick;
+                        info!(vehicle = id, tick, "admitted back into the formation");
+                    }
+                    _ => continue,
                 }
-                _ => continue,
+            } else if hold_after.is_some() {
+                if tick < k {
+                    continue; // an old command (paced runs): we already stepped past it
+                }
+                k = tick;
             }
-        } else if tick < k {
-            continue; // an old command (paced runs): we already stepped past it
-        }
-        idle = false;
-        let fate = vehicle.on_command(&model, guidance, tick, dt);
-        match fate {
-            Fate::Deliver { injected, .. } if injected > 0.0 => {
-                msgs.held("body", Header::COORDINATOR, id, tick, injected)
+            vehicle.receive(&model, guidance, tick, dt);
+            if hold_after.is_some() {
+                // Paced: step on every command, from its tick.
+                vehicle.step(k, dt);
+                k += 1;
+                idle = false;
+                if k < ticks {
+                    publish(&vehicle.agent, k, 0, &mut seq)?;
+                }
             }
-            Fate::Drop(reason) => msgs.drop("body", Header::COORDINATOR, id, tick, reason.as_str()),
-            _ => {}
         }
-        k = tick + 1;
-        if k >= mission.ticks() {
-            continue; // the last tick's state is never used: wait for the end of the mission
+        // Lockstep: step whenever every command the step needs is in; a submerged glider
+        // (or a long link delay) needs none, and runs ahead (up to LOOKAHEAD_TICKS).
+        if hold_after.is_none() && !joining {
+            let limit = newest_command.map_or(0, |c| c + 1) + Limits::LOOKAHEAD_TICKS;
+            if k + 1 < ticks && k < limit && vehicle.ready_to_step(&model, k, dt) {
+                vehicle.step(k, dt);
+                k += 1;
+                idle = false;
+                publish(&vehicle.agent, k, 0, &mut seq)?;
+            }
         }
-        publish(&vehicle.agent, k, 0, &mut seq)?;
+        log_fates(&mut vehicle, &mut msgs);
     }
 }
