@@ -50,6 +50,8 @@ struct Peer {
     /// Silence before a new process of this vehicle spoke (its predecessor's last message to
     /// the new one's first), ms: an upper bound of the detection latency of a restart.
     restart_gap_ms: Option<f64>,
+    /// Commands its agent has read (`VehicleState::commands_read`).
+    commands_read: u64,
 }
 
 /// The coordinator's I/O state, apart from the pure planner and fleet.
@@ -130,8 +132,13 @@ impl Inbox {
             {
                 let s: VehicleState = *sample;
                 let h = s.header;
+                let hop = if h.flags & VehicleState::ACK != 0 {
+                    "state_ack"
+                } else {
+                    "state"
+                };
                 self.msgs.recv(
-                    "state",
+                    hop,
                     h.sender,
                     Header::COORDINATOR,
                     h.tick,
@@ -168,6 +175,14 @@ impl Inbox {
                     peer.restart_gap_ms = peer.last_recv.map(|t| t.elapsed().as_secs_f64() * 1e3);
                 }
                 peer.last_recv = Some(Instant::now());
+                peer.commands_read = if new_process {
+                    s.commands_read
+                } else {
+                    peer.commands_read.max(s.commands_read)
+                };
+                if h.flags & VehicleState::ACK != 0 {
+                    continue; // no new state, only what the agent has read
+                }
                 if joining || fleet.is_lost(id) {
                     if new_process {
                         info!(vehicle = id, tick = h.tick, pid = s.pid, "join request");
@@ -188,43 +203,59 @@ impl Inbox {
     }
 }
 
-/// The client side of the field server's batched sensor reads.
+/// The request-response types of the sensor reads.
+type SampleResponse =
+    iceoryx2::pending_response::PendingResponse<ipc::Service, SampleBatch, (), ReadingBatch, ()>;
+
+/// The client side of the field server's batched sensor reads. It reads ahead: the
+/// states of later ticks already in (agents that ran ahead) are read while the coordinator
+/// computes, so with lookahead a tick seldom waits for the field server at all.
 struct SensorReads {
     client: iceoryx2::port::client::Client<ipc::Service, SampleBatch, (), ReadingBatch, ()>,
     field: iceoryx2::port::notifier::Notifier<ipc::Service>,
     batch: Box<SampleBatch>,
     seq: u64,
+    /// The request in flight and the (vehicle, tick) of its entries.
+    pending: Option<(SampleResponse, Vec<(u32, u64)>)>,
+    /// Readings received and not used yet: (vehicle, tick) → reading (None: rejected).
+    readings: BTreeMap<(u32, u64), Option<f64>>,
+}
+
+/// The key of a state's sensor read.
+fn read_key(s: &VehicleState) -> (u32, u64) {
+    (s.header.sender, s.header.tick)
 }
 
 impl SensorReads {
-    /// Reads the sensor of every state in `states` at its own position and time (tick
-    /// `k`'s batch): the readings, in order (None: rejected by the field server), or None
-    /// on a termination signal. Blocks on the coordinator's wake-up listener; vehicle
-    /// events consumed meanwhile are harmless (every tick starts with a full drain).
-    fn read(
-        &mut self,
-        k: u64,
-        dt: f64,
-        states: &[VehicleState],
-        waitset: &iceoryx2::waitset::WaitSet<ipc::Service>,
-        wake: &iceoryx2::port::listener::Listener<ipc::Service>,
-        msgs: &mut MsgLog,
-    ) -> Result<Option<Vec<Option<f64>>>> {
-        if states.is_empty() {
-            return Ok(Some(Vec::new()));
+    /// Asks for the readings of the states in `wanted` (in order) that are neither in
+    /// nor asked for, unless a request is in flight (one at a time).
+    fn request(&mut self, k: u64, dt: f64, wanted: &[VehicleState]) -> Result<()> {
+        if self.pending.is_some() {
+            return Ok(());
         }
-        self.seq += 1;
-        let n = states.len().min(MAX_VEHICLES);
-        for (slot, s) in self.batch.reads.iter_mut().zip(states) {
-            *slot = SensorRead {
+        let mut keys = Vec::new();
+        for s in wanted {
+            if keys.len() == MAX_VEHICLES {
+                break;
+            }
+            let key = read_key(s);
+            if self.readings.contains_key(&key) || keys.contains(&key) {
+                continue;
+            }
+            self.batch.reads[keys.len()] = SensorRead {
                 vehicle: s.header.sender,
                 _pad: 0,
                 tick: s.header.tick,
                 t: s.header.t,
                 position: s.position,
             };
+            keys.push(key);
         }
-        self.batch.n = n as u32;
+        if keys.is_empty() {
+            return Ok(());
+        }
+        self.seq += 1;
+        self.batch.n = keys.len() as u32;
         self.batch.header = Header {
             sender: Header::COORDINATOR,
             flags: 0,
@@ -240,43 +271,76 @@ impl SensorReads {
         self.field
             .notify()
             .map_err(|e| anyhow::anyhow!("waking the field server: {e:?}"))?;
+        self.pending = Some((pending, keys));
+        Ok(())
+    }
+
+    /// Takes in the answer to the request in flight, if it has come.
+    fn poll(&mut self, msgs: &mut MsgLog) -> Result<()> {
+        let Some((pending, keys)) = &self.pending else {
+            return Ok(());
+        };
+        let Some(reply) = pending
+            .receive()
+            .map_err(|e| anyhow::anyhow!("receiving sensor readings: {e:?}"))?
+        else {
+            return Ok(());
+        };
+        let h = reply.header;
+        msgs.recv(
+            "field_reply",
+            h.sender,
+            Header::COORDINATOR,
+            h.tick,
+            h.seq,
+            h.sent_ns,
+            wall_ns(),
+        );
+        let readings = reply.readings();
+        anyhow::ensure!(
+            h.sender == Header::FIELD_SERVER
+                && reply.request_seq == self.seq
+                && readings.len() == keys.len(),
+            "the field server answered sensor reads out of turn (sender {}, request {} of {}, \
+             {} readings for {})",
+            h.sender,
+            reply.request_seq,
+            self.seq,
+            readings.len(),
+            keys.len()
+        );
+        for (r, key) in readings.iter().zip(keys) {
+            let good = (r.vehicle, r.tick) == *key && r.rejected == 0 && r.value.is_finite();
+            self.readings.insert(*key, good.then_some(r.value));
+        }
+        drop(reply);
+        self.pending = None;
+        Ok(())
+    }
+
+    /// Blocks until the readings of every state in `needed` are in (asking for them when
+    /// no request is in flight). None on a termination signal. Vehicle events consumed
+    /// meanwhile are harmless (every tick starts with a full drain).
+    #[allow(clippy::too_many_arguments)]
+    fn wait_for(
+        &mut self,
+        k: u64,
+        dt: f64,
+        needed: &[VehicleState],
+        waitset: &iceoryx2::waitset::WaitSet<ipc::Service>,
+        wake: &iceoryx2::port::listener::Listener<ipc::Service>,
+        msgs: &mut MsgLog,
+    ) -> Result<Option<()>> {
         let started = Instant::now();
         loop {
-            if let Some(reply) = pending
-                .receive()
-                .map_err(|e| anyhow::anyhow!("receiving the readings of tick {k}: {e:?}"))?
+            self.poll(msgs)?;
+            if needed
+                .iter()
+                .all(|s| self.readings.contains_key(&read_key(s)))
             {
-                let h = reply.header;
-                msgs.recv(
-                    "field_reply",
-                    h.sender,
-                    Header::COORDINATOR,
-                    h.tick,
-                    h.seq,
-                    h.sent_ns,
-                    wall_ns(),
-                );
-                let readings = reply.readings();
-                anyhow::ensure!(
-                    h.sender == Header::FIELD_SERVER
-                        && reply.request_seq == self.seq
-                        && readings.len() == n,
-                    "the field server answered tick {k}'s sensor reads out of turn \
-                     (sender {}, request {}, {} readings for {n})",
-                    h.sender,
-                    reply.request_seq,
-                    readings.len()
-                );
-                let values = readings
-                    .iter()
-                    .zip(states)
-                    .map(|(r, s)| {
-                        let matches = r.vehicle == s.header.sender && r.tick == s.header.tick;
-                        (matches && r.rejected == 0 && r.value.is_finite()).then_some(r.value)
-                    })
-                    .collect();
-                return Ok(Some(values));
+                return Ok(Some(()));
             }
+            self.request(k, dt, needed)?;
             let left = SAMPLE_TIMEOUT.saturating_sub(started.elapsed());
             anyhow::ensure!(
                 !left.is_zero(),
@@ -296,6 +360,11 @@ impl SensorReads {
                 Wake::Events => {}
             }
         }
+    }
+
+    /// The reading of state `s` (None: rejected, or never asked for), forgotten here.
+    fn take(&mut self, s: &VehicleState) -> Option<f64> {
+        self.readings.remove(&read_key(s)).flatten()
     }
 }
 
@@ -350,6 +419,8 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
             .map_err(|e| anyhow::anyhow!("field notifier: {e:?}"))?,
         batch: Box::new(SampleBatch::empty()),
         seq: 0,
+        pending: None,
+        readings: BTreeMap::new(),
     };
     let wake = domain
         .coordinator_wake(&node, &limits)?
@@ -538,9 +609,14 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                 .alive()
                 .filter(|v| !admitted.contains(v))
                 .filter(|&v| {
-                    inbox
-                        .state(v, k, paced.is_some())
-                        .is_none_or(|s| s.header.tick < k)
+                    // Lockstep flow control: publishing command k must not overflow the
+                    // command buffer of an agent that ran ahead and reads late.
+                    let unread = k.saturating_sub(inbox.peers[v as usize].commands_read) + 1;
+                    let behind = paced.is_none() && unread > Limits::BODY_BUFFER as u64;
+                    behind
+                        || inbox
+                            .state(v, k, paced.is_some())
+                            .is_none_or(|s| s.header.tick < k)
                 })
                 .collect();
             // Liveness: tell a dead process from a slow one.
@@ -643,13 +719,33 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
             .filter(|v| !admitted.contains(v))
             .filter_map(|v| inbox.state(v, k, paced.is_some()).copied())
             .collect();
-        let Some(readings) = sensors.read(k, dt, &states, &waitset, &wake, &mut inbox.msgs)? else {
+        if sensors
+            .wait_for(k, dt, &states, &waitset, &wake, &mut inbox.msgs)?
+            .is_none()
+        {
             stopped = true;
             break 'ticks;
-        };
+        }
+        if paced.is_none() {
+            // Read ahead: the states of later ticks already in, in tick order (not past a
+            // vehicle's scheduled kill: its sensor is never read then).
+            let mut ahead: Vec<VehicleState> = fleet
+                .alive()
+                .filter(|v| !admitted.contains(v))
+                .filter_map(|v| inbox.latest.get(&v))
+                .flat_map(|m| m.range(k + 1..).map(|(_, s)| *s))
+                .filter(|s| {
+                    !plan.kills.iter().any(|x| {
+                        x.vehicle == s.header.sender && x.tick > k && x.tick <= s.header.tick
+                    })
+                })
+                .collect();
+            ahead.sort_by_key(|s| (s.header.tick, s.header.sender));
+            sensors.request(k, dt, &ahead)?;
+        }
         let mut truth: Vec<Report> = Vec::with_capacity(states.len());
-        for (s, reading) in states.iter().zip(readings) {
-            let Some(measurement) = reading else {
+        for s in &states {
+            let Some(measurement) = sensors.take(s) else {
                 inbox.counts.rejected += 1;
                 warn!(
                     vehicle = s.header.sender,
@@ -667,6 +763,8 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
             });
         }
         inbox.used(k, paced.is_some());
+        // Readings of states that will never be used (their vehicle was lost).
+        sensors.readings.retain(|(_, tick), _| *tick > k);
         let t = k as f64 * dt;
         let fates = fleet.receive(k, dt, &truth);
         for (v, fate) in &fates {

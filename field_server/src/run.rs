@@ -89,7 +89,9 @@ pub fn run(mission: &Mission, mut msgs: MsgLog, on_ready: impl FnOnce()) -> Resu
             let from_coordinator = h.sender == Header::COORDINATOR;
             reply.n = 0;
             for read in batch.reads() {
-                let value = if from_coordinator && read.tick <= h.tick + 1 {
+                // The coordinator reads ahead, at most as far as agents may run ahead.
+                let in_reach = read.tick <= h.tick + 2 + Limits::LOOKAHEAD_TICKS;
+                let value = if from_coordinator && in_reach {
                     sensors.read(read.vehicle, read.tick, read.t, &to_vec3(&read.position))
                 } else {
                     None

@@ -67,7 +67,7 @@ pub mod agent_to_coordinator {
     /// batched for the whole tick (see [`super::coordinator_to_field`]).
     #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.VehicleState.v3")]
+    #[type_name("vbap.VehicleState.v4")]
     pub struct VehicleState {
         pub header: Header,
         /// OS process id of the agent (the coordinator SIGKILLs it for a scheduled kill).
@@ -77,6 +77,10 @@ pub mod agent_to_coordinator {
         pub position: [f64; 3],
         /// Velocity ẋ_i, length unit/s.
         pub velocity: [f64; 3],
+        /// Commands read so far: one more than the tick of the newest command the agent has
+        /// taken from its buffer (0: none). The coordinator publishes no command that
+        /// could overflow an agent's command buffer (lockstep flow control).
+        pub commands_read: u64,
     }
 
     impl VehicleState {
@@ -85,6 +89,9 @@ pub mod agent_to_coordinator {
         /// Flag: a (re)started agent asks to join a mission under way; the state is its
         /// last known one, not a report of the tick.
         pub const JOINING: u32 = 2;
+        /// Flag: no new state, only a newer `commands_read` (an agent that ran ahead and
+        /// waits reports that it keeps reading commands).
+        pub const ACK: u32 = 4;
 
         /// True when every number is finite.
         pub fn is_finite(&self) -> bool {

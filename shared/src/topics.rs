@@ -86,6 +86,8 @@ impl Limits {
     }
     /// Buffer of a vehicle-state subscriber: enough for a burst of stored-and-forwarded states.
     pub const STATE_BUFFER: usize = 64;
+    /// Buffer of a body subscriber (commands an agent has not read yet).
+    pub const BODY_BUFFER: usize = 4;
     /// Ticks a lockstep agent may run ahead of the newest command it has received (the
     /// conservative lookahead of `vehicle_agent::Vehicle::ready_to_step`): its states must
     /// fit the coordinator's state buffer between two of its drains.
@@ -261,7 +263,7 @@ impl Domain {
             .max_subscribers(limits.fleet_ports())
             .max_nodes(limits.max_nodes())
             .history_size(1)
-            .subscriber_max_buffer_size(4)
+            .subscriber_max_buffer_size(Limits::BODY_BUFFER)
             .enable_safe_overflow(true)
             .open_or_create()
             .map_err(|e| service_err(&name, e))

@@ -133,6 +133,7 @@ v_u = 10.0
             _pad: 0,
             position: [0.0; 3],
             velocity: [0.0; 3],
+            commands_read: 0,
         };
         let mut nan = good;
         nan.velocity[1] = f64::NAN;

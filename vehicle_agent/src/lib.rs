@@ -300,8 +300,6 @@ impl Vehicle {
     ) -> Option<Fate> {
         self.draw_fates(model, c, dt);
         let fate = self.ahead.remove(&c)?;
-        // Older commands that never came (a paced run skips late ones) are not waited for.
-        self.ahead = self.ahead.split_off(&c);
         if let Fate::Deliver { at, .. } = fate {
             self.inbox.push(at, guidance);
         }
@@ -317,6 +315,12 @@ impl Vehicle {
             .ahead
             .range(..=j)
             .any(|(_, f)| matches!(f, Fate::Deliver { at, .. } if *at <= t))
+    }
+
+    /// Stops waiting for the commands before tick `c` that never came (a paced run skips
+    /// late commands; in lockstep every command comes).
+    pub fn forget_before(&mut self, c: u64) {
+        self.ahead = self.ahead.split_off(&c);
     }
 
     /// The fates drawn since the last call, as (command tick, fate).

@@ -102,7 +102,8 @@ pub fn run(
             .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
         Ok(())
     };
-    let publish = |agent: &Agent, k: u64, flags: u32, seq: &mut u64| -> Result<()> {
+    // `read`: the commands read so far (`VehicleState::commands_read`).
+    let publish = |agent: &Agent, k: u64, flags: u32, seq: &mut u64, read: u64| -> Result<()> {
         *seq += 1;
         let state = VehicleState {
             header: Header {
@@ -117,6 +118,7 @@ pub fn run(
             _pad: 0,
             position: from_vec3(&agent.position),
             velocity: from_vec3(&agent.velocity),
+            commands_read: read,
         };
         send(state)?;
         let mut recent = recent.borrow_mut();
@@ -156,10 +158,13 @@ pub fn run(
     );
     on_ready();
     let flags = if joining { VehicleState::JOINING } else { 0 };
-    publish(&vehicle.agent, k, flags, &mut seq)?;
+    publish(&vehicle.agent, k, flags, &mut seq, 0)?;
 
     // Lockstep: the newest command received bounds how far the vehicle may run ahead.
     let mut newest_command: Option<u64> = None;
+    let read = |newest: Option<u64>| newest.map_or(0, |c| c + 1);
+    // The commands read as last reported to the coordinator.
+    let mut reported_read = 0;
     // Check for commands first, wait only when there is nothing to act on.
     let mut idle = false;
     loop {
@@ -185,7 +190,13 @@ pub fn run(
                             tick = k,
                             "coordinator silent: holding station"
                         );
-                        publish(&vehicle.agent, k, VehicleState::HOLDING, &mut seq)?;
+                        publish(
+                            &vehicle.agent,
+                            k,
+                            VehicleState::HOLDING,
+                            &mut seq,
+                            read(newest_command),
+                        )?;
                         continue;
                     }
                 }
@@ -272,6 +283,7 @@ pub fn run(
                         sent_ns: wall_ns(),
                         ..last.header
                     },
+                    commands_read: read(newest_command),
                     ..*last
                 })?;
                 info!(
@@ -316,12 +328,14 @@ pub fn run(
             }
             vehicle.receive(&model, guidance, tick, dt);
             if hold_after.is_some() {
-                // Paced: step on every command, from its tick.
+                // Paced: step on every command, from its tick (late ones are skipped).
+                vehicle.forget_before(tick);
                 vehicle.step(k, dt);
                 k += 1;
                 idle = false;
                 if k < ticks {
-                    publish(&vehicle.agent, k, 0, &mut seq)?;
+                    publish(&vehicle.agent, k, 0, &mut seq, read(newest_command))?;
+                    reported_read = read(newest_command);
                 }
             }
         }
@@ -333,7 +347,26 @@ pub fn run(
                 vehicle.step(k, dt);
                 k += 1;
                 idle = false;
-                publish(&vehicle.agent, k, 0, &mut seq)?;
+                publish(&vehicle.agent, k, 0, &mut seq, read(newest_command))?;
+                reported_read = read(newest_command);
+            } else if read(newest_command) >= reported_read + 2 {
+                // Waiting, but still reading commands: say so, so the coordinator may go on
+                // publishing without overflowing our command buffer.
+                let last = recent.borrow().back().copied();
+                if let Some(last) = last {
+                    seq += 1;
+                    send(VehicleState {
+                        header: Header {
+                            flags: VehicleState::ACK,
+                            seq,
+                            sent_ns: wall_ns(),
+                            ..last.header
+                        },
+                        commands_read: read(newest_command),
+                        ..last
+                    })?;
+                    reported_read = read(newest_command);
+                }
             }
         }
         log_fates(&mut vehicle, &mut msgs);
