@@ -105,7 +105,10 @@ impl Checkpoint {
         for path in slots(dir) {
             match std::fs::read(&path) {
                 Ok(bytes) => {
-                    if let Ok(cp) = postcard::from_bytes::<Self>(&bytes) {
+                    let Some(body) = framed(&bytes) else {
+                        continue; // torn or never written
+                    };
+                    if let Ok(cp) = postcard::from_bytes::<Self>(body) {
                         if best.as_ref().is_none_or(|b| cp.next_tick > b.next_tick) {
                             best = Some(cp);
                         }
@@ -125,6 +128,22 @@ impl Checkpoint {
             .restore_journaled(cp.journal.reports_next, held, kept, cp.journal.track_from);
         Ok(Some(cp))
     }
+}
+
+/// FNV-1a, 64 bits: tells a torn checkpoint from a whole one.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+/// The body of a checkpoint slot — a little-endian u64 length, the u64 FNV-1a hash of the
+/// body, the body — when it is whole (a slot is rewritten in place, never truncated).
+fn framed(bytes: &[u8]) -> Option<&[u8]> {
+    let len = u64::from_le_bytes(bytes.get(..8)?.try_into().ok()?) as usize;
+    let hash = u64::from_le_bytes(bytes.get(8..16)?.try_into().ok()?);
+    let body = bytes.get(16..16usize.checked_add(len)?)?;
+    (fnv1a(body) == hash).then_some(body)
 }
 
 /// The two journals of a run directory: held reports, body track.
@@ -185,8 +204,8 @@ fn slots(dir: &RunDir) -> [std::path::PathBuf; 2] {
 }
 
 /// Writes checkpoints alternately into two files kept open: each checkpoint is one
-/// positioned write and one truncation, and a crash in the middle of one leaves the
-/// previous one intact in the other file.
+/// positioned write of a framed body (length, hash, body), and a crash in the middle of
+/// one leaves the previous one intact in the other file.
 pub struct CheckpointWriter {
     files: [std::fs::File; 2],
     turn: usize,
@@ -253,11 +272,14 @@ impl CheckpointWriter {
     pub fn save(&mut self, cp: &impl Serialize) -> io::Result<()> {
         use std::os::unix::fs::FileExt;
         self.buffer.clear();
+        self.buffer.extend_from_slice(&[0; 16]);
         self.buffer =
             postcard::to_extend(cp, std::mem::take(&mut self.buffer)).map_err(io::Error::other)?;
-        let file = &self.files[self.turn];
-        file.set_len(0)?;
-        file.write_all_at(&self.buffer, 0)?;
+        let len = (self.buffer.len() - 16) as u64;
+        let hash = fnv1a(&self.buffer[16..]);
+        self.buffer[..8].copy_from_slice(&len.to_le_bytes());
+        self.buffer[8..16].copy_from_slice(&hash.to_le_bytes());
+        self.files[self.turn].write_all_at(&self.buffer, 0)?;
         self.turn = 1 - self.turn;
         Ok(())
     }
@@ -270,6 +292,25 @@ mod tests {
     use crate::run::BodyRecord;
     use shared::config::Mission;
     use shared::math::Vec3;
+
+    #[test]
+    fn a_torn_slot_is_told_from_a_whole_one() {
+        let body = b"a checkpoint body".to_vec();
+        let mut slot = (body.len() as u64).to_le_bytes().to_vec();
+        slot.extend_from_slice(&fnv1a(&body).to_le_bytes());
+        slot.extend_from_slice(&body);
+        assert_eq!(framed(&slot), Some(&body[..]));
+        // Old bytes after the body (the slot is never truncated) do not matter.
+        let mut longer = slot.clone();
+        longer.extend_from_slice(b"old tail");
+        assert_eq!(framed(&longer), Some(&body[..]));
+        // Cut short, or a byte of an older checkpoint left in the middle: refused.
+        assert_eq!(framed(&slot[..slot.len() - 1]), None);
+        let mut torn = slot.clone();
+        torn[20] ^= 0x40;
+        assert_eq!(framed(&torn), None);
+        assert_eq!(framed(&[]), None);
+    }
 
     /// Saves after every tick of a fleet whose links hold reports for a while, then reads
     /// each checkpoint back: the journaled parts come back exactly.

@@ -282,6 +282,17 @@ impl Recorder {
         self.events.flush()
     }
 
+    /// Lengths of the appended files once flushed (what a checkpoint covers).
+    pub fn offsets(&self) -> shared::rundir::FileOffsets {
+        let (vehicles, body, inputs) = self.tracks.lengths();
+        shared::rundir::FileOffsets {
+            vehicles,
+            body,
+            inputs,
+            events: self.events.len(),
+        }
+    }
+
     /// The mission figures of `summary.json` (message counts, latency and wall time are
     /// filled in by the caller).
     pub fn summary(&self, planner: &Planner, mode: &str) -> Summary {

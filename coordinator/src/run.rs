@@ -826,7 +826,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                 planner: &planner,
                 fleet: &fleet,
                 stats: recorder.stats(),
-                offsets: dir.offsets()?,
+                offsets: recorder.offsets(),
                 counts: inbox.counts,
                 sent: sent + 1,
                 late_ticks,

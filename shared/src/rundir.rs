@@ -93,25 +93,6 @@ pub struct FileOffsets {
 }
 
 impl RunDir {
-    /// The current lengths of the appended files (0 for a missing file).
-    pub fn offsets(&self) -> io::Result<FileOffsets> {
-        let len = |p: PathBuf| {
-            std::fs::metadata(p).map(|m| m.len()).or_else(|e| {
-                if e.kind() == io::ErrorKind::NotFound {
-                    Ok(0)
-                } else {
-                    Err(e)
-                }
-            })
-        };
-        Ok(FileOffsets {
-            vehicles: len(self.vehicles())?,
-            body: len(self.body())?,
-            inputs: len(self.planner_inputs())?,
-            events: len(self.events())?,
-        })
-    }
-
     /// Cuts the appended files back to `o` (what a checkpoint covers).
     pub fn truncate_to(&self, o: &FileOffsets) -> io::Result<()> {
         for (path, len) in [
@@ -128,12 +109,48 @@ impl RunDir {
     }
 }
 
+/// A buffered append-only file that knows its length (what it held when opened plus what
+/// was written since), so a checkpoint needs no `stat` of it.
+pub struct AppendFile {
+    out: BufWriter<File>,
+    len: u64,
+}
+
+impl AppendFile {
+    /// Opens `path` for appending (creating it).
+    pub fn open(path: &Path) -> io::Result<Self> {
+        let file = OpenOptions::new().create(true).append(true).open(path)?;
+        let len = file.metadata()?.len();
+        Ok(Self {
+            out: BufWriter::with_capacity(1 << 16, file),
+            len,
+        })
+    }
+    /// Bytes in the file once flushed.
+    pub fn len(&self) -> u64 {
+        self.len
+    }
+    /// True when nothing was ever written.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+impl Write for AppendFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        let n = self.out.write(buf)?;
+        self.len += n as u64;
+        Ok(n)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.out.flush()
+    }
+}
+
 /// Opens `path` for appending; writes `header` first when the file is new or empty.
-fn open_append(path: &Path, header: &str) -> io::Result<BufWriter<File>> {
-    let file = OpenOptions::new().create(true).append(true).open(path)?;
-    let empty = file.metadata()?.len() == 0;
-    let mut w = BufWriter::with_capacity(1 << 16, file);
-    if empty {
+fn open_append(path: &Path, header: &str) -> io::Result<AppendFile> {
+    let mut w = AppendFile::open(path)?;
+    if w.is_empty() {
         writeln!(w, "{header}")?;
     }
     Ok(w)
@@ -180,9 +197,9 @@ pub struct InputRow<'a> {
 
 /// Appends rows to `vehicles.csv`, `body.csv` and `planner_inputs.csv`.
 pub struct TrackWriter {
-    vehicles: BufWriter<File>,
-    body: BufWriter<File>,
-    inputs: BufWriter<File>,
+    vehicles: AppendFile,
+    body: AppendFile,
+    inputs: AppendFile,
 }
 
 impl TrackWriter {
@@ -259,6 +276,10 @@ impl TrackWriter {
         self.inputs.flush()?;
         self.body.flush()
     }
+    /// Lengths of `vehicles.csv`, `body.csv` and `planner_inputs.csv` once flushed.
+    pub fn lengths(&self) -> (u64, u64, u64) {
+        (self.vehicles.len(), self.body.len(), self.inputs.len())
+    }
 }
 
 /// An entry of `events.jsonl`.
@@ -280,18 +301,14 @@ pub struct Event {
 
 /// Appends events to `events.jsonl`.
 pub struct EventLog {
-    out: BufWriter<File>,
+    out: AppendFile,
 }
 
 impl EventLog {
     /// Opens (appending) `events.jsonl` of `dir`.
     pub fn open(dir: &RunDir) -> io::Result<Self> {
-        let file = OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(dir.events())?;
         Ok(Self {
-            out: BufWriter::new(file),
+            out: AppendFile::open(&dir.events())?,
         })
     }
     /// Appends one event.
@@ -302,6 +319,14 @@ impl EventLog {
     /// Flushes.
     pub fn flush(&mut self) -> io::Result<()> {
         self.out.flush()
+    }
+    /// Length of `events.jsonl` once flushed.
+    pub fn len(&self) -> u64 {
+        self.out.len()
+    }
+    /// True when `events.jsonl` is empty.
+    pub fn is_empty(&self) -> bool {
+        self.out.is_empty()
     }
 }
 
