@@ -28,6 +28,10 @@
 //! CSV lines are split in place, and of the JSON logs only lines containing the target
 //! string are parsed (with a borrowed, typed deserializer, not a generic JSON tree).
 //!
+//! Lockstep ticks: from the coordinator's publications and the states it received, the
+//! time of each tick split into waiting for the agents' states and the coordinator's own
+//! work after the last one ([`TickReport`]).
+//!
 //! [`analyze`] also writes `latency.svg` (per-hop distributions) and `loops.svg` (loop
 //! period over the run and jitter distributions) into the run directory.
 
@@ -98,6 +102,26 @@ pub struct Report {
     pub records: u64,
     /// Message-record lines that could not be parsed.
     pub unparsed: u64,
+    /// Where the time of a lockstep tick goes (None for real-time runs or too few ticks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tick: Option<TickReport>,
+}
+
+/// Where the time of a lockstep tick goes, from the coordinator's point of view: tick k
+/// runs from the publication of command k − 1 to that of command k; until the last state of
+/// tick k is in, the coordinator waits for the agents (none of it when they ran ahead);
+/// from then on it works alone (sensor reads, link model, planner, files, checkpoint).
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct TickReport {
+    /// Ticks measured.
+    pub ticks: u64,
+    /// Command k − 1 published → command k published, µs.
+    pub period_us: Percentiles,
+    /// Command k − 1 published → last state of tick k received (0 when it was in before), µs.
+    pub waiting_for_states_us: Percentiles,
+    /// Last state of tick k received (or command k − 1 published, if later) → command k
+    /// published, µs.
+    pub after_last_state_us: Percentiles,
 }
 
 impl Report {
@@ -210,6 +234,24 @@ impl Report {
             line(&mut out, &format!("{wname} (worst)"), worst);
             let _ = writeln!(out, "({} agents; all of them in --json)", agents.len());
         }
+        if let Some(t) = &self.tick {
+            let _ = writeln!(
+                out,
+                "\n{:<28} {:>9} {:>9} {:>9} {:>9}   ({} lockstep ticks)",
+                "tick", "p50 µs", "p90 µs", "p99 µs", "max µs", t.ticks
+            );
+            for (name, p) in [
+                ("period", t.period_us),
+                ("waiting for states", t.waiting_for_states_us),
+                ("after the last state", t.after_last_state_us),
+            ] {
+                let _ = writeln!(
+                    out,
+                    "{name:<28} {:>9.1} {:>9.1} {:>9.1} {:>9.1}",
+                    p.p50, p.p90, p.p99, p.max
+                );
+            }
+        }
         let _ = writeln!(out, "\nlate ticks: {}", self.late_ticks);
         out
     }
@@ -302,6 +344,8 @@ struct Partial {
     body_recv: Vec<(u64, u64)>,
     /// (seq, tick, sent_ns) of the body commands received (the coordinator's publications).
     body_sent: Vec<(u64, u64, u64)>,
+    /// (tick, recv_ns) of the states the coordinator received.
+    state_recv: Vec<(u64, u64)>,
     records: u64,
     unparsed: u64,
 }
@@ -379,6 +423,11 @@ impl Partial {
                     let tick = r.tick.unwrap_or(0);
                     self.body_recv.push((tick, recv));
                     self.body_sent.push((r.seq.unwrap_or(0), tick, sent));
+                }
+                if r.hop == "state" {
+                    if let Some(tick) = r.tick {
+                        self.state_recv.push((tick, recv));
+                    }
                 }
             }
         }
@@ -559,6 +608,8 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
     let mut dists = Distributions::default();
     let mut hops: BTreeMap<String, HopAcc> = BTreeMap::new();
     let mut published: Vec<(u64, u64, u64)> = Vec::new();
+    // The last state of each tick in, ns.
+    let mut last_state: BTreeMap<u64, u64> = BTreeMap::new();
     // Body receptions per process (a process may have records in both formats).
     let mut received: BTreeMap<&str, Vec<(u64, u64)>> = BTreeMap::new();
     for (i, part) in parts {
@@ -568,6 +619,10 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
             hops.entry(hop).or_default().merge(acc);
         }
         published.extend(part.body_sent.into_iter().filter(|p| p.1 < last_tick));
+        for (tick, recv) in part.state_recv {
+            let t = last_state.entry(tick).or_insert(recv);
+            *t = (*t).max(recv);
+        }
         let recv = received.entry(files[i].2.as_str()).or_default();
         recv.extend(part.body_recv.into_iter().filter(|p| p.0 < last_tick));
     }
@@ -580,6 +635,9 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
     // The coordinator's publications: every agent saw the same (seq, sent_ns).
     published.sort_unstable();
     published.dedup_by_key(|p| p.0);
+    if nominal_ms.is_none() {
+        report.tick = tick_report(&published, &last_state);
+    }
     if published.len() > 1 {
         let mut times: Vec<(u64, u64)> = published.iter().map(|&(_, k, t)| (k, t)).collect();
         times.sort_by_key(|&(_, t)| t);
@@ -640,6 +698,31 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
         report.late_ticks = s.late_ticks;
     }
     Ok((report, dists))
+}
+
+/// The tick breakdown of a lockstep run ([`TickReport`]) from the publications (seq, tick,
+/// sent_ns) and the last state of each tick in; None with fewer than 10 ticks.
+fn tick_report(
+    published: &[(u64, u64, u64)],
+    last_state: &BTreeMap<u64, u64>,
+) -> Option<TickReport> {
+    let sent: BTreeMap<u64, u64> = published.iter().map(|&(_, k, t)| (k, t)).collect();
+    let us = |a: u64, b: u64| (b as i128 - a as i128) as f64 / 1e3;
+    let (mut period, mut waiting, mut after) = (Vec::new(), Vec::new(), Vec::new());
+    for (&k, &now) in sent.iter().skip(1) {
+        let (Some(&before), Some(&last)) = (sent.get(&(k - 1)), last_state.get(&k)) else {
+            continue;
+        };
+        period.push(us(before, now));
+        waiting.push(us(before, last).max(0.0));
+        after.push(us(last.max(before), now));
+    }
+    (period.len() >= 10).then(|| TickReport {
+        ticks: period.len() as u64,
+        period_us: Percentiles::of(&mut period),
+        waiting_for_states_us: Percentiles::of(&mut waiting),
+        after_last_state_us: Percentiles::of(&mut after),
+    })
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -160,6 +160,13 @@ fn analyze_json_of_a_multi_process_run() {
     assert!((n * TICKS..=n * (TICKS + 1)).contains(&delivered("body")));
     assert_eq!(delivered("field_request"), TICKS);
     assert_eq!(delivered("field_reply"), delivered("field_request"));
+    // Where a lockstep tick's time goes: both parts within the period.
+    let tick = &r["tick"];
+    assert!(tick["ticks"].as_u64().unwrap() >= TICKS - 2, "{tick}");
+    let p50 = |what: &str| tick[what]["p50"].as_f64().unwrap();
+    assert!(p50("period_us") > 0.0, "{tick}");
+    assert!(p50("waiting_for_states_us") <= p50("period_us"), "{tick}");
+    assert!(p50("after_last_state_us") <= p50("period_us"), "{tick}");
     let mut loops: Vec<&String> = r["loops"].as_object().unwrap().keys().collect();
     loops.sort();
     assert_eq!(
