@@ -405,19 +405,27 @@ pub fn wait_for_wake_ids(
             service: "waitset".into(),
             reason: format!("{e:?}"),
         })?;
-    if matches!(
-        result,
-        WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt
-    ) {
-        return Ok(Wake::Stop);
-    }
+    let spurious = match result {
+        WaitSetRunResult::TerminationRequest => return Ok(Wake::Stop),
+        // SIGINT/SIGTERM during the wait end it with an interrupt; so does any other
+        // signal, e.g. a debugger or `strace -p` attaching: that one is no stop request.
+        WaitSetRunResult::Interrupt => {
+            if iceoryx2_bb_posix::signal::SignalHandler::termination_requested() {
+                return Ok(Wake::Stop);
+            }
+            true
+        }
+        _ => false,
+    };
     let drained = listener
         .try_wait(|a| ids.push(a.id.as_value()))
         .map_err(|e| TopicError::Service {
             service: "listener".into(),
             reason: format!("{e:?}"),
         })?;
-    Ok(if woke || drained > 0 {
+    // A spurious interrupt is reported as events: callers look and wait again (a timeout
+    // would make a paced agent hold station before its time).
+    Ok(if woke || drained > 0 || spurious {
         Wake::Events
     } else {
         Wake::Timeout

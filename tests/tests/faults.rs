@@ -321,3 +321,51 @@ fn nothing_is_delivered_outside_a_surfacing_window() {
         "every vehicle got reports through: {fresh_per_vehicle:?}"
     );
 }
+
+/// A stopped and resumed process (Ctrl-Z, `kill -STOP`/`-CONT`, a debugger or `strace -p`
+/// attaching) sees its wait interrupted: that is no request to stop. In lockstep the others
+/// wait for it, and the run still equals the simulator.
+#[test]
+fn stopped_and_resumed_processes_carry_on() {
+    let tmp = TempDir::new("stopcont");
+    let name = unique_name("stopcont");
+    let file = write_mission(&tmp, "m.toml", &base(&name, 4, 600.0, "\"lockstep\"", ""));
+    vbap_quiet("sim", &file, &tmp.join("sim"));
+    let out = tmp.join("run");
+    let mut run = spawn_run(&file, &out);
+    let body = out.join("body.csv");
+    wait_until(
+        || line_count(&body) > 1000,
+        Duration::from_secs(60),
+        "the run to get going",
+    );
+    let mission = out.join("mission.toml").display().to_string();
+    for needle in [
+        format!("vehicle_agent --mission {mission} --id 1 "),
+        format!("coordinator --mission {mission}"),
+        format!("field_server --mission {mission}"),
+    ] {
+        let pid = pid_of(&needle).unwrap_or_else(|| panic!("no process {needle}"));
+        let signal = |s: &str| {
+            assert!(std::process::Command::new("kill")
+                .args([s, &pid.to_string()])
+                .status()
+                .unwrap()
+                .success())
+        };
+        signal("-STOP");
+        // The scenario: the process stays stopped a while (this is not a synchronisation).
+        std::thread::sleep(Duration::from_millis(150));
+        signal("-CONT");
+    }
+    assert!(run.wait().success(), "the run completes");
+    assert_same_tracks(&tmp.join("sim"), &out);
+    let s = summary(&out);
+    assert_eq!(s["vehicles_lost"], 0, "{s}");
+    for process in ["vehicle_agent_1", "coordinator", "field_server"] {
+        let log = read(&out.join(format!("logs/{process}.jsonl")));
+        assert!(!log.contains("stopped by signal"), "{process}: {log}");
+    }
+    assert!(leftover_files(&name).is_empty());
+    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+}
