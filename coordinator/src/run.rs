@@ -137,15 +137,7 @@ impl Inbox {
                 } else {
                     "state"
                 };
-                self.msgs.recv(
-                    hop,
-                    h.sender,
-                    Header::COORDINATOR,
-                    h.tick,
-                    h.seq,
-                    h.sent_ns,
-                    wall_ns(),
-                );
+                self.msgs.recv_now(hop, &h, Header::COORDINATOR);
                 let peer = &mut self.peers[id as usize];
                 let joining = h.flags & VehicleState::JOINING != 0;
                 // A join request comes from a new process (another pid): flagged, or any
@@ -287,15 +279,7 @@ impl SensorReads {
             return Ok(());
         };
         let h = reply.header;
-        msgs.recv(
-            "field_reply",
-            h.sender,
-            Header::COORDINATOR,
-            h.tick,
-            h.seq,
-            h.sent_ns,
-            wall_ns(),
-        );
+        msgs.recv_now("field_reply", &h, Header::COORDINATOR);
         let readings = reply.readings();
         anyhow::ensure!(
             h.sender == Header::FIELD_SERVER

@@ -1045,6 +1045,23 @@ fn short(v: f64) -> String {
 mod tests {
     use super::*;
 
+    /// The state hop of the records both test logs hold: 3 received, 1 lost by the link, 1
+    /// held 50 ms, 1 delivered at once; plus the overflow drop of the agent's log.
+    fn assert_state_hop(r: &Report) {
+        let state = &r.hops["state"];
+        assert_eq!(
+            (
+                state.received,
+                state.delivered,
+                state.dropped_injected,
+                state.dropped_overflow
+            ),
+            (3, 2, 1, 1)
+        );
+        assert_eq!((state.injected_ms.p50, state.injected_ms.max), (0.0, 50.0));
+        assert_eq!(state.transport_us.max, 7.0);
+    }
+
     fn write_logs(dir: &Path) {
         std::fs::create_dir_all(dir.join("logs")).unwrap();
         let t0: u64 = 1_795_437_897_283_832_923;
@@ -1087,20 +1104,7 @@ mod tests {
         let body = &r.hops["body"];
         assert_eq!(body.delivered, 5);
         assert_eq!(body.dropped_injected, 1);
-        // state: 3 received, 1 lost by the link, 1 held 50 ms, 1 delivered at once; plus
-        // the overflow drop of the agent's log.
-        let state = &r.hops["state"];
-        assert_eq!(
-            (
-                state.received,
-                state.delivered,
-                state.dropped_injected,
-                state.dropped_overflow
-            ),
-            (3, 2, 1, 1)
-        );
-        assert_eq!((state.injected_ms.p50, state.injected_ms.max), (0.0, 50.0));
-        assert_eq!(state.transport_us.max, 7.0);
+        assert_state_hop(&r);
         assert!(!r.hops.contains_key("state_link"));
         // 20 µs each, exactly (integer subtraction), the injected 5 ms taken out.
         assert!(d.transport_us["body"]
@@ -1175,18 +1179,7 @@ mod tests {
             .iter()
             .all(|&v| (v - 20.0).abs() < 1e-9));
         // The same figures as from the JSON records of `write_logs`.
-        let state = &r.hops["state"];
-        assert_eq!(
-            (
-                state.received,
-                state.delivered,
-                state.dropped_injected,
-                state.dropped_overflow
-            ),
-            (3, 2, 1, 1)
-        );
-        assert_eq!((state.injected_ms.p50, state.injected_ms.max), (0.0, 50.0));
-        assert_eq!(state.transport_us.max, 7.0);
+        assert_state_hop(&r);
         assert_eq!(r.loops["coordinator"].period_ms.p50, 1.0);
         let a = &r.loops["vehicle_agent_0"];
         assert_eq!((a.iterations, a.period_ms.max), (6, 1.0));

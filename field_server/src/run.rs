@@ -77,15 +77,7 @@ pub fn run(mission: &Mission, mut msgs: MsgLog, on_ready: impl FnOnce()) -> Resu
         {
             let batch: &SampleBatch = &request;
             let h = batch.header;
-            msgs.recv(
-                "field_request",
-                h.sender,
-                Header::FIELD_SERVER,
-                h.tick,
-                h.seq,
-                h.sent_ns,
-                wall_ns(),
-            );
+            msgs.recv_now("field_request", &h, Header::FIELD_SERVER);
             let from_coordinator = h.sender == Header::COORDINATOR;
             reply.n = 0;
             for read in batch.reads() {

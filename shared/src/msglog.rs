@@ -296,6 +296,15 @@ impl MsgLog {
         s.end();
     }
 
+    /// A message with header `h` taken off IPC by `receiver` now ([`MsgLog::recv`] with the
+    /// header's sender, tick, seq and send stamp, and the wall clock now).
+    pub fn recv_now(&mut self, hop: &str, h: &crate::msg::Header, receiver: u32) {
+        if self.sink.is_some() {
+            let now = crate::msg::wall_ns();
+            self.recv(hop, h.sender, receiver, h.tick, h.seq, h.sent_ns, now);
+        }
+    }
+
     /// A message the link model delivers late. `injected_s`: seconds of mission time the
     /// link model holds the message (stored as integer ns, rounded; a negative or
     /// non-finite delay leaves the cell empty).

@@ -214,7 +214,7 @@ pub fn run(
         {
             let body: &BodyCommand = &sample;
             let h = body.header;
-            msgs.recv("body", h.sender, id, h.tick, h.seq, h.sent_ns, wall_ns());
+            msgs.recv_now("body", &h, id);
             if h.sender == Header::COORDINATOR && last_body_seq == Some(h.seq) {
                 // A duplicate: a restarted coordinator re-sends its last command. Send it
                 // our states since again (a new subscriber's history arrives only with
