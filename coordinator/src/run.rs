@@ -58,7 +58,7 @@ struct Peer {
 struct Inbox {
     /// The states received and not used yet, per vehicle by tick (lockstep agents may run
     /// ahead: see `vehicle_agent::Vehicle::ready_to_step`).
-    latest: BTreeMap<u32, BTreeMap<u64, VehicleState>>,
+    states: BTreeMap<u32, BTreeMap<u64, VehicleState>>,
     peers: Vec<Peer>,
     joins: BTreeSet<u32>,
     counts: MessageCounts,
@@ -69,7 +69,7 @@ impl Inbox {
     /// Vehicle `v`'s state for tick `k`: of that very tick in lockstep, the newest one in
     /// paced runs.
     fn state(&self, v: u32, k: u64, paced: bool) -> Option<&VehicleState> {
-        let states = self.latest.get(&v)?;
+        let states = self.states.get(&v)?;
         if paced {
             states.values().next_back()
         } else {
@@ -79,7 +79,7 @@ impl Inbox {
 
     /// Forgets the states tick `k` has used (lockstep), or all but the newest (paced).
     fn used(&mut self, k: u64, paced: bool) {
-        for states in self.latest.values_mut() {
+        for states in self.states.values_mut() {
             if paced {
                 while states.len() > 1 {
                     states.pop_first();
@@ -90,7 +90,7 @@ impl Inbox {
         }
     }
 
-    /// Drains every state subscriber; validates; keeps the newest state per alive vehicle
+    /// Drains every state subscriber; validates; keeps the states of alive vehicles by tick
     /// and the join requests.
     fn drain(
         &mut self,
@@ -180,7 +180,7 @@ impl Inbox {
                         info!(vehicle = id, tick = h.tick, pid = s.pid, "join request");
                         peer.join_request = Some(Instant::now());
                         self.joins.insert(id);
-                        self.latest.remove(&id);
+                        self.states.remove(&id);
                     }
                     continue;
                 }
@@ -188,7 +188,7 @@ impl Inbox {
                     continue;
                 }
                 self.counts.delivered += 1;
-                self.latest.entry(id).or_default().insert(h.tick, s);
+                self.states.entry(id).or_default().insert(h.tick, s);
             }
         }
         Ok(())
@@ -422,7 +422,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
     let ids: Vec<u32> = (0..n as u32).collect();
     let plan = FaultPlan::new(mission);
     let mut inbox = Inbox {
-        latest: BTreeMap::new(),
+        states: BTreeMap::new(),
         peers: vec![Peer::default(); n],
         joins: BTreeSet::new(),
         counts: MessageCounts::default(),
@@ -525,7 +525,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                 "scheduled kill done"
             );
             fleet.lose(v);
-            inbox.latest.remove(&v);
+            inbox.states.remove(&v);
             recorder.lost(k, v, "scheduled kill")?;
         }
         // Scheduled restarts: wait for the restarted agent's join request, then admit.
@@ -629,7 +629,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                         );
                         detection_ms.extend(latency);
                         fleet.lose(v);
-                        inbox.latest.remove(&v);
+                        inbox.states.remove(&v);
                         recorder.lost(k, v, "process died")?;
                         any_dead = true;
                     }
@@ -716,7 +716,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
             let mut ahead: Vec<VehicleState> = fleet
                 .alive()
                 .filter(|v| !admitted.contains(v))
-                .filter_map(|v| inbox.latest.get(&v))
+                .filter_map(|v| inbox.states.get(&v))
                 .flat_map(|m| m.range(k + 1..).map(|(_, s)| *s))
                 .filter(|s| {
                     !plan.kills.iter().any(|x| {
