@@ -339,6 +339,8 @@ struct Fields<'a> {
 /// What one log file contributes.
 #[derive(Default)]
 struct Partial {
+    /// Commands of this tick and later only end the mission (not counted).
+    last_tick: u64,
     hops: BTreeMap<String, HopAcc>,
     /// (tick, recv_ns) of the body commands this process received.
     body_recv: Vec<(u64, u64)>,
@@ -389,6 +391,9 @@ impl Partial {
     /// Adds one record of a process (`is_agent`: a vehicle agent's).
     fn add(&mut self, r: Rec<'_>, is_agent: bool) {
         self.records += 1;
+        if r.hop == "body" && r.tick.is_some_and(|t| t >= self.last_tick) {
+            return; // "the mission is over": not a command of the mission's links
+        }
         let acc = match self.hops.get_mut(r.hop) {
             Some(a) => a,
             None => self.hops.entry(r.hop.to_string()).or_default(),
@@ -455,10 +460,13 @@ fn log_file(path: &Path) -> Option<(Format, String)> {
 }
 
 /// Parses one log file.
-fn read_log(path: &Path, format: Format, is_agent: bool) -> Result<Partial> {
+fn read_log(path: &Path, format: Format, is_agent: bool, last_tick: u64) -> Result<Partial> {
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let mut reader = std::io::BufReader::with_capacity(1 << 18, file);
-    let mut part = Partial::default();
+    let mut part = Partial {
+        last_tick,
+        ..Partial::default()
+    };
     let mut buf = Vec::with_capacity(512);
     loop {
         buf.clear();
@@ -562,6 +570,11 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
         .collect();
     files.sort_by(|a, b| a.0.cmp(&b.0));
 
+    let mission = Mission::load(&dir.mission()).ok();
+    // The command of tick `ticks` only tells the agents the mission is over: not a message
+    // of the mission's links.
+    let last_tick = mission.as_ref().map_or(u64::MAX, |m| m.ticks());
+
     // Parse the files in parallel, one worker per core.
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
@@ -578,7 +591,7 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
                             break;
                         };
                         let is_agent = process.starts_with("vehicle_agent");
-                        mine.push((i, read_log(path, *format, is_agent)?));
+                        mine.push((i, read_log(path, *format, is_agent, last_tick)?));
                     }
                     Ok(mine)
                 })
@@ -592,9 +605,6 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
     })?;
     parts.sort_by_key(|(i, _)| *i);
 
-    let mission = Mission::load(&dir.mission()).ok();
-    // The command of tick `ticks` only tells the agents the mission is over.
-    let last_tick = mission.as_ref().map_or(u64::MAX, |m| m.ticks());
     let nominal_ms = mission.as_ref().and_then(|m| match m.mission.pace {
         Pace::Lockstep => None,
         Pace::Factor(f) => Some(m.mission.dt / f * 1e3),

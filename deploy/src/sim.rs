@@ -127,11 +127,15 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
     }
     recorder.flush()?;
     let mut summary = recorder.summary(&planner, "in-process");
+    // Reports still held by the uplink when the mission ends were let through by the link
+    // model (as the commands' fates count them), their delivery time lies after the end.
+    let in_flight = fleet.held_reports().0.len() as u64;
     summary.messages.sent = fleet.counts.delivered
+        + in_flight
         + fleet.counts.dropped_injected
         + downlink.delivered
         + downlink.dropped;
-    summary.messages.delivered = fleet.counts.delivered + downlink.delivered;
+    summary.messages.delivered = fleet.counts.delivered + in_flight + downlink.delivered;
     summary.messages.dropped_injected = fleet.counts.dropped_injected + downlink.dropped;
     summary.wall_time_s = wall.elapsed().as_secs_f64();
     summary.write(dir).context("writing summary.json")?;

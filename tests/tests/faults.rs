@@ -295,6 +295,13 @@ fn nothing_is_delivered_outside_a_surfacing_window() {
         &base(&name, n, 30.0, "\"lockstep\"", &extra),
     );
     vbap_quiet("run", &file, &tmp.join("run"));
+    vbap_quiet("sim", &file, &tmp.join("sim"));
+    // Both count the messages of the links alike, reports still under way at the end
+    // included.
+    let (run, sim) = (summary(&tmp.join("run")), summary(&tmp.join("sim")));
+    for count in ["sent", "delivered", "dropped_injected"] {
+        assert_eq!(run["messages"][count], sim["messages"][count], "{count}");
+    }
     // Every report the planner received fresh was delivered while its vehicle was at the
     // surface: staggered phase i·period/N.
     let text = read(&tmp.join("run/planner_inputs.csv"));
