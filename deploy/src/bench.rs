@@ -418,6 +418,10 @@ struct Report {
     /// loaded `vbap run` (the reference of the hop goal when measured).
     hop_iceoryx2_warm: Option<HopFloor>,
     hop_udp_warm: Option<HopFloor>,
+    /// The floors with both sides busy polling (no event, no sleep): the payload path
+    /// alone, which a blocking system never sees (DESIGN: nothing busy-polls).
+    hop_iceoryx2_poll: HopFloor,
+    hop_udp_poll: HopFloor,
     hop_system: Vec<SystemHop>,
     lockstep: Vec<LockstepRow>,
     realtime: Realtime,
@@ -552,11 +556,22 @@ fn bench(args: &BenchArgs, work: &Path, stop: &StopFlag) -> Result<Report> {
 
     // 1. The hop floors.
     phase("raw iceoryx2 ping-pong (VehicleState, pub-sub + event, blocking WaitSet)");
-    let hop_iceoryx2 =
-        floors::iceoryx2_ping_pong(work, plan.pingpong_warmup, plan.pingpong_samples, stop)?;
+    let hop_iceoryx2 = floors::iceoryx2_ping_pong(
+        work,
+        plan.pingpong_warmup,
+        plan.pingpong_samples,
+        false,
+        stop,
+    )?;
     stop.check()?;
     phase("UDP loopback ping-pong (the same payload bytes, blocking recv)");
-    let hop_udp = floors::udp_ping_pong(work, plan.pingpong_warmup, plan.pingpong_samples, stop)?;
+    let hop_udp = floors::udp_ping_pong(
+        work,
+        plan.pingpong_warmup,
+        plan.pingpong_samples,
+        false,
+        stop,
+    )?;
     stop.check()?;
     phase("the same two ping-pongs with every CPU kept awake (nice -n 19 spinners)");
     let (hop_iceoryx2_warm, hop_udp_warm) = match floors::Warm::start(work) {
@@ -565,17 +580,35 @@ fn bench(args: &BenchArgs, work: &Path, stop: &StopFlag) -> Result<Report> {
                 work,
                 plan.pingpong_warmup,
                 plan.pingpong_samples,
+                false,
                 stop,
             )?),
             Some(floors::udp_ping_pong(
                 work,
                 plan.pingpong_warmup,
                 plan.pingpong_samples,
+                false,
                 stop,
             )?),
         ),
         None => (None, None),
     };
+    stop.check()?;
+    phase("the same two ping-pongs busy polling (nothing sleeps: each side burns a CPU)");
+    let hop_iceoryx2_poll = floors::iceoryx2_ping_pong(
+        work,
+        plan.pingpong_warmup,
+        plan.pingpong_samples,
+        true,
+        stop,
+    )?;
+    let hop_udp_poll = floors::udp_ping_pong(
+        work,
+        plan.pingpong_warmup,
+        plan.pingpong_samples,
+        true,
+        stop,
+    )?;
     stop.check()?;
 
     let mut suspect_runs = Vec::new();
@@ -719,6 +752,8 @@ fn bench(args: &BenchArgs, work: &Path, stop: &StopFlag) -> Result<Report> {
         hop_udp,
         hop_iceoryx2_warm,
         hop_udp_warm,
+        hop_iceoryx2_poll,
+        hop_udp_poll,
         hop_system,
         lockstep,
         realtime,
@@ -893,6 +928,8 @@ fn render(r: &Report) -> String {
         floors.push(("raw iceoryx2 ping-pong, CPUs kept awake", i));
         floors.push(("UDP loopback ping-pong, CPUs kept awake", u));
     }
+    floors.push(("raw iceoryx2 ping-pong, busy polling", &r.hop_iceoryx2_poll));
+    floors.push(("UDP loopback ping-pong, busy polling", &r.hop_udp_poll));
     for (name, h) in floors {
         let _ = writeln!(
             s,
@@ -916,6 +953,11 @@ fn render(r: &Report) -> String {
         s,
         "   ({which} UDP / raw iceoryx2 p50: {:.2}× — the most any blocking hop can gain on UDP here)",
         udp / floor
+    );
+    let _ = writeln!(
+        s,
+        "   (busy polling, UDP / raw iceoryx2 p50: {:.2}× — what the zero-copy path gains when nothing sleeps)",
+        r.hop_udp_poll.one_way_us.p50 / r.hop_iceoryx2_poll.one_way_us.p50
     );
     let _ = writeln!(s);
     let _ = writeln!(

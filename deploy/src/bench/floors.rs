@@ -47,6 +47,10 @@ pub enum Role {
     IoxPong,
     /// Answers UDP pings.
     UdpPong,
+    /// Answers iceoryx2 pings, busy polling (no event, no sleep).
+    IoxPongPoll,
+    /// Answers UDP pings, busy polling a non-blocking socket.
+    UdpPongPoll,
     /// One agent of the wake-up floor.
     WakeAgent,
     /// Spins at the lowest priority, keeping a CPU out of idle (the warm floors).
@@ -329,11 +333,14 @@ fn in_private_domain<T>(tag: &str, body: impl FnOnce(&Domain) -> Result<T>) -> R
     Ok(value)
 }
 
-/// The raw iceoryx2 floor of the hop: `samples` round trips after `warmup`.
+/// The raw iceoryx2 floor of the hop: `samples` round trips after `warmup`. `poll`: both
+/// sides busy-poll their subscriber instead of sleeping in a WaitSet (no event at all: the
+/// payload path alone, each side burning a CPU).
 pub fn iceoryx2_ping_pong(
     work: &Path,
     warmup: usize,
     samples: usize,
+    poll: bool,
     stop: &StopFlag,
 ) -> Result<HopFloor> {
     in_private_domain("i", |domain| {
@@ -352,12 +359,13 @@ pub fn iceoryx2_ping_pong(
         let _guard = ws
             .attach_notification(&wake)
             .map_err(|e| anyhow!("attaching: {e:?}"))?;
+        let role = if poll { "iox-pong-poll" } else { "iox-pong" };
         let mut helper = Helper::spawn(
             work,
-            "iox-pong",
+            role,
             &[
                 "--role".into(),
-                "iox-pong".into(),
+                role.into(),
                 "--domain".into(),
                 domain.mission.clone(),
             ],
@@ -372,9 +380,11 @@ pub fn iceoryx2_ping_pong(
             publisher
                 .send_copy(ping(i, 0))
                 .map_err(|e| anyhow!("sending a ping: {e:?}"))?;
-            wake_peer
-                .notify()
-                .map_err(|e| anyhow!("waking the peer: {e:?}"))?;
+            if !poll {
+                wake_peer
+                    .notify()
+                    .map_err(|e| anyhow!("waking the peer: {e:?}"))?;
+            }
             let (reply, recv_ns) = loop {
                 if let Some(sample) = subscriber
                     .receive()
@@ -385,6 +395,13 @@ pub fn iceoryx2_ping_pong(
                     if reply.header.tick == i {
                         break (reply, recv_ns);
                     }
+                    continue;
+                }
+                if poll {
+                    anyhow::ensure!(
+                        t0.elapsed() < PEER_TIMEOUT,
+                        "iceoryx2 ping-pong (polling): no pong within {PEER_TIMEOUT:?}"
+                    );
                     continue;
                 }
                 match wait_ids(&ws, &wake, PEER_TIMEOUT, |_| {})? {
@@ -405,7 +422,7 @@ pub fn iceoryx2_ping_pong(
     })
 }
 
-fn iox_pong(domain: &Domain) -> Result<i32> {
+fn iox_pong(domain: &Domain, poll: bool) -> Result<i32> {
     let node = domain.node("bench_pong")?;
     let subscriber = state_like(&node, domain, "ping")?
         .subscriber_builder()
@@ -422,9 +439,13 @@ fn iox_pong(domain: &Domain) -> Result<i32> {
         .attach_notification(&wake)
         .map_err(|e| anyhow!("attaching: {e:?}"))?;
     say_ready("");
+    let mut last = Instant::now();
     loop {
-        if wait_ids(&ws, &wake, Duration::from_secs(3600), |_| {})? == Wake::Stop {
+        if !poll && wait_ids(&ws, &wake, Duration::from_secs(3600), |_| {})? == Wake::Stop {
             return Ok(0);
+        }
+        if poll && last.elapsed() > PEER_TIMEOUT {
+            bail!("iceoryx2 pong (polling): no ping within {PEER_TIMEOUT:?}");
         }
         while let Some(sample) = subscriber
             .receive()
@@ -438,9 +459,12 @@ fn iox_pong(domain: &Domain) -> Result<i32> {
             publisher
                 .send_copy(pong(&p, recv_ns))
                 .map_err(|e| anyhow!("sending a pong: {e:?}"))?;
-            wake_peer
-                .notify()
-                .map_err(|e| anyhow!("waking the pinger: {e:?}"))?;
+            last = Instant::now();
+            if !poll {
+                wake_peer
+                    .notify()
+                    .map_err(|e| anyhow!("waking the pinger: {e:?}"))?;
+            }
         }
     }
 }
@@ -493,20 +517,24 @@ fn decode(b: &[u8; WIRE]) -> VehicleState {
     }
 }
 
-/// UDP loopback floor of the hop: `samples` round trips after `warmup`.
+/// UDP loopback floor of the hop: `samples` round trips after `warmup`. `poll`: both sides
+/// busy-poll non-blocking sockets instead of sleeping in `recv`.
 pub fn udp_ping_pong(
     work: &Path,
     warmup: usize,
     samples: usize,
+    poll: bool,
     stop: &StopFlag,
 ) -> Result<HopFloor> {
-    let mut helper = Helper::spawn(work, "udp-pong", &["--role".into(), "udp-pong".into()])?;
+    let role = if poll { "udp-pong-poll" } else { "udp-pong" };
+    let mut helper = Helper::spawn(work, role, &["--role".into(), role.into()])?;
     let port: u16 = helper.ready()?.parse().context("the UDP helper's port")?;
     let socket = UdpSocket::bind("127.0.0.1:0").context("binding a UDP socket on 127.0.0.1")?;
     socket
         .connect(("127.0.0.1", port))
         .context("connecting to the UDP helper")?;
     socket.set_read_timeout(Some(PEER_TIMEOUT))?;
+    socket.set_nonblocking(poll)?;
     let mut out = Samples::default();
     let mut buf = [0u8; WIRE];
     for i in 0..(warmup + samples) as u64 {
@@ -520,6 +548,13 @@ pub fn udp_ping_pong(
         let (reply, recv_ns) = loop {
             let n = match socket.recv(&mut buf) {
                 Ok(n) => n,
+                Err(e) if poll && e.kind() == std::io::ErrorKind::WouldBlock => {
+                    anyhow::ensure!(
+                        t0.elapsed() < PEER_TIMEOUT,
+                        "UDP ping-pong (polling): no pong within {PEER_TIMEOUT:?}"
+                    );
+                    continue;
+                }
                 Err(e) => {
                     stop.check()?;
                     return Err(anyhow!("UDP ping-pong: no pong: {e}"));
@@ -541,12 +576,24 @@ pub fn udp_ping_pong(
     Ok(out.floor())
 }
 
-fn udp_pong() -> Result<i32> {
+fn udp_pong(poll: bool) -> Result<i32> {
     let socket = UdpSocket::bind("127.0.0.1:0").context("binding a UDP socket on 127.0.0.1")?;
+    socket.set_nonblocking(poll)?;
     say_ready(&socket.local_addr()?.port().to_string());
     let mut buf = [0u8; WIRE];
+    let mut last = Instant::now();
     loop {
-        let (n, from) = socket.recv_from(&mut buf).context("receiving a UDP ping")?;
+        let (n, from) = match socket.recv_from(&mut buf) {
+            Ok(got) => got,
+            Err(e) if poll && e.kind() == std::io::ErrorKind::WouldBlock => {
+                if last.elapsed() > PEER_TIMEOUT {
+                    bail!("UDP pong (polling): no ping within {PEER_TIMEOUT:?}");
+                }
+                continue;
+            }
+            Err(e) => return Err(e).context("receiving a UDP ping"),
+        };
+        last = Instant::now();
         let recv_ns = wall_ns();
         if n != WIRE {
             continue;
@@ -743,8 +790,10 @@ pub fn helper(role: Role, args: &BenchArgs) -> Result<i32> {
         Ok(Domain::new(name)?)
     };
     let code = match role {
-        Role::IoxPong => iox_pong(&domain()?),
-        Role::UdpPong => udp_pong(),
+        Role::IoxPong => iox_pong(&domain()?, false),
+        Role::UdpPong => udp_pong(false),
+        Role::IoxPongPoll => iox_pong(&domain()?, true),
+        Role::UdpPongPoll => udp_pong(true),
         Role::Spin => spin(),
         Role::WakeAgent => {
             let (Some(id), Some(agents)) = (args.id, args.agents) else {
