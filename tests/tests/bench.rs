@@ -1,0 +1,79 @@
+//! `vbap bench --quick` end to end: every floor and every system run is measured, the
+//! figures come out as positive ratios and the run leaves nothing behind. Nothing here
+//! asserts a speed: the bench only reports (a slow machine gives slow figures, not a
+//! failure).
+
+use tests::*;
+
+#[test]
+fn quick_bench_measures_every_floor_and_run() {
+    let tmp = TempDir::new("bench");
+    let json = tmp.join("bench.json");
+    // The runs' directories go into the test's own directory (removed with it).
+    let out = run_ok(
+        vbap()
+            .args(["bench", "--quick", "--out"])
+            .arg(&json)
+            .arg("--work-dir")
+            .arg(tmp.join("work")),
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    for section in [
+        "1. state → coordinator hop",
+        "2. lockstep ticks per second",
+        "3. real-time capacity",
+        "4. simulated glider-days",
+        "5. start-up and memory",
+        "Goals",
+        "busy polling",
+    ] {
+        assert!(text.contains(section), "no {section:?} in\n{text}");
+    }
+    let r: serde_json::Value = serde_json::from_str(&read(&json)).expect("bench.json is JSON");
+    for floor in [
+        "hop_iceoryx2",
+        "hop_udp",
+        "hop_iceoryx2_poll",
+        "hop_udp_poll",
+    ] {
+        let p50 = r[floor]["one_way_us"]["p50"].as_f64().unwrap_or(0.0);
+        assert!(p50 > 0.0, "{floor}: {}", r[floor]);
+        assert!(r[floor]["samples"].as_u64().unwrap() > 0);
+    }
+    let lockstep = r["lockstep"].as_array().unwrap();
+    assert_eq!(lockstep.len(), 3, "N = 4, 16, 64 in --quick");
+    for row in lockstep {
+        assert!(row["error"].is_null(), "{row}");
+        for rate in [
+            "run_ticks_per_s",
+            "in_process_ticks_per_s",
+            "wake_floor_ticks_per_s",
+        ] {
+            assert!(row[rate].as_f64().unwrap() > 0.0, "{rate}: {row}");
+        }
+    }
+    for side in ["sim", "run"] {
+        let g = &r["glider"][side];
+        assert!(g["error"].is_null(), "glider {side}: {g}");
+        assert!(
+            g["days_per_wall_min"].as_f64().unwrap() > 0.0,
+            "glider {side}: {g}"
+        );
+    }
+    for row in r["realtime"]["rows"].as_array().unwrap() {
+        assert!(row["error"].is_null(), "{row}");
+        assert!(row["ticks"].as_u64().unwrap() > 0, "{row}");
+    }
+    assert_eq!(r["goals"].as_array().unwrap().len(), 5);
+    // Every helper and every run was reaped, every shared-memory file removed.
+    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+    let leftovers: Vec<_> = std::fs::read_dir("/dev/shm")
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.file_name().to_string_lossy().to_string())
+                .filter(|n| n.starts_with("vbap_bench"))
+                .collect()
+        })
+        .unwrap_or_default();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
