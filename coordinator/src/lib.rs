@@ -4,10 +4,12 @@
 //! filter, speed law (IV.4), direction ±∇T_est, resolution adaptation dk/ds, formation
 //! redesign when the fleet changes) and never sees iceoryx2. [`record::Recorder`] turns
 //! ticks into the run-directory files and the summary, with ground truth the planner
-//! never sees. [`run`] wires the ports.
+//! never sees. [`tick::plan_tick`] is one tick of both, as the simulator and the
+//! coordinator process run it. [`run`] wires the ports.
 
 pub mod checkpoint;
 pub mod fleet;
 pub mod planner;
 pub mod record;
 pub mod run;
+pub mod tick;

@@ -24,6 +24,7 @@ use crate::checkpoint::{Checkpoint, CheckpointRef, CheckpointWriter, JournalMark
 use crate::fleet::Fleet;
 use crate::planner::{Planner, PlannerParams, Report};
 use crate::record::Recorder;
+use crate::tick::{plan_tick, TickOutcome};
 
 /// Wall time a lockstep tick waits for a silent vehicle before going on without it.
 pub const LOCKSTEP_TIMEOUT: Duration = Duration::from_secs(10);
@@ -750,7 +751,11 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
         // Readings of states that will never be used (their vehicle was lost).
         sensors.readings.retain(|(_, tick), _| *tick > k);
         let t = k as f64 * dt;
-        let fates = fleet.receive(k, dt, &truth);
+        let TickOutcome {
+            fates,
+            command,
+            snapshot,
+        } = plan_tick(k, dt, &truth, &mut fleet, &mut planner, &mut recorder)?;
         for (v, fate) in &fates {
             match fate {
                 Fate::Deliver { injected, .. } if *injected > 0.0 => {
@@ -766,13 +771,6 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                 _ => {}
             }
         }
-        recorder.uplink(k, &fates)?;
-        fleet.track_body(k, planner.body().r);
-        let (members, fresh) = fleet.deliver(t, dt);
-        let command = planner.step(k, &members, &fresh, dt)?;
-        recorder.inputs(k, &members, &fresh)?;
-        recorder.tick(k, &truth, &command)?;
-        let snapshot = fleet.snapshot(&members);
 
         // Deterministic sequence numbers: a resumed coordinator re-sends a tick's command
         // under the same number, which agents that already have it ignore.

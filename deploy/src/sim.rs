@@ -11,6 +11,7 @@ use anyhow::{Context, Result};
 use coordinator::fleet::Fleet;
 use coordinator::planner::{Planner, PlannerParams, Report};
 use coordinator::record::Recorder;
+use coordinator::tick::{plan_tick, TickOutcome};
 use field_server::Sensors;
 use shared::config::Mission;
 use shared::faults::FaultPlan;
@@ -92,14 +93,9 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
                 }
             })
             .collect();
-        let fates = fleet.receive(k, dt, &truth);
-        recorder.uplink(k, &fates)?;
-        fleet.track_body(k, planner.body().r);
-        let (members, fresh) = fleet.deliver(t, dt);
-        let command = planner.step(k, &members, &fresh, dt)?;
-        recorder.inputs(k, &members, &fresh)?;
-        recorder.tick(k, &truth, &command)?;
-        let snapshot = fleet.snapshot(&members);
+        let TickOutcome {
+            command, snapshot, ..
+        } = plan_tick(k, dt, &truth, &mut fleet, &mut planner, &mut recorder)?;
         for (&id, veh) in vehicles.iter_mut() {
             let guidance = Guidance {
                 tick: k,

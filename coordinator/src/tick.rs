@@ -1,0 +1,58 @@
+//! One tick of the coordinator's decision, as `vbap sim` and the coordinator process both
+//! run it: the true reports pass the link model, the planner steps on what was delivered,
+//! and the run directory records it all. Sharing this one function is what keeps the two
+//! byte-identical.
+
+use shared::link::Fate;
+use shared::msg::coordinator_to_agent::SnapshotEntry;
+
+use crate::fleet::Fleet;
+use crate::planner::{Command, Planner, PlannerError, Report};
+use crate::record::Recorder;
+
+/// What a tick produced.
+pub struct TickOutcome {
+    /// The link model's verdict on every true report, for the logs.
+    pub fates: Vec<(u32, Fate)>,
+    /// The command for the step from tick k to k + 1.
+    pub command: Command,
+    /// The swarm snapshot published with it.
+    pub snapshot: Vec<SnapshotEntry>,
+}
+
+/// Errors of a tick.
+#[derive(Debug, thiserror::Error)]
+pub enum TickError {
+    /// The planner refused the tick.
+    #[error(transparent)]
+    Planner(#[from] PlannerError),
+    /// A run-directory file could not be written.
+    #[error("writing the run directory: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// Tick `k` (length `dt`, s) with the true reports `truth` (ordered by id): link model,
+/// body track, planner step, run-directory rows.
+pub fn plan_tick(
+    k: u64,
+    dt: f64,
+    truth: &[Report],
+    fleet: &mut Fleet,
+    planner: &mut Planner,
+    recorder: &mut Recorder,
+) -> Result<TickOutcome, TickError> {
+    let t = k as f64 * dt;
+    let fates = fleet.receive(k, dt, truth);
+    recorder.uplink(k, &fates)?;
+    fleet.track_body(k, planner.body().r);
+    let (members, fresh) = fleet.deliver(t, dt);
+    let command = planner.step(k, &members, &fresh, dt)?;
+    recorder.inputs(k, &members, &fresh)?;
+    recorder.tick(k, truth, &command)?;
+    let snapshot = fleet.snapshot(&members);
+    Ok(TickOutcome {
+        fates,
+        command,
+        snapshot,
+    })
+}
