@@ -433,6 +433,10 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
     let mut republish: Option<BodyRecord> = None;
     let resumed = Checkpoint::load(dir).context("reading the checkpoint")?;
     let resumed_marks = resumed.as_ref().map(|cp| cp.journal);
+    let mut detection_ms = Vec::new();
+    let mut rejoin_ms = Vec::new();
+    let mut late_ticks = 0u64;
+    let mut sent = 0u64;
     let (mut planner, mut fleet, mut recorder, mut k) = match resumed {
         Some(cp) => {
             dir.truncate_to(&cp.offsets)
@@ -447,6 +451,10 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                 "resumed from the checkpoint: re-publishing the last command"
             );
             republish = Some(cp.body.clone());
+            detection_ms = cp.detection_ms;
+            rejoin_ms = cp.rejoin_ms;
+            late_ticks = cp.late_ticks;
+            sent = cp.sent;
             let recorder = Recorder::resume(mission, dir, cp.stats)
                 .context("opening the run directory files")?;
             (cp.planner, cp.fleet, recorder, cp.next_tick)
@@ -462,16 +470,6 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
             0,
         ),
     };
-    let mut detection_ms = Vec::new();
-    let mut rejoin_ms = Vec::new();
-    let mut late_ticks = 0u64;
-    let mut sent = 0u64;
-    if let Some(cp) = Checkpoint::load(dir).ok().flatten() {
-        detection_ms = cp.detection_ms;
-        rejoin_ms = cp.rejoin_ms;
-        late_ticks = cp.late_ticks;
-        sent = cp.sent;
-    }
     // A coordinator that is never restarted needs no checkpoint.
     let mut checkpoints = match mission.restart.coordinator {
         RestartPolicy::Never => None,
