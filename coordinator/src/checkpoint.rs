@@ -50,6 +50,9 @@ pub struct Checkpoint {
     pub peers: Vec<PeerMark>,
     /// The command of the last tick, re-published on resume.
     pub body: crate::run::BodyRecord,
+    /// Wall-clock time tick 0 of a paced mission was due, ns since the Unix epoch: a
+    /// resumed coordinator keeps the mission's clock (None: lockstep, or not started).
+    pub clock_start_ns: Option<u64>,
     /// What of the journals this checkpoint covers.
     pub journal: JournalMarks,
 }
@@ -85,6 +88,7 @@ pub struct CheckpointRef<'a> {
     pub rejoin_ms: &'a [f64],
     pub peers: &'a [PeerMark],
     pub body: &'a crate::run::BodyRecord,
+    pub clock_start_ns: Option<u64>,
     /// Filled in by [`CheckpointWriter::save`].
     pub journal: JournalMarks,
 }
@@ -365,6 +369,7 @@ mod tests {
                 rejoin_ms: &[],
                 peers: &[],
                 body: &body,
+                clock_start_ns: None,
                 journal: JournalMarks::default(),
             }
             .save_with(&mut writer)

@@ -130,6 +130,19 @@ impl Recorder {
         })
     }
 
+    /// Vehicle `v` was found lost at tick `k`; `detail` says how (`cause`, and in the
+    /// multi-process system `by`, `pid`, `detection_ms`).
+    pub fn lost_with(&mut self, k: u64, v: u32, detail: serde_json::Value) -> io::Result<()> {
+        let t = k as f64 * self.mission.mission.dt;
+        self.event(Event {
+            t,
+            k,
+            kind: "lost".into(),
+            vehicle: Some(v),
+            detail,
+        })
+    }
+
     /// Vehicle `v` was admitted back at tick `k`.
     pub fn rejoined(&mut self, k: u64, v: u32) -> io::Result<()> {
         let t = k as f64 * self.mission.mission.dt;

@@ -14,10 +14,11 @@ use shared::msg::agent_to_coordinator::VehicleState;
 use shared::msg::coordinator_to_agent::BodyCommand;
 use shared::msg::coordinator_to_field::{SampleBatch, SensorRead};
 use shared::msg::field_to_coordinator::ReadingBatch;
+use shared::msg::supervisor_to_coordinator::ProcessExit;
 use shared::msg::{from_vec3, to_vec3, wall_ns, Header, MAX_LEADERS, MAX_VEHICLES};
 use shared::msglog::MsgLog;
 use shared::rundir::{MessageCounts, RunDir};
-use shared::topics::{self, wait_for_wake, wait_for_wake_ids, Domain, Limits, Wake};
+use shared::topics::{self, wait_for_wake_ids, Domain, Limits, Wake};
 use tracing::{debug, info, warn};
 
 use crate::checkpoint::{Checkpoint, CheckpointRef, CheckpointWriter, JournalMarks, PeerMark};
@@ -28,16 +29,29 @@ use crate::tick::{plan_tick, TickOutcome};
 
 /// Wall time a lockstep tick waits for a silent vehicle before going on without it.
 pub const LOCKSTEP_TIMEOUT: Duration = Duration::from_secs(10);
-/// Wall time after which a lockstep tick starts asking whether missing vehicles are alive.
-const LIVENESS_AFTER: Duration = Duration::from_millis(50);
+/// Wall time a vehicle may be missing from a lockstep gather, or silent in a paced run (and
+/// at least [`SUSPECT_TICKS`] tick periods), before the node list is scanned for its
+/// process. A wall-clock deadline of the coordinator's own: it does not depend on the tick.
+const SUSPECT_AFTER: Duration = Duration::from_millis(50);
+/// Tick periods of silence (paced runs) before a vehicle is suspect.
+const SUSPECT_TICKS: f64 = 3.0;
 /// Least wall time between two node-list scans (one scan costs ~0.2 ms at 6 nodes, ~40 ms
-/// at 257).
-const LIVENESS_EVERY: Duration = Duration::from_millis(250);
+/// at 257). A scan checks every vehicle, so deaths at once are found together.
+const LIVENESS_EVERY: Duration = Duration::from_millis(100);
+/// Silence tolerated of a vehicle whose process is alive (stopped by SIGSTOP, hung,
+/// starved): past it the vehicle is lost (cause `silent`) and the formation redesigned; its
+/// process is readmitted as soon as it speaks again (SIGCONT). In lockstep this is the
+/// tick's wait.
+const SILENCE_LIMIT: Duration = LOCKSTEP_TIMEOUT;
 /// How long a scheduled kill waits for the victim's node to be seen dead.
 const KILL_TIMEOUT: Duration = Duration::from_secs(5);
 /// How long the coordinator waits for the readings of a tick before it wakes the field
 /// server again (a lost wake-up must not stall the mission).
 const RENOTIFY_AFTER: Duration = Duration::from_millis(500);
+/// How long the coordinator waits for the readings of a tick before it sends the request
+/// again (a field server restarted unseen: without a supervisor, or its start-up event
+/// missed). A restart the supervisor reports is acted on at once.
+const RESEND_AFTER: Duration = Duration::from_secs(1);
 /// How long the coordinator waits for the readings of a tick before it gives up.
 const SAMPLE_TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -78,13 +92,13 @@ impl Inbox {
         }
     }
 
-    /// Forgets the states tick `k` has used (lockstep), or all but the newest (paced).
+    /// Forgets the states tick `k` has used (lockstep), or every state (paced: a state is
+    /// used once, never again as if it were new; a vehicle with no newer one at the next
+    /// deadline is dead-reckoned from its last report).
     fn used(&mut self, k: u64, paced: bool) {
         for states in self.states.values_mut() {
             if paced {
-                while states.len() > 1 {
-                    states.pop_first();
-                }
+                states.clear();
             } else {
                 *states = states.split_off(&(k + 1));
             }
@@ -210,6 +224,8 @@ struct SensorReads {
     seq: u64,
     /// The request in flight and the (vehicle, tick) of its entries.
     pending: Option<(SampleResponse, Vec<(u32, u64)>)>,
+    /// When the request in flight was sent.
+    sent_at: Instant,
     /// Readings received and not used yet: (vehicle, tick) → reading (None: rejected).
     readings: BTreeMap<(u32, u64), Option<f64>>,
 }
@@ -265,7 +281,27 @@ impl SensorReads {
             .notify()
             .map_err(|e| anyhow::anyhow!("waking the field server: {e:?}"))?;
         self.pending = Some((pending, keys));
+        self.sent_at = Instant::now();
         Ok(())
+    }
+
+    /// Forgets the request in flight (its server died, or a new server started: a request
+    /// reaches only the servers connected when it was sent); the next wait sends it again.
+    fn forget_pending(&mut self, why: &str) {
+        if let Some((_, keys)) = self.pending.take() {
+            info!(
+                reads = keys.len(),
+                why, "sending the pending sensor request again"
+            );
+        }
+    }
+
+    /// Acts on the events of a wake-up: a (re)started field server gets the pending
+    /// request again.
+    fn note_events(&mut self, ids: &[usize]) {
+        if ids.contains(&topics::EVENT_FIELD_UP.as_value()) {
+            self.forget_pending("a field server started");
+        }
     }
 
     /// Takes in the answer to the request in flight, if it has come.
@@ -305,7 +341,8 @@ impl SensorReads {
 
     /// Blocks until the readings of every state in `needed` are in (asking for them when
     /// no request is in flight). None on a termination signal. Vehicle events consumed
-    /// meanwhile are harmless (every tick starts with a full drain).
+    /// meanwhile are harmless (every tick starts with a full drain); the supervisor's
+    /// process exits are kept in `live` for the tick's liveness check.
     #[allow(clippy::too_many_arguments)]
     fn wait_for(
         &mut self,
@@ -315,9 +352,13 @@ impl SensorReads {
         waitset: &iceoryx2::waitset::WaitSet<ipc::Service>,
         wake: &iceoryx2::port::listener::Listener<ipc::Service>,
         msgs: &mut MsgLog,
+        live: &mut Liveness,
     ) -> Result<Option<()>> {
         let started = Instant::now();
         loop {
+            if live.hear()? {
+                self.forget_pending("the field server died");
+            }
             self.poll(msgs)?;
             if needed
                 .iter()
@@ -325,13 +366,17 @@ impl SensorReads {
             {
                 return Ok(Some(()));
             }
+            if self.pending.is_some() && self.sent_at.elapsed() >= RESEND_AFTER {
+                self.forget_pending("no answer");
+            }
             self.request(k, dt, needed)?;
             let left = SAMPLE_TIMEOUT.saturating_sub(started.elapsed());
             anyhow::ensure!(
                 !left.is_zero(),
                 "no sensor readings from the field server within {SAMPLE_TIMEOUT:?} (tick {k})"
             );
-            match wait_for_wake(waitset, wake, left.min(RENOTIFY_AFTER))? {
+            let mut ids = Vec::new();
+            match wait_for_wake_ids(waitset, wake, left.min(RENOTIFY_AFTER), &mut ids)? {
                 Wake::Stop => return Ok(None),
                 Wake::Timeout => {
                     warn!(
@@ -342,7 +387,7 @@ impl SensorReads {
                         .notify()
                         .map_err(|e| anyhow::anyhow!("waking the field server: {e:?}"))?;
                 }
-                Wake::Events => {}
+                Wake::Events => self.note_events(&ids),
             }
         }
     }
@@ -351,6 +396,237 @@ impl SensorReads {
     fn take(&mut self, s: &VehicleState) -> Option<f64> {
         self.readings.remove(&read_key(s)).flatten()
     }
+}
+
+/// How the coordinator learns that vehicle processes died, apart from the tick: the
+/// supervisor's reports of the processes it reaped (certain, at once), join requests of
+/// new processes, and a scan of the node list when a vehicle is silent (the fallback of a
+/// coordinator started without a supervisor). See [`detect`].
+struct Liveness {
+    /// The supervisor's process exits (`<m>/supervisor/exits`).
+    exits: iceoryx2::port::subscriber::Subscriber<ipc::Service, ProcessExit, ()>,
+    /// Agent exits heard and not acted on yet.
+    agent_exits: Vec<ProcessExit>,
+    last_scan: Instant,
+    /// When this coordinator process started: the silence of a vehicle it has not heard
+    /// from yet counts from here.
+    since: Instant,
+    /// The same, wall clock, ns since the Unix epoch.
+    since_ns: u64,
+    /// True when this coordinator resumed from a checkpoint (every vehicle alive in it has
+    /// had a process: one whose node is gone is dead).
+    resumed: bool,
+}
+
+impl Liveness {
+    /// Takes in the supervisor's reports; true when one says the field server died.
+    fn hear(&mut self) -> Result<bool> {
+        let mut field_died = false;
+        while let Some(sample) = self
+            .exits
+            .receive()
+            .map_err(|e| anyhow::anyhow!("receiving a process exit: {e:?}"))?
+        {
+            let e: ProcessExit = *sample;
+            if e.header.sender != Header::SUPERVISOR {
+                continue;
+            }
+            match e.role {
+                ProcessExit::AGENT => self.agent_exits.push(e),
+                ProcessExit::FIELD_SERVER => field_died = true,
+                _ => {}
+            }
+        }
+        Ok(field_died)
+    }
+}
+
+/// What the coordinator knows of a death: how it learnt it and how long after the death.
+struct Verdict<'a> {
+    cause: &'a str,
+    /// `supervisor` (it reaped the process), `scan` (the node is listed dead or gone),
+    /// `join` (a new process of the vehicle asked to join), `silence`.
+    by: &'a str,
+    /// Wall ms from the death to this verdict: exact (the supervisor's reap time) for
+    /// `supervisor`; an upper bound (from the vehicle's last message) otherwise.
+    detection_ms: Option<f64>,
+    pid: u32,
+}
+
+/// The mutable state a liveness verdict touches.
+struct Books<'a> {
+    fleet: &'a mut Fleet,
+    inbox: &'a mut Inbox,
+    recorder: &'a mut Recorder,
+    detection_ms: &'a mut Vec<f64>,
+}
+
+impl Books<'_> {
+    /// Vehicle `v` is lost at tick `k`: formation redesigned without it, its states
+    /// forgotten, the event written (with how and how fast it was found).
+    fn lose(&mut self, k: u64, v: u32, verdict: Verdict) -> Result<()> {
+        if !self.fleet.lose(v) {
+            return Ok(());
+        }
+        warn!(
+            vehicle = v,
+            tick = k,
+            cause = verdict.cause,
+            by = verdict.by,
+            pid = verdict.pid,
+            detection_ms = verdict.detection_ms,
+            "vehicle process is dead"
+        );
+        self.inbox.states.remove(&v);
+        if verdict.cause != "silent" {
+            self.detection_ms.extend(verdict.detection_ms);
+        }
+        let mut detail = serde_json::json!({ "cause": verdict.cause, "by": verdict.by,
+            "pid": verdict.pid });
+        if let Some(ms) = verdict.detection_ms {
+            detail["detection_ms"] = serde_json::json!(ms);
+        }
+        self.recorder.lost_with(k, v, detail)?;
+        Ok(())
+    }
+}
+
+/// One liveness check at tick `k`, whatever the tick's pace: acts on the supervisor's
+/// reports and on join requests of vehicles still believed alive, then, when a vehicle is
+/// suspect (missing from a lockstep gather for [`SUSPECT_AFTER`], or silent for as long
+/// and [`SUSPECT_TICKS`] periods in a paced run) and no scan ran for [`LIVENESS_EVERY`],
+/// scans the node list once for every vehicle; a paced vehicle whose process is alive but
+/// silent for [`SILENCE_LIMIT`] is lost as `silent`. True when a vehicle was lost.
+#[allow(clippy::too_many_arguments)]
+fn detect(
+    k: u64,
+    paced: Option<f64>,
+    missing: &[u32],
+    gather_start: Instant,
+    live: &mut Liveness,
+    sensors: &mut SensorReads,
+    domain: &Domain,
+    plan: &FaultPlan,
+    books: &mut Books,
+) -> Result<bool> {
+    let mut lost = false;
+    if live.hear()? {
+        sensors.forget_pending("the field server died");
+    }
+    for e in std::mem::take(&mut live.agent_exits) {
+        let v = e.vehicle;
+        let Some(peer) = books.inbox.peers.get(v as usize) else {
+            continue;
+        };
+        // The process we know for this vehicle (or, never heard of, one that died since
+        // we started); a report of an older process is old news.
+        let ours = peer.pid == e.pid || (peer.pid == 0 && e.died_ns >= live.since_ns);
+        if !books.fleet.is_alive(v) || !ours {
+            continue;
+        }
+        let ms = wall_ns().saturating_sub(e.died_ns) as f64 / 1e6;
+        let cause = if e.signal != 0 {
+            "process died"
+        } else {
+            "process ended"
+        };
+        books.lose(
+            k,
+            v,
+            Verdict {
+                cause,
+                by: "supervisor",
+                detection_ms: Some(ms),
+                pid: e.pid,
+            },
+        )?;
+        lost = true;
+    }
+    // A new process asked to join for a vehicle still believed alive: the old one is gone
+    // (admitted at the start of the next tick).
+    for v in books.inbox.joins.clone() {
+        if !books.fleet.is_alive(v) || plan.restart_pending(v, k) {
+            continue;
+        }
+        let peer = &mut books.inbox.peers[v as usize];
+        let ms = peer.restart_gap_ms.take();
+        let pid = peer.pid;
+        books.lose(
+            k,
+            v,
+            Verdict {
+                cause: "process restarted",
+                by: "join",
+                detection_ms: ms,
+                pid,
+            },
+        )?;
+        lost = true;
+    }
+    let since = live.since;
+    let silence = |peer: &Peer| peer.last_recv.unwrap_or(since).elapsed();
+    let suspect = match paced {
+        None => !missing.is_empty() && gather_start.elapsed() >= SUSPECT_AFTER,
+        Some(period) => {
+            let after = SUSPECT_AFTER.max(Duration::from_secs_f64(SUSPECT_TICKS * period));
+            books
+                .fleet
+                .alive()
+                .any(|v| silence(&books.inbox.peers[v as usize]) >= after)
+        }
+    };
+    if !suspect || live.last_scan.elapsed() < LIVENESS_EVERY {
+        return Ok(lost);
+    }
+    live.last_scan = Instant::now();
+    let states = domain.node_states();
+    let alive: Vec<u32> = books.fleet.alive().collect();
+    let mut any_dead = false;
+    for v in alive {
+        let peer = books.inbox.peers[v as usize];
+        // Dead: its node is listed dead, or gone after a process of it was known (a
+        // vehicle still starting up has no node yet).
+        let heard = peer.last_recv.is_some() || live.resumed;
+        let verdict = match states.get(&topics::agent_node_name(v)) {
+            Some(true) => None,
+            Some(false) => Some("process died"),
+            None => heard.then_some("process gone"),
+        };
+        if let Some(cause) = verdict {
+            let ms = peer.last_recv.map(|t| t.elapsed().as_secs_f64() * 1e3);
+            books.lose(
+                k,
+                v,
+                Verdict {
+                    cause,
+                    by: "scan",
+                    detection_ms: ms,
+                    pid: peer.pid,
+                },
+            )?;
+            any_dead = true;
+        } else if paced.is_some() && states.get(&topics::agent_node_name(v)) == Some(&true) {
+            let quiet = silence(&peer);
+            if quiet >= SILENCE_LIMIT {
+                books.inbox.peers[v as usize].pid = 0; // its next word is a join request
+                books.lose(
+                    k,
+                    v,
+                    Verdict {
+                        cause: "silent",
+                        by: "silence",
+                        detection_ms: Some(quiet.as_secs_f64() * 1e3),
+                        pid: peer.pid,
+                    },
+                )?;
+                lost = true;
+            }
+        }
+    }
+    if any_dead {
+        domain.cleanup_dead_nodes();
+    }
+    Ok(lost || any_dead)
 }
 
 /// Runs the coordinator of `mission`, writing into `dir`. `msgs` receives the message
@@ -405,7 +681,20 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
         batch: Box::new(SampleBatch::empty()),
         seq: 0,
         pending: None,
+        sent_at: Instant::now(),
         readings: BTreeMap::new(),
+    };
+    let mut live = Liveness {
+        exits: domain
+            .exits_service(&node, &limits)?
+            .subscriber_builder()
+            .create()
+            .map_err(|e| anyhow::anyhow!("subscribing to the supervisor's process exits: {e:?}"))?,
+        agent_exits: Vec::new(),
+        last_scan: Instant::now(),
+        since: Instant::now(),
+        since_ns: wall_ns(),
+        resumed: false,
     };
     let wake = domain
         .coordinator_wake(&node, &limits)?
@@ -437,6 +726,9 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
     let mut rejoin_ms = Vec::new();
     let mut late_ticks = 0u64;
     let mut sent = 0u64;
+    // The wall clock of a paced mission: when its tick 0 was due (kept across restarts).
+    let mut clock_start: Option<Instant> = None;
+    let mut clock_start_ns: Option<u64> = None;
     let (mut planner, mut fleet, mut recorder, mut k) = match resumed {
         Some(cp) => {
             dir.truncate_to(&cp.offsets)
@@ -455,6 +747,14 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
             rejoin_ms = cp.rejoin_ms;
             late_ticks = cp.late_ticks;
             sent = cp.sent;
+            live.resumed = true;
+            // The mission's wall clock goes on: the ticks missed while no coordinator ran
+            // are due already (caught up, late), not postponed by the outage.
+            if let Some(ns) = cp.clock_start_ns {
+                let ago = Duration::from_nanos(wall_ns().saturating_sub(ns));
+                clock_start = Some(Instant::now().checked_sub(ago).unwrap_or_else(Instant::now));
+                clock_start_ns = Some(ns);
+            }
             let recorder = Recorder::resume(mission, dir, cp.stats)
                 .context("opening the run directory files")?;
             (cp.planner, cp.fleet, recorder, cp.next_tick)
@@ -491,8 +791,6 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
         Pace::Lockstep => None,
         Pace::Factor(f) => Some(dt / f),
     };
-    let mut clock_start: Option<Instant> = None;
-    let mut last_scan = Instant::now() - LIVENESS_EVERY;
     let mut stopped = false;
     'ticks: while k < ticks {
         recorder.faults_starting(k)?;
@@ -509,10 +807,14 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
             while domain.node_states().get(&name).copied().unwrap_or(false)
                 && started.elapsed() < KILL_TIMEOUT
             {
-                if wait_for_wake(&waitset, &wake, Duration::from_millis(2))? == Wake::Stop {
+                let mut ids = Vec::new();
+                if wait_for_wake_ids(&waitset, &wake, Duration::from_millis(2), &mut ids)?
+                    == Wake::Stop
+                {
                     stopped = true;
                     break 'ticks;
                 }
+                sensors.note_events(&ids);
             }
             domain.cleanup_dead_nodes();
             info!(
@@ -535,10 +837,14 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                 if inbox.joins.contains(&v) {
                     break;
                 }
-                if wait_for_wake(&waitset, &wake, Duration::from_millis(100))? == Wake::Stop {
+                let mut ids = Vec::new();
+                if wait_for_wake_ids(&waitset, &wake, Duration::from_millis(100), &mut ids)?
+                    == Wake::Stop
+                {
                     stopped = true;
                     break 'ticks;
                 }
+                sensors.note_events(&ids);
             }
             if inbox.joins.remove(&v) && fleet.admit(v).is_some() {
                 if let Some(at) = inbox.peers[v as usize].join_request {
@@ -561,9 +867,20 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
             }
             if fleet.is_alive(v) {
                 // Its process was restarted before we noticed it die.
-                fleet.lose(v);
-                detection_ms.extend(inbox.peers[v as usize].restart_gap_ms.take());
-                recorder.lost(k, v, "process restarted")?;
+                let peer = &mut inbox.peers[v as usize];
+                let verdict = Verdict {
+                    cause: "process restarted",
+                    by: "join",
+                    detection_ms: peer.restart_gap_ms.take(),
+                    pid: peer.pid,
+                };
+                Books {
+                    fleet: &mut fleet,
+                    inbox: &mut inbox,
+                    recorder: &mut recorder,
+                    detection_ms: &mut detection_ms,
+                }
+                .lose(k, v, verdict)?;
             }
             if fleet.admit(v).is_some() {
                 inbox.joins.remove(&v);
@@ -578,6 +895,9 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
         // tick's deadline (paced). Missing vehicles are checked for liveness.
         let admitted: BTreeSet<u32> = fleet.admitted().iter().map(|r| r.id).collect();
         let first = k == 0 || inbox.peers.iter().all(|p| p.last_recv.is_none());
+        // A paced mission waits for every vehicle once, at its very start; a resumed
+        // coordinator keeps the mission's clock instead.
+        let starting = k == 0 && !live.resumed;
         let wait_limit = if first {
             Duration::from_secs(30) + Duration::from_millis(100) * n as u32
         } else {
@@ -602,41 +922,25 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                             .is_none_or(|s| s.header.tick < k)
                 })
                 .collect();
-            // Liveness: tell a dead process from a slow one.
-            let scan_due = last_scan.elapsed() >= LIVENESS_EVERY;
-            if !missing.is_empty() && scan_due && gather_start.elapsed() >= LIVENESS_AFTER {
-                last_scan = Instant::now();
-                let states = domain.node_states();
-                let mut any_dead = false;
-                for &v in &missing {
-                    // Dead: its node is listed dead, or gone after we had heard from it
-                    // (a vehicle still starting up has no node yet).
-                    let heard = inbox.peers[v as usize].last_recv.is_some();
-                    let dead = match states.get(&topics::agent_node_name(v)) {
-                        Some(alive) => !alive,
-                        None => heard,
-                    };
-                    if dead {
-                        let latency = inbox.peers[v as usize]
-                            .last_recv
-                            .map(|t| t.elapsed().as_secs_f64() * 1e3);
-                        warn!(
-                            vehicle = v,
-                            tick = k,
-                            detection_ms = latency,
-                            "vehicle process is dead"
-                        );
-                        detection_ms.extend(latency);
-                        fleet.lose(v);
-                        inbox.states.remove(&v);
-                        recorder.lost(k, v, "process died")?;
-                        any_dead = true;
-                    }
-                }
-                if any_dead {
-                    domain.cleanup_dead_nodes();
-                    continue;
-                }
+            // Liveness, on a wall clock of its own: tell a dead process from a slow one.
+            let mut books = Books {
+                fleet: &mut fleet,
+                inbox: &mut inbox,
+                recorder: &mut recorder,
+                detection_ms: &mut detection_ms,
+            };
+            if detect(
+                k,
+                paced,
+                &missing,
+                gather_start,
+                &mut live,
+                &mut sensors,
+                &domain,
+                &plan,
+                &mut books,
+            )? {
+                continue;
             }
             let complete = missing.is_empty();
             let timeout = match paced {
@@ -651,17 +955,45 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                             ?missing,
                             "lockstep timeout: going on without the silent vehicles"
                         );
+                        // Alive but silent past the limit (stopped, hung): lost, and
+                        // readmitted when it speaks again.
+                        for &v in &missing {
+                            let peer = &mut inbox.peers[v as usize];
+                            let Some(last) = peer.last_recv else {
+                                continue; // never heard: still starting up
+                            };
+                            let pid = std::mem::take(&mut peer.pid);
+                            Books {
+                                fleet: &mut fleet,
+                                inbox: &mut inbox,
+                                recorder: &mut recorder,
+                                detection_ms: &mut detection_ms,
+                            }
+                            .lose(
+                                k,
+                                v,
+                                Verdict {
+                                    cause: "silent",
+                                    by: "silence",
+                                    detection_ms: Some(last.elapsed().as_secs_f64() * 1e3),
+                                    pid,
+                                },
+                            )?;
+                        }
                         break;
                     }
-                    left.min(LIVENESS_EVERY)
+                    left.min(SUSPECT_AFTER)
                 }
                 Some(period) => {
-                    if first && !complete {
+                    if starting && !complete {
                         wait_limit
                             .saturating_sub(gather_start.elapsed())
-                            .min(LIVENESS_EVERY)
+                            .min(SUSPECT_AFTER)
                     } else {
-                        let start = *clock_start.get_or_insert_with(Instant::now);
+                        let start = *clock_start.get_or_insert_with(|| {
+                            clock_start_ns = Some(wall_ns());
+                            Instant::now()
+                        });
                         let deadline = start + Duration::from_secs_f64(period * k as f64);
                         let now = Instant::now();
                         if now >= deadline {
@@ -675,7 +1007,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                             }
                             break;
                         }
-                        (deadline - now).min(LIVENESS_EVERY)
+                        (deadline - now).min(SUSPECT_AFTER)
                     }
                 }
             };
@@ -692,7 +1024,10 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                 {
                     woken = Some(ids)
                 }
-                _ => woken = None,
+                _ => {
+                    sensors.note_events(&ids);
+                    woken = None
+                }
             }
         }
 
@@ -703,7 +1038,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
             .filter_map(|v| inbox.state(v, k, paced.is_some()).copied())
             .collect();
         if sensors
-            .wait_for(k, dt, &states, &waitset, &wake, &mut inbox.msgs)?
+            .wait_for(k, dt, &states, &waitset, &wake, &mut inbox.msgs, &mut live)?
             .is_none()
         {
             stopped = true;
@@ -814,6 +1149,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                 rejoin_ms: &rejoin_ms,
                 peers: &peers,
                 body: &record,
+                clock_start_ns,
                 journal: JournalMarks::default(),
             }
             .save_with(writer)

@@ -12,8 +12,11 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
 use shared::config::{Mission, RestartPolicy};
+use shared::msg::coordinator_to_agent::BodyCommand;
+use shared::msg::supervisor_to_coordinator::ProcessExit;
+use shared::msg::{wall_ns, Header};
 use shared::rundir::{RunDir, Summary};
-use shared::topics::Domain;
+use shared::topics::{self, Domain, Limits};
 use tokio::io::{AsyncBufReadExt, BufReader};
 use tokio::process::{Child, Command};
 use tokio::sync::mpsc;
@@ -61,6 +64,134 @@ struct Exit {
     slot: usize,
     generation: u32,
     status: std::io::Result<std::process::ExitStatus>,
+}
+
+/// What the supervisor tells, or asks, the mission over iceoryx2. One thread owns those
+/// ports (they are not `Send`), so a process exit is reported the moment the child is
+/// reaped, whatever the supervisor's main loop is doing (a restart's backoff, say).
+enum Notice {
+    /// A child was reaped: tell the coordinator (`<m>/supervisor/exits`) and wake it.
+    Exit(ProcessExit),
+    /// Has the coordinator published the mission's final command (`FINISHED`)?
+    Finished(tokio::sync::oneshot::Sender<bool>),
+    /// The run is over: drop the ports and the node.
+    Stop,
+}
+
+/// The supervisor's iceoryx2 side: a node of the mission's domain, the exit publisher, a
+/// notifier of the coordinator's wake service, a subscriber of the body service.
+struct Notices {
+    tx: std::sync::mpsc::Sender<Notice>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Notices {
+    /// Starts the thread (after the domain was cleaned: its node is a live node of the
+    /// mission). Without its ports (an error, logged) the run goes on: the coordinator
+    /// finds deaths by itself, only later.
+    fn start(domain: &Domain, vehicles: usize) -> Self {
+        let (tx, rx) = std::sync::mpsc::channel::<Notice>();
+        let domain = domain.clone();
+        let thread = std::thread::spawn(move || {
+            let ports = (|| -> Result<_> {
+                let limits = Limits::for_fleet(vehicles);
+                let node = domain.supervisor_node()?;
+                let exits = domain
+                    .exits_service(&node, &limits)?
+                    .publisher_builder()
+                    .create()
+                    .map_err(|e| anyhow::anyhow!("publishing process exits: {e:?}"))?;
+                let wake = domain
+                    .coordinator_wake(&node, &limits)?
+                    .notifier_builder()
+                    .default_event_id(topics::EVENT_EXIT)
+                    .create()
+                    .map_err(|e| anyhow::anyhow!("notifying the coordinator: {e:?}"))?;
+                let body = domain
+                    .body_service(&node, &limits)?
+                    .subscriber_builder()
+                    .create()
+                    .map_err(|e| anyhow::anyhow!("subscribing to the body: {e:?}"))?;
+                Ok((exits, wake, body, node))
+            })();
+            if let Err(e) = &ports {
+                warn!(error = %e, "no process-exit reports to the coordinator");
+            }
+            let mut finished = false;
+            let mut seq = 0;
+            while let Ok(notice) = rx.recv() {
+                match (notice, &ports) {
+                    (Notice::Stop, _) => break,
+                    (Notice::Exit(mut e), Ok((exits, wake, _, _))) => {
+                        seq += 1;
+                        e.header.seq = seq;
+                        e.header.sent_ns = wall_ns();
+                        let _ = exits.send_copy(e);
+                        let _ = wake.notify();
+                    }
+                    (Notice::Finished(reply), Ok((_, _, body, _))) => {
+                        while let Ok(Some(sample)) = body.receive() {
+                            let h = sample.header;
+                            finished |= h.sender == Header::COORDINATOR
+                                && h.flags & BodyCommand::FINISHED != 0;
+                        }
+                        let _ = reply.send(finished);
+                    }
+                    (Notice::Finished(reply), Err(_)) => {
+                        let _ = reply.send(false);
+                    }
+                    (Notice::Exit(_), Err(_)) => {}
+                }
+            }
+        });
+        Self {
+            tx,
+            thread: Some(thread),
+        }
+    }
+
+    /// True when the coordinator has published the mission's final command.
+    async fn mission_finished(&self) -> bool {
+        let (reply, answer) = tokio::sync::oneshot::channel();
+        if self.tx.send(Notice::Finished(reply)).is_err() {
+            return false;
+        }
+        answer.await.unwrap_or(false)
+    }
+
+    /// Ends the thread (its node leaves the domain).
+    fn stop(&mut self) {
+        let _ = self.tx.send(Notice::Stop);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The report of the death of process `pid` in `role`, reaped at `died_ns`.
+fn exit_report(
+    role: Role,
+    pid: u32,
+    status: &std::io::Result<std::process::ExitStatus>,
+    died_ns: u64,
+) -> ProcessExit {
+    use std::os::unix::process::ExitStatusExt;
+    let (role, vehicle) = match role {
+        Role::FieldServer => (ProcessExit::FIELD_SERVER, 0),
+        Role::Coordinator => (ProcessExit::COORDINATOR, 0),
+        Role::Agent(id) => (ProcessExit::AGENT, id),
+    };
+    ProcessExit {
+        header: Header {
+            sender: Header::SUPERVISOR,
+            ..Header::default()
+        },
+        role,
+        vehicle,
+        pid,
+        signal: status.as_ref().ok().and_then(|s| s.signal()).unwrap_or(0) as u32,
+        died_ns,
+    }
 }
 
 /// The directory of the vbap binaries (the one holding this executable).
@@ -183,6 +314,7 @@ struct ProcessSet<'a> {
     dir: &'a RunDir,
     procs: Vec<Proc>,
     exits: mpsc::UnboundedSender<Exit>,
+    notices: std::sync::mpsc::Sender<Notice>,
 }
 
 impl ProcessSet<'_> {
@@ -230,9 +362,17 @@ impl ProcessSet<'_> {
     /// Reports the end of `child` (the process of `slot`) on the exit channel.
     fn watch(&self, slot: usize, mut child: Child) {
         let generation = self.procs[slot].generation;
+        let role = self.procs[slot].role;
         let exits = self.exits.clone();
+        let notices = self.notices.clone();
         tokio::spawn(async move {
+            let pid = child.id();
             let status = child.wait().await;
+            // Told at once: the coordinator acts on a death before any restart of it.
+            if let Some(pid) = pid {
+                let report = exit_report(role, pid, &status, wall_ns());
+                let _ = notices.send(Notice::Exit(report));
+            }
             let _ = exits.send(Exit {
                 slot,
                 generation,
@@ -322,10 +462,12 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
         );
     }
     let (tx, mut exits) = mpsc::unbounded_channel();
+    let bin = bin_dir()?;
+    let mut notices = Notices::start(&domain, mission.vehicles.count);
     let mut roles = vec![Role::FieldServer, Role::Coordinator];
     roles.extend((0..mission.vehicles.count as u32).map(Role::Agent));
     let mut set = ProcessSet {
-        bin: bin_dir()?,
+        bin,
         mission,
         mission_file: dir.mission().to_string_lossy().to_string(),
         dir,
@@ -339,6 +481,7 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
             })
             .collect(),
         exits: tx,
+        notices: notices.tx.clone(),
     };
     let mut interrupted = false;
     let start = async {
@@ -369,6 +512,7 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
     let startup_s = wall.elapsed().as_secs_f64();
     if let Err(e) = started {
         stop_all(&mut set, &mut exits).await;
+        notices.stop();
         let _ = clean_domain(&domain);
         return Err(e);
     }
@@ -403,6 +547,12 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
             RestartPolicy::OnFailure => failed,
             RestartPolicy::Always => true,
         };
+        // Past the mission's final command nothing is restarted: the processes end
+        // normally on it (policy `always` would otherwise start them all again).
+        if restart && notices.mission_finished().await {
+            info!(process = %role.name(), "ended after the mission's final command: not restarted");
+            continue;
+        }
         warn!(process = %role.name(), status = ?exit.status, ?policy, restart, "process ended");
         if !restart {
             if role == Role::Coordinator || role == Role::FieldServer {
@@ -455,6 +605,7 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
         }
     }
     stop_all(&mut set, &mut exits).await;
+    notices.stop();
     let _ = clean_domain(&domain);
 
     let mut summary = Summary::read(dir).ok();

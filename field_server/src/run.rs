@@ -65,6 +65,12 @@ pub fn run(mission: &Mission, mut msgs: MsgLog, on_ready: impl FnOnce()) -> Resu
     let mut reply = Box::new(ReadingBatch::empty());
     info!(vehicles = n, "field server up");
     on_ready();
+    // Tell the coordinator a server is there: after a restart, the request the dead server
+    // never answered is sent again at once (a request reaches only the servers connected
+    // when it is sent).
+    coordinator
+        .notify_with_custom_event_id(topics::EVENT_FIELD_UP)
+        .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
     loop {
         // A deadline as a safety net: with no event for FALLBACK_POLL, poll the port once
         // (a lost wake-up costs at most that, never a stall).

@@ -46,6 +46,8 @@ impl Header {
     pub const COORDINATOR: u32 = u32::MAX - 1;
     /// Sender id of the field server.
     pub const FIELD_SERVER: u32 = u32::MAX - 2;
+    /// Sender id of the supervisor (`vbap run`).
+    pub const SUPERVISOR: u32 = u32::MAX - 3;
 }
 
 /// Converts a payload array to a vector.
@@ -320,5 +322,40 @@ pub mod field_to_coordinator {
         pub fn readings(&self) -> &[Reading] {
             &self.readings[..(self.n as usize).min(MAX_VEHICLES)]
         }
+    }
+}
+
+/// Supervisor → coordinator.
+pub mod supervisor_to_coordinator {
+    use super::*;
+
+    /// A supervised process ended (service `<mission>/supervisor/exits`): the supervisor
+    /// reaped it, so this is certain knowledge, not a guess from silence. Published at once,
+    /// before any restart of that process.
+    #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.ProcessExit.v1")]
+    pub struct ProcessExit {
+        pub header: Header,
+        /// [`ProcessExit::AGENT`], [`ProcessExit::COORDINATOR`] or [`ProcessExit::FIELD_SERVER`].
+        pub role: u32,
+        /// Vehicle id (agents only).
+        pub vehicle: u32,
+        /// OS process id of the process that ended.
+        pub pid: u32,
+        /// Signal that killed it (0: it exited by itself).
+        pub signal: u32,
+        /// Wall-clock time the supervisor reaped it, ns since the Unix epoch (the time of
+        /// death within the supervisor's wake-up latency).
+        pub died_ns: u64,
+    }
+
+    impl ProcessExit {
+        /// Role: a vehicle agent.
+        pub const AGENT: u32 = 0;
+        /// Role: the coordinator.
+        pub const COORDINATOR: u32 = 1;
+        /// Role: the field server.
+        pub const FIELD_SERVER: u32 = 2;
     }
 }

@@ -15,6 +15,7 @@
 //! | `<m>/vehicle/<id>/wake` | event | coordinator | agent `id` |
 //! | `<m>/coordinator/wake` | event | agents (event id per vehicle), field server | coordinator |
 //! | `<m>/field/wake` | event | coordinator | field server |
+//! | `<m>/supervisor/exits` | pub-sub `ProcessExit` (history 16) | supervisor: every child it reaps | coordinator |
 
 use iceoryx2::config::Config;
 use iceoryx2::node::{Node, NodeBuilder, NodeState};
@@ -29,6 +30,7 @@ use crate::msg::agent_to_coordinator::VehicleState;
 use crate::msg::coordinator_to_agent::BodyCommand;
 use crate::msg::coordinator_to_field::SampleBatch;
 use crate::msg::field_to_coordinator::ReadingBatch;
+use crate::msg::supervisor_to_coordinator::ProcessExit;
 
 /// Event id: a new body command was published.
 pub const EVENT_BODY: EventId = EventId::new(1);
@@ -38,6 +40,10 @@ pub const EVENT_SAMPLE: EventId = EventId::new(2);
 pub const EVENT_DATA: EventId = EventId::new(3);
 /// Event id: a notifier of the service died (iceoryx2 dead-notifier event).
 pub const EVENT_NOTIFIER_DEAD: EventId = EventId::new(4);
+/// Event id (coordinator wake): the supervisor reaped a process (`<m>/supervisor/exits`).
+pub const EVENT_EXIT: EventId = EventId::new(5);
+/// Event id (coordinator wake): a field server (re)started and serves requests.
+pub const EVENT_FIELD_UP: EventId = EventId::new(6);
 /// Largest event id of the shared event ids above.
 pub const EVENT_ID_MAX: usize = 8;
 /// A vehicle's event on the coordinator's and the field server's wake services is
@@ -92,6 +98,8 @@ impl Limits {
     /// conservative lookahead of `vehicle_agent::Vehicle::ready_to_step`): its states must
     /// fit the coordinator's state buffer between two of its drains.
     pub const LOOKAHEAD_TICKS: u64 = 48;
+    /// Process exits kept by the supervisor's exit service (history and buffer).
+    pub const EXIT_HISTORY: usize = 16;
 }
 
 /// The iceoryx2 domain of one mission.
@@ -141,6 +149,24 @@ impl Domain {
         config.global.node.cleanup_dead_nodes_on_creation = false;
         config.global.node.cleanup_dead_nodes_on_destruction = false;
         self.node_with_config(name, &config)
+    }
+
+    /// The supervisor's node: installs no signal handler (the supervisor handles SIGINT
+    /// and SIGTERM itself).
+    pub fn supervisor_node(&self) -> Result<Node<ipc::Service>, TopicError> {
+        let node_name = NodeName::new(SUPERVISOR_NODE).map_err(|e| TopicError::Name {
+            name: SUPERVISOR_NODE.to_string(),
+            reason: format!("{e:?}"),
+        })?;
+        NodeBuilder::new()
+            .name(&node_name)
+            .config(&self.config)
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<ipc::Service>()
+            .map_err(|e| TopicError::Node {
+                node: SUPERVISOR_NODE.to_string(),
+                reason: format!("{e:?}"),
+            })
     }
 
     fn node_with_config(
@@ -293,6 +319,27 @@ impl Domain {
             .map_err(|e| service_err(&name, e))
     }
 
+    /// `<m>/supervisor/exits`: the supervisor tells the coordinator of every process it
+    /// reaped. History: a restarted coordinator hears of deaths while it was down (it
+    /// ignores those of processes it no longer knows, by pid).
+    pub fn exits_service(
+        &self,
+        node: &Node<ipc::Service>,
+        limits: &Limits,
+    ) -> Result<publish_subscribe::PortFactory<ipc::Service, ProcessExit, ()>, TopicError> {
+        let name = self.name("supervisor/exits")?;
+        node.service_builder(&name)
+            .publish_subscribe::<ProcessExit>()
+            .max_publishers(2)
+            .max_subscribers(4)
+            .max_nodes(limits.max_nodes())
+            .history_size(Limits::EXIT_HISTORY)
+            .subscriber_max_buffer_size(Limits::EXIT_HISTORY)
+            .enable_safe_overflow(true)
+            .open_or_create()
+            .map_err(|e| service_err(&name, e))
+    }
+
     fn event_service(
         &self,
         node: &Node<ipc::Service>,
@@ -372,6 +419,8 @@ pub fn agent_node_name(id: u32) -> String {
 pub const COORDINATOR_NODE: &str = "coordinator";
 /// Node name of the field server.
 pub const FIELD_SERVER_NODE: &str = "field_server";
+/// Node name of the supervisor (`vbap run`).
+pub const SUPERVISOR_NODE: &str = "supervisor";
 
 /// What ended a wait.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
