@@ -356,3 +356,88 @@ fn policy_always_restarts_nothing_at_mission_end() {
     assert!(leftover_files(&name).is_empty());
     assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
 }
+
+/// Starts `bin` with `args` and waits for its `ready` line.
+fn start_ready(bin: &str, args: &[&str]) -> ChildGuard {
+    use std::io::BufRead;
+    let mut child = std::process::Command::new(bin_dir().join(bin))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap_or_else(|e| panic!("starting {bin}: {e}"));
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    assert_eq!(line.trim(), "ready", "{bin} {args:?}");
+    ChildGuard(Some(child))
+}
+
+/// Without a supervisor to report deaths, the coordinator finds a killed agent by itself
+/// (a scan of the node list when the vehicle falls silent), at pace 10 too.
+#[test]
+fn a_coordinator_started_alone_finds_dead_agents_by_itself() {
+    let tmp = TempDir::new("alone");
+    let name = unique_name("alone");
+    let file = write_mission(&tmp, "m.toml", &mission(&name, 3, 60.0, 0.05, "10.0", ""));
+    let file = file.to_string_lossy().to_string();
+    let out = tmp.join("run");
+    let log = |p: &str| {
+        tmp.join(&format!("{p}.jsonl"))
+            .to_string_lossy()
+            .to_string()
+    };
+    let run_dir = out.to_string_lossy().to_string();
+    let _field = start_ready("field_server", &["--mission", &file, "--log", &log("fs")]);
+    let mut coordinator = start_ready(
+        "coordinator",
+        &[
+            "--mission",
+            &file,
+            "--run-dir",
+            &run_dir,
+            "--log",
+            &log("co"),
+        ],
+    );
+    let mut agents: Vec<ChildGuard> = (0..3)
+        .map(|id| {
+            let id = id.to_string();
+            start_ready(
+                "vehicle_agent",
+                &[
+                    "--mission",
+                    &file,
+                    "--id",
+                    &id,
+                    "--log",
+                    &log(&format!("a{id}")),
+                ],
+            )
+        })
+        .collect();
+    wait_until(
+        || line_count(&out.join("body.csv")) > 40,
+        Duration::from_secs(60),
+        "the mission to get going",
+    );
+    agents[1].signal("KILL");
+    agents[1].wait();
+    assert!(coordinator.wait().success(), "the coordinator completes");
+    let lost: Vec<serde_json::Value> = events(&out)
+        .into_iter()
+        .filter(|e| e["kind"] == "lost")
+        .collect();
+    eprintln!("alone: {lost:?}");
+    assert_eq!(lost.len(), 1, "{lost:?}");
+    assert_eq!(lost[0]["vehicle"], 1);
+    assert_eq!(lost[0]["detail"]["by"], "scan");
+    assert!(lost[0]["detail"]["detection_ms"].as_f64().unwrap() >= 0.0);
+    let s = summary(&out);
+    assert_eq!(s["ticks"], 1200, "{s}");
+    assert_eq!(s["vehicles_lost"], 1, "{s}");
+    for mut a in agents.into_iter().filter(|a| a.0.is_some()) {
+        assert!(a.wait().success(), "the other agents end with the mission");
+    }
+}
