@@ -997,11 +997,16 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                         let deadline = start + Duration::from_secs_f64(period * k as f64);
                         let now = Instant::now();
                         if now >= deadline {
-                            if !complete {
+                            // Late: not every state was in at the deadline, or the
+                            // coordinator itself came to the tick a period or more after it
+                            // (an outage being caught up, an overload).
+                            let behind = gather_start >= deadline + Duration::from_secs_f64(period);
+                            if !complete || behind {
                                 late_ticks += 1;
                                 debug!(
                                     tick = k,
                                     ?missing,
+                                    behind,
                                     "late tick: not every state was in at the deadline"
                                 );
                             }
