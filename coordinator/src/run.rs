@@ -38,6 +38,9 @@ const SUSPECT_TICKS: f64 = 3.0;
 /// Least wall time between two node-list scans (one scan costs ~0.2 ms at 6 nodes, ~40 ms
 /// at 257). A scan checks every vehicle, so deaths at once are found together.
 const LIVENESS_EVERY: Duration = Duration::from_millis(100);
+/// Scans take at most 1 / SCAN_SHARE of the coordinator's wall time: the least time
+/// between two scans is also SCAN_SHARE times the last scan's cost (large fleets).
+const SCAN_SHARE: u32 = 5;
 /// Silence tolerated of a vehicle whose process is alive (stopped by SIGSTOP, hung,
 /// starved): past it the vehicle is lost (cause `silent`) and the formation redesigned; its
 /// process is readmitted as soon as it speaks again (SIGCONT). In lockstep this is the
@@ -408,6 +411,8 @@ struct Liveness {
     /// Agent exits heard and not acted on yet.
     agent_exits: Vec<ProcessExit>,
     last_scan: Instant,
+    /// Wall time the last node-list scan took.
+    scan_cost: Duration,
     /// When this coordinator process started: the silence of a vehicle it has not heard
     /// from yet counts from here.
     since: Instant,
@@ -575,11 +580,13 @@ fn detect(
                 .any(|v| silence(&books.inbox.peers[v as usize]) >= after)
         }
     };
-    if !suspect || live.last_scan.elapsed() < LIVENESS_EVERY {
+    let every = LIVENESS_EVERY.max(live.scan_cost * SCAN_SHARE);
+    if !suspect || live.last_scan.elapsed() < every {
         return Ok(lost);
     }
     live.last_scan = Instant::now();
     let states = domain.node_states();
+    live.scan_cost = live.last_scan.elapsed();
     let alive: Vec<u32> = books.fleet.alive().collect();
     let mut any_dead = false;
     for v in alive {
@@ -692,6 +699,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
             .map_err(|e| anyhow::anyhow!("subscribing to the supervisor's process exits: {e:?}"))?,
         agent_exits: Vec::new(),
         last_scan: Instant::now(),
+        scan_cost: Duration::ZERO,
         since: Instant::now(),
         since_ns: wall_ns(),
         resumed: false,
