@@ -27,7 +27,8 @@ use crate::planner::{Planner, PlannerParams, Report};
 use crate::record::Recorder;
 use crate::tick::{plan_tick, TickOutcome};
 
-/// Wall time a lockstep tick waits for a silent vehicle before going on without it.
+/// Wall time a lockstep tick waits for a silent vehicle before going on without it (a
+/// vehicle heard from before is then lost as `silent`: see [`SILENCE_LIMIT`]).
 pub const LOCKSTEP_TIMEOUT: Duration = Duration::from_secs(10);
 /// Wall time a vehicle may be missing from a lockstep gather, or silent in a paced run (and
 /// at least [`SUSPECT_TICKS`] tick periods), before the node list is scanned for its
@@ -453,7 +454,8 @@ struct Verdict<'a> {
     /// `join` (a new process of the vehicle asked to join), `silence`.
     by: &'a str,
     /// Wall ms from the death to this verdict: exact (the supervisor's reap time) for
-    /// `supervisor`; an upper bound (from the vehicle's last message) otherwise.
+    /// `supervisor`; an upper bound (from the vehicle's last message) otherwise; for
+    /// `silence`, how long the vehicle was silent.
     detection_ms: Option<f64>,
     pid: u32,
 }
@@ -483,13 +485,17 @@ impl Books<'_> {
             "vehicle process is dead"
         );
         self.inbox.states.remove(&v);
-        if verdict.cause != "silent" {
-            self.detection_ms.extend(verdict.detection_ms);
-        }
         let mut detail = serde_json::json!({ "cause": verdict.cause, "by": verdict.by,
             "pid": verdict.pid });
         if let Some(ms) = verdict.detection_ms {
-            detail["detection_ms"] = serde_json::json!(ms);
+            // Silence is no death: how long it lasted, not a detection latency.
+            let key = if verdict.cause == "silent" {
+                "silent_ms"
+            } else {
+                self.detection_ms.push(ms);
+                "detection_ms"
+            };
+            detail[key] = serde_json::json!(ms);
         }
         self.recorder.lost_with(k, v, detail)?;
         Ok(())
