@@ -56,6 +56,11 @@ fn kinds(dir: &Path, kind: &str) -> usize {
 
 /// SIGKILLs the processes whose command lines mention the needles, at once (one kill(1)).
 fn sigkill_all(needles: &[String]) {
+    signal_all("-9", needles);
+}
+
+/// Sends `signal` to the processes whose command lines mention the needles (one kill(1)).
+fn signal_all(signal: &str, needles: &[String]) {
     let pids: Vec<String> = needles
         .iter()
         .map(|n| {
@@ -66,7 +71,7 @@ fn sigkill_all(needles: &[String]) {
         })
         .collect();
     assert!(std::process::Command::new("kill")
-        .arg("-9")
+        .arg(signal)
         .args(&pids)
         .status()
         .unwrap()
@@ -82,15 +87,21 @@ fn role(out: &Path, process: &str) -> String {
 }
 
 /// Kills one agent, then two at once; every kill must be found, with its latency.
-/// Returns the lost events.
-fn kill_one_then_two(out: &Path) -> Vec<serde_json::Value> {
+/// `stop_first`: the two are stopped (SIGSTOP) before they are killed, so they die at the
+/// same moment of the mission even when kill(1) is preempted between its two kill(2) calls
+/// (a lockstep tick is well below a millisecond). Returns the lost events.
+fn kill_one_then_two(out: &Path, stop_first: bool) -> Vec<serde_json::Value> {
     sigkill_all(&[agent(out, 1)]);
     wait_until(
         || kinds(out, "lost") >= 1,
         Duration::from_secs(60),
         "the first kill to be detected",
     );
-    sigkill_all(&[agent(out, 2), agent(out, 4)]);
+    let two = [agent(out, 2), agent(out, 4)];
+    if stop_first {
+        signal_all("-STOP", &two);
+    }
+    sigkill_all(&two);
     wait_until(
         || kinds(out, "lost") >= 3,
         Duration::from_secs(60),
@@ -131,7 +142,7 @@ fn agent_kills_are_detected_at_pace_10_and_60() {
             Duration::from_secs(60),
             "the run to get going",
         );
-        let lost = kill_one_then_two(&out);
+        let lost = kill_one_then_two(&out, false);
         assert!(run.wait().success(), "pace {pace}: the mission completes");
         let s = summary(&out);
         print_detections(&format!("pace {pace}"), &lost, &s);
@@ -181,7 +192,7 @@ fn lockstep_kills_with_restarts_never_wait_for_the_timeout() {
         Duration::from_secs(60),
         "the run to get going",
     );
-    let lost = kill_one_then_two(&out);
+    let lost = kill_one_then_two(&out, true);
     wait_until(
         || kinds(&out, "rejoin") >= 3,
         Duration::from_secs(60),
