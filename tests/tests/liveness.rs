@@ -452,3 +452,50 @@ fn a_coordinator_started_alone_finds_dead_agents_by_itself() {
         assert!(a.wait().success(), "the other agents end with the mission");
     }
 }
+
+/// A stopped agent (SIGSTOP) is silent, not dead: it is waited for (its ticks are late)
+/// for 10 s, then lost as `silent` (no detection latency: nothing died), and readmitted as
+/// soon as it speaks again (SIGCONT). The run is then interrupted (Ctrl-C): it stops
+/// cleanly.
+#[test]
+fn a_stopped_agent_is_lost_as_silent_after_the_limit_and_readmitted_when_continued() {
+    let tmp = TempDir::new("silent");
+    let name = unique_name("silent");
+    let file = write_mission(&tmp, "m.toml", &mission(&name, 3, 3000.0, 0.05, "10.0", ""));
+    let out = tmp.join("run");
+    let mut run = spawn_run(&file, &out);
+    wait_until(
+        || line_count(&out.join("body.csv")) > 40,
+        Duration::from_secs(60),
+        "the run to get going",
+    );
+    signal_all("-STOP", &[agent(&out, 1)]);
+    wait_until(
+        || kinds(&out, "lost") >= 1,
+        Duration::from_secs(120),
+        "the stopped agent to be lost as silent",
+    );
+    signal_all("-CONT", &[agent(&out, 1)]);
+    wait_until(
+        || kinds(&out, "rejoin") >= 1,
+        Duration::from_secs(60),
+        "the continued agent to be readmitted",
+    );
+    run.signal("INT");
+    let status = run.wait();
+    assert_eq!(status.code(), Some(130), "an interrupted run: {status:?}");
+    let ev = events(&out);
+    let lost: Vec<_> = ev.iter().filter(|e| e["kind"] == "lost").collect();
+    eprintln!("silent: {lost:?}");
+    assert_eq!(lost.len(), 1, "{lost:?}");
+    assert_eq!(lost[0]["vehicle"], 1);
+    assert_eq!(lost[0]["detail"]["cause"], "silent");
+    assert_eq!(lost[0]["detail"]["by"], "silence");
+    assert!(lost[0]["detail"]["silent_ms"].as_f64().unwrap() >= 10_000.0);
+    assert!(lost[0]["detail"]["detection_ms"].is_null());
+    let rejoin: Vec<_> = ev.iter().filter(|e| e["kind"] == "rejoin").collect();
+    assert_eq!(rejoin[0]["vehicle"], 1);
+    assert!(rejoin[0]["k"].as_u64() > lost[0]["k"].as_u64());
+    assert!(leftover_files(&name).is_empty());
+    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+}
