@@ -21,9 +21,9 @@
 //! candidate, then a candidate: a live process of the set that is up by its own log (a
 //! restarted agent once it was admitted back) and not SIGSTOPped. Agents
 //! are candidates for a kill only while more than dim + 1 of them are alive (the fewest
-//! that still estimate a gradient), and one slot (a vehicle id, the coordinator or the
-//! field server) is either killed or stopped in a run, never both, so every loss of a
-//! vehicle in `events.jsonl` belongs to exactly one action. An action finds no target, or
+//! that still estimate a gradient), and a vehicle is either killed or stopped in a run,
+//! never both, and stopped at most once, so every loss of a vehicle in `events.jsonl`
+//! belongs to exactly one action. An action finds no target, or
 //! the mission already over, is listed as not sent.
 //!
 //! # Rules of the table
@@ -347,6 +347,9 @@ pub struct RunReport {
     pub coordinator_rejoin_ms: Vec<f64>,
     pub verdict: String,
     pub reasons: Vec<String>,
+    /// Processes the supervisor started in a slot after its first, per kind
+    /// (`agents`, `coordinator`, `field_server`): every restart, asked for or not.
+    pub restarts_seen: BTreeMap<String, usize>,
     pub leftover_files: Vec<PathBuf>,
     pub leftover_processes: Vec<String>,
     pub actions: Vec<Action>,
@@ -368,8 +371,16 @@ pub struct Totals {
     pub stops_ok: usize,
     pub not_sent: usize,
     pub unjudged: usize,
+    /// Detected kills of agents with a detection latency.
+    pub agent_detection_n: usize,
     /// Over the detected kills of agents, ms (the campaign's measure).
     pub agent_detection_ms: Percentiles,
+    /// The coordinators' own `detection_latency_ms`, every run pooled.
+    pub coordinator_detection_n: usize,
+    /// Over the coordinators' own `detection_latency_ms`, ms.
+    pub coordinator_detection_ms: Percentiles,
+    /// Detected kills of the coordinator and field server.
+    pub restart_n: usize,
     /// Over the detected kills of the coordinator and field server, ms.
     pub restart_ms: Percentiles,
     pub late_ticks: u64,
@@ -866,11 +877,14 @@ fn run_one(
                         targets.contains(&s.kind())
                             && !paused.contains(p)
                             && is_up(&run_dir, *p, *s)
-                            && if kill {
-                                !stopped_slots.contains(s)
-                                    && (!matches!(s, Slot::Agent(_)) || agents_alive > floor)
-                            } else {
-                                !killed_slots.contains(s) && !stopped_slots.contains(s)
+                            && match (kill, s) {
+                                (true, Slot::Agent(_)) => {
+                                    !stopped_slots.contains(s) && agents_alive > floor
+                                }
+                                (false, Slot::Agent(_)) => {
+                                    !killed_slots.contains(s) && !stopped_slots.contains(s)
+                                }
+                                _ => true,
                             }
                     })
                     .collect();
@@ -972,6 +986,16 @@ fn run_one(
         let _ = std::fs::remove_file(f);
     }
 
+    let mut per_slot: BTreeMap<Slot, usize> = BTreeMap::new();
+    for p in seen.values() {
+        *per_slot.entry(p.slot).or_default() += 1;
+    }
+    for (slot, n) in per_slot {
+        *report
+            .restarts_seen
+            .entry(target_name(slot.kind()).to_string())
+            .or_default() += n - 1;
+    }
     evaluate(&mut report, &mut actions, &run_dir, &seen, end_unix, policy);
     report.actions = actions;
     Ok(report)
@@ -1347,7 +1371,16 @@ fn judge(c: &mut Campaign) {
             }
         }
     }
+    let mut own: Vec<f64> = c
+        .runs
+        .iter()
+        .flat_map(|r| r.coordinator_detection_ms.iter().copied())
+        .collect();
+    t.agent_detection_n = agent_ms.len();
     t.agent_detection_ms = Percentiles::of(&mut agent_ms);
+    t.coordinator_detection_n = own.len();
+    t.coordinator_detection_ms = Percentiles::of(&mut own);
+    t.restart_n = restart_ms.len();
     t.restart_ms = Percentiles::of(&mut restart_ms);
     c.totals = t;
     c.passed = failures.is_empty();
@@ -1478,7 +1511,7 @@ pub fn table(c: &Campaign) -> String {
     }
     s.push('\n');
     s.push_str(&format!(
-        "{:>3} {:>8} {:>10} {:>5} {:>9} {:>6} {:>5} {:>8} {:>8} {:>6} {:>9}  {}\n",
+        "{:>3} {:>8} {:>10} {:>5} {:>9} {:>6} {:>5} {:>8} {:>8} {:>8} {:>6} {:>9}  {}\n",
         "run",
         "pace",
         "policy",
@@ -1488,13 +1521,14 @@ pub fn table(c: &Campaign) -> String {
         "lost",
         "rejoined",
         "reconfig",
+        "restarts",
         "left",
         "wall s",
         "verdict"
     ));
     for r in &c.runs {
         s.push_str(&format!(
-            "{:>3} {:>8} {:>10} {:>5} {:>9} {:>6} {:>5} {:>8} {:>8} {:>6} {:>9.1}  {}{}\n",
+            "{:>3} {:>8} {:>10} {:>5} {:>9} {:>6} {:>5} {:>8} {:>8} {:>8} {:>6} {:>9.1}  {}{}\n",
             r.index,
             r.pace,
             if r.calibration { "(calib.)" } else { &r.policy },
@@ -1504,6 +1538,12 @@ pub fn table(c: &Campaign) -> String {
             r.vehicles_lost.map_or("-".into(), |t| t.to_string()),
             r.vehicles_rejoined.map_or("-".into(), |t| t.to_string()),
             r.reconfigurations.map_or("-".into(), |t| t.to_string()),
+            format!(
+                "{}/{}/{}",
+                r.restarts_seen.get("agents").copied().unwrap_or(0),
+                r.restarts_seen.get("coordinator").copied().unwrap_or(0),
+                r.restarts_seen.get("field_server").copied().unwrap_or(0)
+            ),
             r.leftover_files.len() + r.leftover_processes.len(),
             r.wall_s,
             r.verdict,
@@ -1519,10 +1559,24 @@ pub fn table(c: &Campaign) -> String {
         "\n{} runs ({} failed); kills: {} sent, {} judged, {} detected, {} undetected, {} recovered; stops: {} sent, {} ok; {} not sent, {} unjudged\n",
         t.runs, t.runs_failed, t.kills_sent, t.kills_judged, t.kills_detected, t.kills_undetected, t.kills_recovered, t.stops_sent, t.stops_ok, t.not_sent, t.unjudged
     ));
+    let dist = |n: usize, p: &Percentiles| {
+        if n == 0 {
+            "none".to_string()
+        } else {
+            format!(
+                "n {n}, p50 {:.0}, p90 {:.0}, p99 {:.0}, max {:.0}",
+                p.p50, p.p90, p.p99, p.max
+            )
+        }
+    };
     s.push_str(&format!(
-        "agent detection ms: p50 {:.0}, p90 {:.0}, p99 {:.0}, max {:.0}; restart ms (coordinator, field server): p50 {:.0}, max {:.0}; late ticks {}; leftovers: {} files, {} processes\n",
-        t.agent_detection_ms.p50, t.agent_detection_ms.p90, t.agent_detection_ms.p99, t.agent_detection_ms.max,
-        t.restart_ms.p50, t.restart_ms.max, t.late_ticks, t.leftover_files, t.leftover_processes
+        "agent detection ms: {}; the coordinators' own detection_latency_ms: {}; restart ms (coordinator, field server): {}\nlate ticks {}; leftovers: {} files, {} processes\n",
+        dist(t.agent_detection_n, &t.agent_detection_ms),
+        dist(t.coordinator_detection_n, &t.coordinator_detection_ms),
+        dist(t.restart_n, &t.restart_ms),
+        t.late_ticks,
+        t.leftover_files,
+        t.leftover_processes
     ));
     s
 }
