@@ -31,9 +31,10 @@
 //! - **Agent kill, detected**: the coordinator wrote a `lost` event for that vehicle (any
 //!   cause but a scheduled kill). The i-th kill of a vehicle in a run is matched to its
 //!   i-th `lost` event. `detected_t`: the event's mission time. `detection_ms`: wall time
-//!   from the SIGKILL to the coordinator's first log line about that vehicle after it
-//!   (the verdict "dead", or the join request of its restarted process that revealed the
-//!   death), same host clock.
+//!   from the SIGKILL to the coordinator's publication of the command of the event's tick
+//!   (the first it published after its verdict; from the `sent_ns` of the agents' message
+//!   records, same host clock); without message records (`RUST_LOG=info`), to the
+//!   coordinator's warning about that vehicle.
 //! - **Agent kill, recovered**: detected, the run completed, and then — policy `never`: a
 //!   `reconfigured` event at or after the loss whose formation leaves the vehicle out;
 //!   `on-failure` / `always`: the vehicle's i-th `rejoin` event (it was admitted back).
@@ -1087,6 +1088,56 @@ fn num_list(v: Option<&Value>) -> Vec<f64> {
         .unwrap_or_default()
 }
 
+/// Wall time (s since the Unix epoch) at which the coordinator published the command of
+/// each tick of `ticks`, from the agents' message records (`logs/vehicle_agent_*.msgs.csv`,
+/// hop `body`: `sent_ns` is the coordinator's clock when it published): the earliest over
+/// every record of that tick. A `lost` event of tick k is written before the command of
+/// tick k is published, so this is the first publication after the verdict (at most one
+/// tick period after it in a paced run).
+fn command_times(logs: &Path, ticks: &BTreeSet<u64>) -> BTreeMap<u64, f64> {
+    use std::io::BufRead as _;
+    let mut out: BTreeMap<u64, u64> = BTreeMap::new();
+    if ticks.is_empty() {
+        return BTreeMap::new();
+    }
+    let Ok(entries) = std::fs::read_dir(logs) else {
+        return BTreeMap::new();
+    };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if !(name.starts_with("vehicle_agent") && name.ends_with(shared::msglog::MSG_SUFFIX)) {
+            continue;
+        }
+        let Ok(file) = std::fs::File::open(e.path()) else {
+            continue;
+        };
+        for line in std::io::BufReader::new(file).lines().map_while(Result::ok) {
+            let mut f = line.split(',');
+            let (Some(_), Some("body"), Some(_), Some(_), Some(tick), Some(_), Some(sent)) = (
+                f.next(),
+                f.next(),
+                f.next(),
+                f.next(),
+                f.next(),
+                f.next(),
+                f.next(),
+            ) else {
+                continue;
+            };
+            let (Ok(tick), Ok(sent)) = (tick.parse::<u64>(), sent.parse::<u64>()) else {
+                continue;
+            };
+            if ticks.contains(&tick) {
+                let t = out.entry(tick).or_insert(sent);
+                *t = (*t).min(sent);
+            }
+        }
+    }
+    out.into_iter()
+        .map(|(k, ns)| (k, ns as f64 * 1e-9))
+        .collect()
+}
+
 /// Reads the run directory and judges every action of the run.
 fn evaluate(
     report: &mut RunReport,
@@ -1175,6 +1226,12 @@ fn evaluate(
         .into_iter()
         .filter_map(|l| Some((parse_utc(l.get("timestamp")?.as_str()?)?, l)))
         .collect();
+    let lost_ticks: BTreeSet<u64> = events
+        .iter()
+        .filter(|e| e.get("kind").and_then(Value::as_str) == Some("lost"))
+        .filter_map(|e| e.get("k").and_then(Value::as_u64))
+        .collect();
+    let published = command_times(&run_dir.join("logs"), &lost_ticks);
     let mission_end = log
         .iter()
         .rev()
@@ -1220,15 +1277,24 @@ fn evaluate(
                     a.detected = Some(found.is_some());
                     a.detected_t = found.and_then(|e| e.get("t")).and_then(Value::as_f64);
                     if found.is_some() {
-                        a.detection_ms = log
-                            .iter()
-                            .find(|(t, l)| {
-                                *t > at
-                                    && *t < next_kill
-                                    && l.pointer("/fields/vehicle").and_then(Value::as_u64)
-                                        == Some(u64::from(v))
-                            })
-                            .map(|(t, _)| (t - at) * 1e3);
+                        let k = found.and_then(|e| e.get("k")).and_then(Value::as_u64);
+                        a.detection_ms = k
+                            .and_then(|k| published.get(&k))
+                            .map(|t| (t - at) * 1e3)
+                            .or_else(|| {
+                                // No message records: the coordinator's warning about the
+                                // vehicle (its verdict "dead"), if it wrote one.
+                                log.iter()
+                                    .find(|(t, l)| {
+                                        *t > at
+                                            && *t < next_kill
+                                            && l.get("level").and_then(Value::as_str)
+                                                == Some("WARN")
+                                            && l.pointer("/fields/vehicle").and_then(Value::as_u64)
+                                                == Some(u64::from(v))
+                                    })
+                                    .map(|(t, _)| (t - at) * 1e3)
+                            });
                     } else {
                         problems.push("not detected".into());
                     }
