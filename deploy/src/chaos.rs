@@ -58,8 +58,9 @@
 //! - The run's **verdict**: `summary.json` `verdict` (and `reasons`) when present, else
 //!   `converged` / `not converged`; reported, not judged (campaign runs are short).
 //!
-//! The campaign fails (exit 1) when a judged kill went undetected, a judged recovery
-//! failed, a run failed (no summary, or `vbap run` exit ≠ 0) or anything was left behind.
+//! The campaign fails (exit 1) when a judged kill went undetected (or, with
+//! `--max-detection-ms`, was detected later than that), a judged recovery failed, a run
+//! failed (no summary, or `vbap run` exit ≠ 0) or anything was left behind.
 //!
 //! Outputs in `OUT` (default `runs/<name>-chaos-<UTC timestamp>/`): `chaos.json` (the
 //! campaign, every run with its figures and actions, totals, failures), `chaos.csv` (a row
@@ -134,6 +135,9 @@ pub struct ChaosArgs {
     /// Override vehicles.count.
     #[arg(long)]
     pub vehicles: Option<usize>,
+    /// Also fail a kill detected later than this, ms (default: any detection counts).
+    #[arg(long)]
+    pub max_detection_ms: Option<f64>,
     /// Output directory (default: runs/<mission>-chaos-<UTC timestamp>/).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -372,6 +376,8 @@ pub struct Totals {
     pub stops_ok: usize,
     pub not_sent: usize,
     pub unjudged: usize,
+    /// Judged actions whose outcome is not "ok".
+    pub actions_failed: usize,
     /// Detected kills of agents with a detection latency.
     pub agent_detection_n: usize,
     /// Over the detected kills of agents, ms (the campaign's measure).
@@ -405,6 +411,8 @@ pub struct Campaign {
     pub window_s: f64,
     pub tail_s: f64,
     pub margin_s: f64,
+    /// `--max-detection-ms`, when given.
+    pub max_detection_ms: Option<f64>,
     pub vehicles: usize,
     /// Lockstep speed measured by the calibration run, ticks per wall second.
     pub lockstep_ticks_per_s: Option<f64>,
@@ -527,6 +535,16 @@ pub fn main(args: &ChaosArgs) -> Result<i32> {
         ))
         .into());
     }
+    if args
+        .max_detection_ms
+        .is_some_and(|ms| !(ms.is_finite() && ms > 0.0))
+    {
+        return Err(InvalidInput(format!(
+            "--max-detection-ms {}: must be a number > 0",
+            args.max_detection_ms.unwrap_or_default()
+        ))
+        .into());
+    }
     if args.kills + args.stops > 1000 {
         return Err(InvalidInput("--kills + --stops: at most 1000 actions per run".into()).into());
     }
@@ -644,6 +662,12 @@ pub fn main(args: &ChaosArgs) -> Result<i32> {
         }
     }
     campaign.wall_s = start.elapsed().as_secs_f64();
+    if let Some(limit) = args.max_detection_ms {
+        for r in &mut campaign.runs {
+            apply_detection_limit(r, limit);
+        }
+    }
+    campaign.max_detection_ms = args.max_detection_ms;
     judge(&mut campaign);
 
     let json = serde_json::to_string_pretty(&campaign)? + "\n";
@@ -1379,6 +1403,32 @@ fn evaluate(
     }
 }
 
+/// Fails every judged kill of `r` detected later than `limit` ms (`--max-detection-ms`).
+fn apply_detection_limit(r: &mut RunReport, limit: f64) {
+    for a in r
+        .actions
+        .iter_mut()
+        .filter(|a| a.sent && a.judged && a.action == "kill")
+    {
+        let Some(ms) = a.detection_ms.filter(|ms| *ms > limit) else {
+            continue;
+        };
+        let slow = format!("detected after {ms:.0} ms > --max-detection-ms {limit}");
+        a.outcome = if a.outcome == "ok" {
+            slow
+        } else {
+            format!("{}; {slow}", a.outcome)
+        };
+        r.failures.push(format!(
+            "{} of {} at {:.2} s: {}",
+            a.action,
+            a.target,
+            a.at_s.unwrap_or(0.0),
+            a.outcome
+        ));
+    }
+}
+
 /// Totals, pass/fail.
 fn judge(c: &mut Campaign) {
     let mut t = Totals {
@@ -1408,6 +1458,9 @@ fn judge(c: &mut Campaign) {
             }
             if !a.judged {
                 t.unjudged += 1;
+            }
+            if a.failed() {
+                t.actions_failed += 1;
             }
             if a.action == "kill" {
                 t.kills_sent += 1;
@@ -1622,8 +1675,8 @@ pub fn table(c: &Campaign) -> String {
     }
     let t = &c.totals;
     s.push_str(&format!(
-        "\n{} runs ({} failed); kills: {} sent, {} judged, {} detected, {} undetected, {} recovered; stops: {} sent, {} ok; {} not sent, {} unjudged\n",
-        t.runs, t.runs_failed, t.kills_sent, t.kills_judged, t.kills_detected, t.kills_undetected, t.kills_recovered, t.stops_sent, t.stops_ok, t.not_sent, t.unjudged
+        "\n{} runs ({} failed); kills: {} sent, {} judged, {} detected, {} undetected, {} recovered; stops: {} sent, {} ok; {} not sent, {} unjudged; {} judged action(s) failed\n",
+        t.runs, t.runs_failed, t.kills_sent, t.kills_judged, t.kills_detected, t.kills_undetected, t.kills_recovered, t.stops_sent, t.stops_ok, t.not_sent, t.unjudged, t.actions_failed
     ));
     let dist = |n: usize, p: &Percentiles| {
         if n == 0 {
@@ -1699,7 +1752,30 @@ mod tests {
     }
 
     #[test]
-    fn run_names_fit_and_never_prefix_each_other() {
+    fn a_detection_limit_fails_slow_judged_kills_only() {
+        let kill = |ms: f64, judged: bool| Action {
+            action: "kill".into(),
+            target: "vehicle_agent 1".into(),
+            sent: true,
+            judged,
+            detected: Some(true),
+            detection_ms: Some(ms),
+            outcome: "ok".into(),
+            ..Action::default()
+        };
+        let mut r = RunReport {
+            actions: vec![kill(200.0, true), kill(900.0, true), kill(900.0, false)],
+            ..RunReport::default()
+        };
+        apply_detection_limit(&mut r, 500.0);
+        assert_eq!(r.actions[0].outcome, "ok");
+        assert!(r.actions[1].outcome.contains("detected after 900 ms"));
+        assert!(r.actions[1].failed() && !r.actions[2].failed());
+        assert_eq!(r.failures.len(), 1);
+    }
+
+    #[test]
+    fn run_names_fit() {
         assert_eq!(run_name("paper", 3), "paper_c003");
         let long = run_name(&"a".repeat(40), 12);
         assert_eq!(long.len(), MAX_NAME_LEN);
