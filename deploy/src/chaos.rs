@@ -1628,9 +1628,14 @@ pub fn table(c: &Campaign) -> String {
             ));
         }
     }
-    s.push('\n');
+    s.push_str(
+        "(det: kill detected, or stopped process survived; det t: mission time of the `lost` \
+         event; det ms: SIGKILL to the coordinator's first command after its verdict, or to \
+         the new process of a coordinator or field server; restart: SIGKILL to a new process \
+         in the slot)\n\n",
+    );
     s.push_str(&format!(
-        "{:>3} {:>8} {:>10} {:>5} {:>9} {:>6} {:>5} {:>8} {:>8} {:>8} {:>6} {:>9}  {}\n",
+        "{:>3} {:>8} {:>10} {:>5} {:>9} {:>6} {:>5} {:>8} {:>8} {:>9} {:>6} {:>9}  {}\n",
         "run",
         "pace",
         "policy",
@@ -1640,14 +1645,14 @@ pub fn table(c: &Campaign) -> String {
         "lost",
         "rejoined",
         "reconfig",
-        "restarts",
+        "rst a/c/f",
         "left",
         "wall s",
         "verdict"
     ));
     for r in &c.runs {
         s.push_str(&format!(
-            "{:>3} {:>8} {:>10} {:>5} {:>9} {:>6} {:>5} {:>8} {:>8} {:>8} {:>6} {:>9.1}  {}{}\n",
+            "{:>3} {:>8} {:>10} {:>5} {:>9} {:>6} {:>5} {:>8} {:>8} {:>9} {:>6} {:>9.1}  {}{}\n",
             r.index,
             r.pace,
             if r.calibration { "(calib.)" } else { &r.policy },
@@ -1673,6 +1678,11 @@ pub fn table(c: &Campaign) -> String {
             }
         ));
     }
+    s.push_str(
+        "(late: ticks whose states were not all in at the deadline; rst a/c/f: processes \
+         the supervisor started again, agents/coordinator/field server; left: leftover files \
+         and processes)\n",
+    );
     let t = &c.totals;
     s.push_str(&format!(
         "\n{} runs ({} failed); kills: {} sent, {} judged, {} detected, {} undetected, {} recovered; stops: {} sent, {} ok; {} not sent, {} unjudged; {} judged action(s) failed\n",
