@@ -638,7 +638,7 @@ fn run_process(exe: &Path, mission: &Mission, seed: u64, out: &Path) -> SeedResu
 /// batch was killed), so a `vbap run` never outlives its batch; SIGTERM lets it stop its
 /// process set cleanly.
 #[allow(unsafe_code)]
-fn stop_with_parent(cmd: &mut std::process::Command) {
+pub(crate) fn stop_with_parent(cmd: &mut std::process::Command) {
     use std::os::unix::process::CommandExt;
     // SAFETY: the closure runs in the child between fork and exec and only calls prctl(2),
     // which is async-signal-safe and touches no memory of ours.

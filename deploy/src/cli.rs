@@ -37,6 +37,9 @@ enum Cmd {
     Replay(crate::replay::ReplayArgs),
     /// Run a mission for many seeds; table, aggregate, pass/fail.
     Batch(crate::batch::BatchArgs),
+    /// Fault campaign: real SIGKILLs and SIGSTOPs at random times; a table of detections,
+    /// recoveries and leftovers (exit 1 if any kill went undetected or unrecovered).
+    Chaos(crate::chaos::ChaosArgs),
     /// Benchmarks: IPC hop against its floor, lockstep scaling, real-time capacity.
     Bench(crate::bench::BenchArgs),
     /// Timing analysis of a run from its tracing logs.
@@ -197,6 +200,7 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
         Cmd::Formation(args) => formation(&args),
         Cmd::Replay(args) => crate::replay::main(&args),
         Cmd::Batch(args) => crate::batch::main(&args),
+        Cmd::Chaos(args) => crate::chaos::main(&args),
         Cmd::Bench(args) => crate::bench::main(&args),
         Cmd::Analyze { run_dir, json } => crate::analyze::main(&run_dir, json),
     }

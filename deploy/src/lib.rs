@@ -5,11 +5,13 @@
 //! - [`analyze`]: timing analysis from the tracing logs (`vbap analyze`).
 //! - [`progress`]: the progress bar of `vbap run`.
 //! - [`replay`], [`batch`], [`bench`], [`report_plots`]: study a run, many runs, the speed.
+//! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).
 //! - [`cli`]: the command line.
 
 pub mod analyze;
 pub mod batch;
 pub mod bench;
+pub mod chaos;
 pub mod cli;
 pub mod progress;
 pub mod replay;
