@@ -6,11 +6,13 @@
 //! - [`progress`]: the progress bar of `vbap run`.
 //! - [`replay`], [`batch`], [`bench`], [`report_plots`]: study a run, many runs, the speed.
 //! - [`cli`]: the command line.
+//! - [`lock`]: one supervisor per mission name on a host.
 
 pub mod analyze;
 pub mod batch;
 pub mod bench;
 pub mod cli;
+pub mod lock;
 pub mod progress;
 pub mod replay;
 pub mod report_plots;
