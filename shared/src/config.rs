@@ -783,6 +783,65 @@ fn has_key(table: &toml::de::DeTable<'_>, path: &[&str]) -> bool {
     }
 }
 
+/// `text` (TOML as the `toml` crate writes it) with every float outside 1e-4 ≤ |x| < 1e16
+/// rewritten in the exponent form of [`crate::rundir::Num`] (`1e-300`, not 300 digits):
+/// the same number, still a TOML float. Strings and comments are left alone.
+fn short_floats(text: &str) -> String {
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = String::with_capacity(text.len());
+    let mut token = String::new();
+    let flush = |token: &mut String, out: &mut String| {
+        let short = (token.contains('.') || token.contains('e'))
+            .then(|| token.parse::<f64>().ok())
+            .flatten()
+            .map(|x| crate::rundir::Num(x).to_string())
+            .filter(|s| s.contains('e') && s.len() < token.len());
+        out.push_str(short.as_deref().unwrap_or(token));
+        token.clear();
+    };
+    let mut i = 0;
+    while i < chars.len() {
+        let ch = chars[i];
+        if ch.is_ascii_alphanumeric() || matches!(ch, '.' | '+' | '-' | '_') {
+            token.push(ch);
+            i += 1;
+            continue;
+        }
+        flush(&mut token, &mut out);
+        // A string (single or triple quotes, the basic ones with \ escapes) or a comment is
+        // copied as it is.
+        let end = match ch {
+            '"' | '\'' => {
+                let triple = chars.get(i + 1) == Some(&ch) && chars.get(i + 2) == Some(&ch);
+                let open = if triple { 3 } else { 1 };
+                let mut j = i + open;
+                loop {
+                    match chars.get(j) {
+                        None => break chars.len(),
+                        Some('\\') if ch == '"' => j += 2,
+                        Some(c)
+                            if *c == ch && (!triple || chars[j..].starts_with(&[ch, ch, ch])) =>
+                        {
+                            break j + open;
+                        }
+                        _ => j += 1,
+                    }
+                }
+            }
+            '#' => chars[i..]
+                .iter()
+                .position(|c| *c == '\n')
+                .map_or(chars.len(), |n| i + n),
+            _ => i + 1,
+        };
+        let end = end.min(chars.len());
+        out.extend(&chars[i..end]);
+        i = end;
+    }
+    flush(&mut token, &mut out);
+    out
+}
+
 /// Reads a mission file, refusing one larger than [`MAX_FILE_BYTES`] after reading at most
 /// one byte more (so `/dev/zero` or a wrong multi-gigabyte path fails at once).
 pub fn read_mission_file(path: &Path) -> Result<String, ConfigError> {
@@ -1453,7 +1512,8 @@ impl Mission {
     /// # Panics
     /// If the mission is not valid (a seed above 2⁶³ − 1 cannot be written as TOML).
     pub fn to_toml_string(&self) -> String {
-        let body = toml::to_string(self).expect("a validated mission serialises to TOML");
+        let body =
+            short_floats(&toml::to_string(self).expect("a validated mission serialises to TOML"));
         format!(
             "# Resolved mission (every key, defaults filled in), from {}\n\n{body}",
             if self.origin.is_empty() {
@@ -2162,6 +2222,36 @@ vehicle = 0
 at = 100.0
 value = -0.5
 "#;
+
+    #[test]
+    fn resolved_floats_are_short_and_exact() {
+        let text = "[mission]\nname = \"tiny\"\nfield_label = \"T 0.0000000000000000000001 '#\\\" x\"\n\
+                    [field]\ncenter = [1e300, -1e-300]\namplitude = 2.5e-7\nwidth = 9000.0\n\
+                    [formation]\nadapt_gain = 1e-300\nhessian_guess = [[2.5e-8, 0.0], [0.0, 1e-320]]\n";
+        let m = parse_raw(text).unwrap();
+        let resolved = m.to_toml_string();
+        for line in resolved.lines() {
+            assert!(line.len() < 120, "{line}");
+        }
+        assert!(resolved.contains("adapt_gain = 1e-300"), "{resolved}");
+        assert!(resolved.contains("amplitude = 2.5e-7"), "{resolved}");
+        assert!(resolved.contains("width = 9000.0"), "{resolved}");
+        assert!(resolved.contains("center = [1e300, -1e-300]"), "{resolved}");
+        assert!(
+            resolved.contains("T 0.0000000000000000000001 '#"),
+            "strings untouched: {resolved}"
+        );
+        let back = parse_raw(&resolved).unwrap_or_else(|e| panic!("{e}\n{resolved}"));
+        assert_eq!(back, m);
+        assert_eq!(
+            back.mission.field_label,
+            "T 0.0000000000000000000001 '#\" x"
+        );
+        assert_eq!(
+            back.formation.hessian_guess.unwrap()[1][1].to_bits(),
+            1e-320f64.to_bits()
+        );
+    }
 
     #[test]
     fn resolved_mission_round_trips() {
