@@ -321,7 +321,7 @@ mod tests {
     #[test]
     fn journals_restore_held_reports_and_body_track() {
         let m = Mission::from_toml_str(
-            "[vehicles]\ncount = 4\n[links]\ndelay = 0.3\njitter = 0.2\nloss = 0.1\n\
+            "[mission]\nname = \"t\"\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 4\n[links]\ndelay = 0.3\njitter = 0.2\nloss = 0.1\n\
              surfacing_period = 4.0\nsurfacing_window = 1.0\n",
             "<test>",
         )

@@ -37,5 +37,6 @@ fn main() {
     let log = shared::telemetry::init("coordinator", args.log.as_deref());
     let msgs = shared::process::message_log(args.log.as_deref());
     let result = coordinator::run::run(&mission, &dir, msgs, announce_ready);
+    shared::process::leave_domain(&mission.mission.name, args.parent);
     finish("coordinator", result.err().map(|e| format!("{e:#}")), log);
 }

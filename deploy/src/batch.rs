@@ -249,6 +249,7 @@ impl SeedResult {
 pub const BATCH_HEADER: &str = "seed,converged,time_to_converge_s,final_distance_to_optimum,final_grad_norm,max_V_over_VU,in_set_m,wall_time_s,status";
 
 fn csv_row(r: &SeedResult) -> String {
+    use shared::rundir::Num;
     fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
         v.map(|v| v.to_string()).unwrap_or_default()
     }
@@ -261,12 +262,12 @@ fn csv_row(r: &SeedResult) -> String {
         "{},{},{},{},{},{},{},{},{status}",
         r.seed,
         r.converged,
-        opt(r.time_to_converge_s),
-        opt(r.final_distance_to_optimum),
-        opt(r.final_grad_norm),
-        opt(r.max_v_over_vu),
+        opt(r.time_to_converge_s.map(Num)),
+        opt(r.final_distance_to_optimum.map(Num)),
+        opt(r.final_grad_norm.map(Num)),
+        opt(r.max_v_over_vu.map(Num)),
         opt(r.in_set_m),
-        r.wall_time_s
+        Num(r.wall_time_s)
     )
 }
 
@@ -448,8 +449,7 @@ pub fn main(args: &BatchArgs) -> Result<i32> {
         return Err(InvalidInput("--jobs 0: need at least one job".into()).into());
     }
     let origin = args.mission.display().to_string();
-    let text = std::fs::read_to_string(&args.mission)
-        .map_err(|e| InvalidInput(format!("{origin}: cannot read the mission file: {e}")))?;
+    let text = shared::config::read_mission_file(&args.mission)?;
     let (criteria, mission_text) = split_batch_table(&text, &origin)?;
     let mission = Mission::from_toml_str(&mission_text, &origin)?;
     let first = mission.mission.seed;

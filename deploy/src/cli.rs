@@ -142,6 +142,11 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
     match cmd {
         Cmd::Check { mission } => {
             let m = Mission::load(&mission)?;
+            if m.batch.is_some() {
+                // The criteria of `vbap batch`, checked as it will read them.
+                let text = shared::config::read_mission_file(&mission)?;
+                crate::batch::split_batch_table(&text, &mission.display().to_string())?;
+            }
             if let Some(w) = m.stiffness_warning() {
                 eprintln!("vbap: warning: {w}");
             }
@@ -174,7 +179,29 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
             Ok(EXIT_OK)
         }
         Cmd::Run(args) => {
-            let (mission, dir) = prepare(&args)?;
+            shared::msglog::parse_records_switch(
+                std::env::var(shared::msglog::RECORDS_ENV).ok().as_deref(),
+            )
+            .map_err(InvalidInput)?;
+            let mission = prepare_mission(&args)?;
+            // One supervisor per mission name, before anything is written: a second start
+            // exits 2 at once and leaves --out alone.
+            let _lock =
+                crate::lock::MissionLock::acquire(&mission.mission.name).map_err(|e| match e {
+                    crate::lock::LockError::Busy { .. } => {
+                        anyhow::Error::new(InvalidInput(e.to_string()))
+                    }
+                    other => anyhow::Error::new(other),
+                })?;
+            // Processes of a supervisor that was killed end on their own (SIGTERM, then
+            // their watchdog): wait for them, bounded.
+            let domain = shared::topics::Domain::new(&mission.mission.name)?;
+            crate::supervise::await_domain_free(
+                &domain,
+                shared::process::ORPHAN_GRACE + std::time::Duration::from_secs(1),
+            )
+            .map_err(|e| InvalidInput(e.to_string()))?;
+            let dir = prepare_dir(&args, &mission)?;
             let runtime = tokio::runtime::Builder::new_current_thread()
                 .enable_all()
                 .build()?;
@@ -209,6 +236,13 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
 /// Loads the mission with the command-line overrides, creates the run directory and
 /// writes the resolved `mission.toml` into it.
 fn prepare(args: &RunArgs) -> Result<(Mission, RunDir)> {
+    let mission = prepare_mission(args)?;
+    let dir = prepare_dir(args, &mission)?;
+    Ok((mission, dir))
+}
+
+/// Loads the mission with the command-line overrides (nothing is written).
+fn prepare_mission(args: &RunArgs) -> Result<Mission> {
     let pace = match args.pace.as_deref() {
         None => None,
         Some("lockstep") => Some(Pace::Lockstep),
@@ -232,6 +266,11 @@ fn prepare(args: &RunArgs) -> Result<(Mission, RunDir)> {
     if let Some(w) = mission.stiffness_warning() {
         eprintln!("vbap: warning: {w}");
     }
+    Ok(mission)
+}
+
+/// Creates the run directory of `mission` and writes the resolved `mission.toml` into it.
+fn prepare_dir(args: &RunArgs, mission: &Mission) -> Result<RunDir> {
     let root = match &args.out {
         Some(p) => p.clone(),
         None => default_run_dir(&mission.mission.name)?,
@@ -249,7 +288,7 @@ fn prepare(args: &RunArgs) -> Result<(Mission, RunDir)> {
         }
     }
     std::fs::write(dir.mission(), mission.to_toml_string()).context("writing mission.toml")?;
-    Ok((mission, dir))
+    Ok(dir)
 }
 
 /// `runs/<label>-<UTC timestamp>`: the default place of a run (label: the mission name) or

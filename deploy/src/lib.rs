@@ -7,12 +7,14 @@
 //! - [`replay`], [`batch`], [`bench`], [`report_plots`]: study a run, many runs, the speed.
 //! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).
 //! - [`cli`]: the command line.
+//! - [`lock`]: one supervisor per mission name on a host.
 
 pub mod analyze;
 pub mod batch;
 pub mod bench;
 pub mod chaos;
 pub mod cli;
+pub mod lock;
 pub mod progress;
 pub mod replay;
 pub mod report_plots;

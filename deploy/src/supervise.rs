@@ -213,9 +213,9 @@ fn signal(pid: u32, sig: i32) {
     }
 }
 
-/// Removes the stale iceoryx2 resources of `domain`: dead nodes, then any file of the
-/// domain's prefix left in /dev/shm and under iceoryx2's root folder. Refuses when a live
-/// process of the same mission exists.
+/// Removes the stale iceoryx2 resources of `domain`: dead nodes, then every file of the
+/// domain (its exact prefix `vbap_<mission>.`) left in /dev/shm and under iceoryx2's root
+/// folder. Refuses when a live process of the same mission exists.
 pub fn clean_domain(domain: &Domain) -> Result<usize> {
     let alive = domain.alive_node_names();
     if !alive.is_empty() {
@@ -226,51 +226,33 @@ pub fn clean_domain(domain: &Domain) -> Result<usize> {
         );
     }
     let dead = domain.cleanup_dead_nodes();
-    let prefix = domain.shm_prefix();
-    let mut removed = 0;
-    for root in [Path::new("/dev/shm"), Path::new("/tmp/iceoryx2")] {
-        removed += remove_prefixed(root, &prefix);
-    }
-    Ok(dead + removed)
+    Ok(dead + domain.remove_files())
 }
 
-fn remove_prefixed(dir: &Path, prefix: &str) -> usize {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return 0;
-    };
-    let mut removed = 0;
-    for entry in entries.flatten() {
-        let path = entry.path();
-        let name = entry.file_name().to_string_lossy().to_string();
-        if path.is_dir() {
-            removed += remove_prefixed(&path, prefix);
-        } else if name.starts_with(prefix) && std::fs::remove_file(&path).is_ok() {
-            removed += 1;
+/// Waits (polling every 100 ms, at most `timeout`) until no process of `domain` is alive: the
+/// processes of a supervisor that was killed end on their own (they get SIGTERM when it
+/// dies). Err names the ones still alive.
+pub fn await_domain_free(domain: &Domain, timeout: Duration) -> Result<()> {
+    let start = Instant::now();
+    loop {
+        let alive = domain.alive_node_names();
+        if alive.is_empty() {
+            return Ok(());
         }
+        if start.elapsed() >= timeout {
+            bail!(
+                "mission {:?} is already running on this host (live processes: {}); choose another mission.name",
+                domain.mission,
+                alive.join(", ")
+            );
+        }
+        std::thread::sleep(Duration::from_millis(100));
     }
-    removed
 }
 
 /// Files of the domain still present (for checks and tests).
 pub fn leftover_files(domain: &Domain) -> Vec<PathBuf> {
-    fn walk(dir: &Path, prefix: &str, out: &mut Vec<PathBuf>) {
-        let Ok(entries) = std::fs::read_dir(dir) else {
-            return;
-        };
-        for entry in entries.flatten() {
-            let path = entry.path();
-            if path.is_dir() {
-                walk(&path, prefix, out);
-            } else if entry.file_name().to_string_lossy().starts_with(prefix) {
-                out.push(path);
-            }
-        }
-    }
-    let mut out = Vec::new();
-    for root in [Path::new("/dev/shm"), Path::new("/tmp/iceoryx2")] {
-        walk(root, &domain.shm_prefix(), &mut out);
-    }
-    out
+    domain.files()
 }
 
 async fn spawn(bin: &Path, name: &str, args: &[String], dir: &RunDir) -> Result<Child> {

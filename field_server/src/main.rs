@@ -27,5 +27,6 @@ fn main() {
     let log = shared::telemetry::init("field_server", args.log.as_deref());
     let msgs = shared::process::message_log(args.log.as_deref());
     let result = field_server::run::run(&mission, msgs, announce_ready);
+    shared::process::leave_domain(&mission.mission.name, args.parent);
     finish("field_server", result.err().map(|e| format!("{e:#}")), log);
 }

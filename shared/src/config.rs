@@ -1,7 +1,11 @@
 //! The mission file (TOML), parsed and validated (DESIGN §8).
 //!
-//! Every section and every key has a default, so a missing section takes its defaults; an
-//! unknown key is refused, naming it. [`Mission::from_toml_str`] parses, [`Mission::validate`]
+//! A mission file must give `[mission] name` and the `[field]` keys that shape its kind of
+//! field (see [`FieldKind::required_keys`]): they have no meaningful default, so an empty or
+//! comment-only file is no mission. Every other key has a default, so a missing section
+//! takes its defaults; an unknown key is refused, naming it. A `[batch]` table (the criteria
+//! of `vbap batch`) is accepted and ignored here. A file larger than [`MAX_FILE_BYTES`] is
+//! refused without being read. [`Mission::from_toml_str`] parses, [`Mission::validate`]
 //! checks every number and every cross-key constraint, and every [`ConfigError`] names the file,
 //! the dotted key (`field.width`, `faults[1].at`) and the reason, e.g.
 //! `missions/x.toml: field.width = -1: must be > 0`.
@@ -24,10 +28,24 @@ pub const MAX_TICKS: f64 = 10_000_000.0;
 pub const MAX_NAME_LEN: usize = 32;
 /// Most bumps of a `gaussian_sum` field.
 pub const MAX_BUMPS: usize = 64;
+/// Largest mission file read, bytes (1 MiB): a longer file (or `/dev/zero`) is refused after
+/// reading at most one byte more.
+pub const MAX_FILE_BYTES: u64 = 1 << 20;
+/// ω·dt and damping·dt above this make the semi-implicit Euler integration of (II.1)
+/// unstable: refused unless `mission.allow_unstable = true`.
+pub const UNSTABLE_STEP: f64 = 2.0;
 
 /// Something wrong with a mission: the file, the key and why.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
+    /// The mission file is larger than [`MAX_FILE_BYTES`].
+    #[error("{origin}: the mission file is larger than {limit} bytes: not a mission file (the limit keeps a wrong path, e.g. /dev/zero, from being read until memory runs out)")]
+    TooLarge {
+        /// The file.
+        origin: String,
+        /// The limit, bytes.
+        limit: u64,
+    },
     /// The mission file could not be read.
     #[error("{origin}: cannot read the mission file: {source}")]
     Read {
@@ -82,6 +100,7 @@ impl ConfigError {
     pub fn origin(&self) -> &str {
         match self {
             ConfigError::Read { origin, .. }
+            | ConfigError::TooLarge { origin, .. }
             | ConfigError::Syntax { origin, .. }
             | ConfigError::Schema { origin, .. }
             | ConfigError::Invalid { origin, .. } => origin,
@@ -92,7 +111,9 @@ impl ConfigError {
     pub fn key(&self) -> Option<&str> {
         match self {
             ConfigError::Schema { key, .. } | ConfigError::Invalid { key, .. } => Some(key),
-            ConfigError::Read { .. } | ConfigError::Syntax { .. } => None,
+            ConfigError::Read { .. }
+            | ConfigError::TooLarge { .. }
+            | ConfigError::Syntax { .. } => None,
         }
     }
 }
@@ -223,6 +244,20 @@ impl FieldKind {
             FieldKind::Front => "front",
         }
     }
+
+    /// The `[field]` keys a mission file must give for this kind: the ones that shape the
+    /// field and have no meaningful default (a Gaussian's height, place and width; a
+    /// quadratic's centre and Hessian; an eddy's drift; a front's normal, step and
+    /// thickness; a sum's bumps).
+    pub fn required_keys(self) -> &'static [&'static str] {
+        match self {
+            FieldKind::Quadratic => &["center", "hessian"],
+            FieldKind::Gaussian => &["center", "amplitude", "width"],
+            FieldKind::GaussianSum => &["bumps"],
+            FieldKind::Eddy => &["center", "amplitude", "width", "velocity"],
+            FieldKind::Front => &["normal", "amplitude", "width"],
+        }
+    }
 }
 
 /// One Gaussian bump of a `gaussian_sum` or `front` field (`[[field.bumps]]`).
@@ -263,6 +298,9 @@ pub struct MissionSection {
     /// Label of the field for plots and reports (`"T (°C)"`). At most 32 characters, no
     /// control characters.
     pub field_label: String,
+    /// Run even when the time step makes the integration of (II.1) unstable (ω·dt or
+    /// damping·dt above 2, see [`Mission::stiffness`]); false = such a mission is refused.
+    pub allow_unstable: bool,
 }
 
 impl Default for MissionSection {
@@ -278,6 +316,7 @@ impl Default for MissionSection {
             tolerance: 1.0,
             length_unit: String::new(),
             field_label: "T".into(),
+            allow_unstable: false,
         }
     }
 }
@@ -621,6 +660,10 @@ pub struct Mission {
     /// `[[faults]]`, in file order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub faults: Vec<FaultConfig>,
+    /// `[batch]`: the criteria of `vbap batch` (read and checked there and by `vbap check`);
+    /// accepted and ignored by every other command, not written to the resolved mission.
+    #[serde(skip_serializing)]
+    pub batch: Option<toml::Table>,
     /// Where the mission came from (a path, or `<string>`), named in every error.
     #[serde(skip)]
     pub origin: String,
@@ -637,6 +680,24 @@ impl PartialEq for Mission {
             && self.links == other.links
             && self.restart == other.restart
             && self.faults == other.faults
+    }
+}
+
+/// ω·dt and damping·dt of a mission ([`Mission::stiffness`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stiffness {
+    /// ω·dt of the stiffest formation mode at the smallest scale.
+    pub omega_dt: f64,
+    /// vehicles.damping · mission.dt.
+    pub damping_dt: f64,
+    /// Neighbour spacing at formation.min_scale (length unit).
+    pub spacing: f64,
+}
+
+impl Stiffness {
+    /// Above [`UNSTABLE_STEP`]: the integration diverges.
+    pub fn unstable(&self) -> bool {
+        self.omega_dt > UNSTABLE_STEP || self.damping_dt > UNSTABLE_STEP
     }
 }
 
@@ -700,9 +761,113 @@ fn key_path_at(table: &toml::de::DeTable<'_>, pos: usize) -> Option<String> {
     None
 }
 
-/// Formats a number the way TOML would show it.
+/// Formats a number the way TOML would show it (shortest form, exponent for tiny or huge
+/// numbers).
 fn num(x: f64) -> String {
-    format!("{x}")
+    crate::rundir::Num(x).to_string()
+}
+
+/// Whether the document `table` has the key at the dotted path `path`.
+fn has_key(table: &toml::de::DeTable<'_>, path: &[&str]) -> bool {
+    use toml::de::DeValue;
+    let Some((first, rest)) = path.split_first() else {
+        return true;
+    };
+    let Some((_, v)) = table.iter().find(|(k, _)| k.get_ref() == first) else {
+        return false;
+    };
+    match (rest.is_empty(), v.get_ref()) {
+        (true, _) => true,
+        (false, DeValue::Table(t)) => has_key(t, rest),
+        _ => false,
+    }
+}
+
+/// `text` (TOML as the `toml` crate writes it) with every float outside 1e-4 ≤ |x| < 1e16
+/// rewritten in the exponent form of [`crate::rundir::Num`] (`1e-300`, not 300 digits):
+/// the same number, still a TOML float. Strings and comments are left alone.
+fn short_floats(text: &str) -> String {
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = String::with_capacity(text.len());
+    let mut token = String::new();
+    let flush = |token: &mut String, out: &mut String| {
+        let short = (token.contains('.') || token.contains('e'))
+            .then(|| token.parse::<f64>().ok())
+            .flatten()
+            .map(|x| crate::rundir::Num(x).to_string())
+            .filter(|s| s.contains('e') && s.len() < token.len());
+        out.push_str(short.as_deref().unwrap_or(token));
+        token.clear();
+    };
+    let mut i = 0;
+    while i < chars.len() {
+        let ch = chars[i];
+        if ch.is_ascii_alphanumeric() || matches!(ch, '.' | '+' | '-' | '_') {
+            token.push(ch);
+            i += 1;
+            continue;
+        }
+        flush(&mut token, &mut out);
+        // A string (single or triple quotes, the basic ones with \ escapes) or a comment is
+        // copied as it is.
+        let end = match ch {
+            '"' | '\'' => {
+                let triple = chars.get(i + 1) == Some(&ch) && chars.get(i + 2) == Some(&ch);
+                let open = if triple { 3 } else { 1 };
+                let mut j = i + open;
+                loop {
+                    match chars.get(j) {
+                        None => break chars.len(),
+                        Some('\\') if ch == '"' => j += 2,
+                        Some(c)
+                            if *c == ch && (!triple || chars[j..].starts_with(&[ch, ch, ch])) =>
+                        {
+                            break j + open;
+                        }
+                        _ => j += 1,
+                    }
+                }
+            }
+            '#' => chars[i..]
+                .iter()
+                .position(|c| *c == '\n')
+                .map_or(chars.len(), |n| i + n),
+            _ => i + 1,
+        };
+        let end = end.min(chars.len());
+        out.extend(&chars[i..end]);
+        i = end;
+    }
+    flush(&mut token, &mut out);
+    out
+}
+
+/// Reads a mission file, refusing one larger than [`MAX_FILE_BYTES`] after reading at most
+/// one byte more (so `/dev/zero` or a wrong multi-gigabyte path fails at once).
+pub fn read_mission_file(path: &Path) -> Result<String, ConfigError> {
+    use std::io::Read;
+    let origin = path.display().to_string();
+    let read_err = |source| ConfigError::Read {
+        origin: origin.clone(),
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(read_err)?;
+    let mut bytes = Vec::new();
+    file.take(MAX_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(read_err)?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(ConfigError::TooLarge {
+            origin,
+            limit: MAX_FILE_BYTES,
+        });
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        read_err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("not UTF-8 text ({e})"),
+        ))
+    })
 }
 
 /// Formats a vector as a TOML array.
@@ -817,12 +982,8 @@ impl Check<'_> {
 impl Mission {
     /// Reads, parses and validates the mission file at `path`.
     pub fn load(path: &Path) -> Result<Mission, ConfigError> {
-        let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
-            origin: origin.clone(),
-            source,
-        })?;
-        Mission::from_toml_str(&text, &origin)
+        let text = read_mission_file(path)?;
+        Mission::from_toml_str(&text, &path.display().to_string())
     }
 
     /// Parses and validates a mission from TOML `text`; `origin` names it in errors (a path,
@@ -863,8 +1024,45 @@ impl Mission {
             }
         })?;
         mission.origin = origin.to_string();
+        mission.require_keys(doc.get_ref())?;
         mission.validate()?;
         Ok(mission)
+    }
+
+    /// Refuses a document without `[mission] name` or without the `[field]` keys its kind
+    /// needs ([`FieldKind::required_keys`]): those have no meaningful default.
+    fn require_keys(&self, doc: &toml::de::DeTable<'_>) -> Result<(), ConfigError> {
+        let c = Check {
+            origin: &self.origin,
+        };
+        if !has_key(doc, &["mission", "name"]) {
+            return Err(c.fail(
+                "mission.name",
+                "(missing)",
+                format!(
+                    "required: a mission file gives at least [mission] name and the [field] keys of \
+                     its field.kind (\"gaussian\", the default: {}); an empty or comment-only file is no mission",
+                    FieldKind::Gaussian.required_keys().join(", ")
+                ),
+            ));
+        }
+        let kind = self.field.kind;
+        let given = has_key(doc, &["field", "kind"]);
+        for key in kind.required_keys() {
+            if !has_key(doc, &["field", key]) {
+                return Err(c.fail(
+                    &format!("field.{key}"),
+                    "(missing)",
+                    format!(
+                        "required for field.kind = {:?}{} (no meaningful default); it needs {}",
+                        kind.as_str(),
+                        if given { "" } else { " (the default kind)" },
+                        kind.required_keys().join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Checks every value and every constraint between values; the first violation is
@@ -1174,6 +1372,26 @@ impl Mission {
         c.positive("restart.backoff", r.backoff)?;
         c.positive("restart.window", r.window)?;
 
+        // The time step against the formation's stiffness.
+        if let Some(st) = self.stiffness() {
+            if !m.allow_unstable && st.unstable() {
+                return Err(c.fail(
+                    "mission.dt",
+                    num(m.dt),
+                    format!(
+                        "unstable: ω·dt = {:.2}, damping·dt = {:.2}; above {UNSTABLE_STEP} the integration of \
+                         (II.1) diverges (neighbour spacing {} at formation.min_scale = {}): lower \
+                         mission.dt or formation.alpha, raise formation.radius, or set \
+                         mission.allow_unstable = true to run it anyway",
+                        st.omega_dt,
+                        st.damping_dt,
+                        num(st.spacing),
+                        num(fo.min_scale)
+                    ),
+                ));
+            }
+        }
+
         // [[faults]]
         for (i, fault) in self.faults.iter().enumerate() {
             let k = format!("faults[{i}]");
@@ -1236,12 +1454,12 @@ impl Mission {
         Ok(())
     }
 
-    /// A warning when the formation is too stiff for the time step: the semi-implicit Euler
-    /// integration of (II.1) is stable for ω·dt < 2 and damping·dt < 2, and accurate only
-    /// well below. ω² ≈ 2 α/d0² + α/h0² (two neighbours and the central leader at their
-    /// equilibrium distances, f'(d0) = α/d0²), at the smallest formation scale. `None` when
-    /// ω·dt ≤ 1 and damping·dt ≤ 1.
-    pub fn stiffness_warning(&self) -> Option<String> {
+    /// How stiff the formation is for the time step: ω·dt and damping·dt. The semi-implicit
+    /// Euler integration of (II.1) is stable for ω·dt < 2 and damping·dt < 2, and accurate
+    /// only well below. ω² ≈ 2 α/d0² + α/h0² (two neighbours and the central leader at their
+    /// equilibrium distances, f'(d0) = α/d0²), at the smallest formation scale. None when the
+    /// formation cannot be designed (validation says why).
+    pub fn stiffness(&self) -> Option<Stiffness> {
         let design = crate::math::formation::design_regular(
             self.vehicles.count,
             self.mission.dim,
@@ -1255,16 +1473,35 @@ impl Mission {
         let alpha = self.formation.alpha;
         let omega = (2.0 * alpha / (d0 * d0) + alpha / (h0 * h0)).sqrt();
         let dt = self.mission.dt;
-        let damping = self.vehicles.damping * dt;
-        (omega * dt > 1.0 || damping > 1.0).then(|| {
+        Some(Stiffness {
+            omega_dt: omega * dt,
+            damping_dt: self.vehicles.damping * dt,
+            spacing: d0,
+        })
+    }
+
+    /// A warning when the formation is stiff for the time step (ω·dt or damping·dt above 1:
+    /// inaccurate; above 2, allowed by `mission.allow_unstable`: unstable). `None` when
+    /// ω·dt ≤ 1 and damping·dt ≤ 1.
+    pub fn stiffness_warning(&self) -> Option<String> {
+        let st = self.stiffness()?;
+        let dt = self.mission.dt;
+        let k = self.formation.min_scale;
+        (st.omega_dt > 1.0 || st.damping_dt > 1.0).then(|| {
             format!(
-                "{}: the formation is stiff for mission.dt = {dt}: ω·dt = {:.2}, damping·dt = {damping:.2} \
+                "{}: the formation is stiff for mission.dt = {dt}: ω·dt = {:.2}, damping·dt = {:.2} \
                  (neighbour spacing {:.4} at formation.min_scale = {k}); above 1 the integration is \
-                 inaccurate, above 2 unstable: lower formation.alpha or mission.dt, or raise \
+                 inaccurate, above 2 unstable{}: lower formation.alpha or mission.dt, or raise \
                  formation.radius",
                 self.origin,
-                omega * dt,
-                d0
+                st.omega_dt,
+                st.damping_dt,
+                st.spacing,
+                if st.unstable() {
+                    " (run only because mission.allow_unstable = true)"
+                } else {
+                    ""
+                }
             )
         })
     }
@@ -1275,7 +1512,8 @@ impl Mission {
     /// # Panics
     /// If the mission is not valid (a seed above 2⁶³ − 1 cannot be written as TOML).
     pub fn to_toml_string(&self) -> String {
-        let body = toml::to_string(self).expect("a validated mission serialises to TOML");
+        let body =
+            short_floats(&toml::to_string(self).expect("a validated mission serialises to TOML"));
         format!(
             "# Resolved mission (every key, defaults filled in), from {}\n\n{body}",
             if self.origin.is_empty() {
@@ -1374,13 +1612,241 @@ impl Mission {
 mod tests {
     use super::*;
 
-    fn parse(text: &str) -> Result<Mission, ConfigError> {
+    /// Parses `text` exactly as written.
+    fn parse_raw(text: &str) -> Result<Mission, ConfigError> {
         Mission::from_toml_str(text, "missions/x.toml")
     }
 
+    /// `text` with the keys every mission must give added where it lacks them (`[mission]
+    /// name = "demo"`, the `[field]` keys of a gaussian, quadratic, eddy or front, at their
+    /// struct defaults), so a fragment tests the one key it is about. Text that is not TOML
+    /// (or whose `mission`/`field` is no table) is left as it is.
+    fn complete(text: &str) -> String {
+        use toml::Value;
+        let Ok(mut doc) = toml::from_str::<toml::Table>(text) else {
+            return text.to_string();
+        };
+        let mut changed = false;
+        let d = FieldConfig::default();
+        let floats = |v: &[f64]| Value::Array(v.iter().map(|x| Value::Float(*x)).collect());
+        for (section, keys) in [("mission", vec!["name"]), ("field", vec![])] {
+            let table = doc
+                .entry(section)
+                .or_insert_with(|| Value::Table(toml::Table::new()));
+            let Value::Table(t) = table else { continue };
+            let mut keys: Vec<&str> = keys;
+            if section == "field" {
+                keys = match t.get("kind").and_then(Value::as_str).unwrap_or("gaussian") {
+                    "quadratic" => vec!["center", "hessian"],
+                    "gaussian" | "eddy" | "front" => vec!["center", "amplitude", "width"],
+                    _ => vec![],
+                };
+            }
+            for key in keys {
+                if t.contains_key(key) {
+                    continue;
+                }
+                let value = match key {
+                    "name" => Value::String("demo".into()),
+                    "center" => floats(&d.center),
+                    "amplitude" => Value::Float(d.amplitude),
+                    "width" => Value::Float(d.width),
+                    _ => Value::Array(d.hessian.iter().map(|r| floats(r)).collect()),
+                };
+                t.insert(key.to_string(), value);
+                changed = true;
+            }
+        }
+        if changed {
+            toml::to_string(&doc).expect("a TOML table serialises")
+        } else {
+            text.to_string()
+        }
+    }
+
+    /// Parses `text` [`complete`]d with the keys every mission must give.
+    fn parse(text: &str) -> Result<Mission, ConfigError> {
+        parse_raw(&complete(text))
+    }
+
+    /// The smallest valid mission: the required keys, at the struct defaults.
+    const MINIMAL: &str =
+        "[mission]\nname = \"demo\"\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n";
+
     #[test]
-    fn empty_file_gives_every_default() {
-        let m = parse("").expect("defaults are valid");
+    fn empty_and_comment_only_files_are_no_mission() {
+        for text in ["", "# a comment\n\n   # another\n", "[mission]\nseed = 3\n"] {
+            let err = parse_raw(text).expect_err(text);
+            assert_eq!(err.key(), Some("mission.name"), "{err}");
+            let msg = err.to_string();
+            assert!(
+                msg.starts_with("missions/x.toml: mission.name = (missing): required"),
+                "{msg}"
+            );
+            assert!(msg.contains("center, amplitude, width"), "{msg}");
+        }
+    }
+
+    #[test]
+    fn field_keys_without_a_meaningful_default_are_required() {
+        let name = "[mission]\nname = \"a\"\n";
+        for (field, key, kind) in [
+            ("", "field.center", "\"gaussian\" (the default kind)"),
+            (
+                "[field]\ncenter = [1.0, 2.0]\nwidth = 3.0\n",
+                "field.amplitude",
+                "\"gaussian\"",
+            ),
+            (
+                "[field]\ncenter = [1.0, 2.0]\namplitude = 3.0\n",
+                "field.width",
+                "\"gaussian\"",
+            ),
+            (
+                "[field]\nkind = \"quadratic\"\ncenter = [1.0, 2.0]\n",
+                "field.hessian",
+                "\"quadratic\"",
+            ),
+            (
+                "[field]\nkind = \"eddy\"\ncenter = [1.0, 2.0]\namplitude = 1.0\nwidth = 2.0\n",
+                "field.velocity",
+                "\"eddy\"",
+            ),
+            (
+                "[field]\nkind = \"front\"\nnormal = [1.0, 0.0]\nwidth = 2.0\n",
+                "field.amplitude",
+                "\"front\"",
+            ),
+            (
+                "[field]\nkind = \"gaussian_sum\"\n",
+                "field.bumps",
+                "\"gaussian_sum\"",
+            ),
+        ] {
+            let text = format!("{name}{field}");
+            let err = parse_raw(&text).expect_err(&text);
+            assert_eq!(err.key(), Some(key), "{text:?}: {err}");
+            let msg = err.to_string();
+            assert!(
+                msg.contains("(missing): required for field.kind = "),
+                "{msg}"
+            );
+            assert!(msg.contains(kind), "{msg}");
+        }
+        // Given, they are enough.
+        let q = parse_raw("[mission]\nname = \"a\"\ngoal = \"min\"\n[field]\nkind = \"quadratic\"\ncenter = [1.0, 2.0]\nhessian = [[1.0, 0.0], [0.0, 1.0]]\n").unwrap();
+        assert_eq!(q.field.kind, FieldKind::Quadratic);
+    }
+
+    #[test]
+    fn a_batch_table_is_accepted_and_not_resolved() {
+        let text =
+            format!("{MINIMAL}[batch]\nmin_convergence_rate = 0.9\nmax_final_distance = 1_000.0\n");
+        let m = parse_raw(&text).unwrap();
+        assert_eq!(m, parse_raw(MINIMAL).unwrap());
+        assert!(!m.to_toml_string().contains("batch"));
+    }
+
+    #[test]
+    fn an_unstable_time_step_is_refused_unless_allowed() {
+        // Defaults: ω ≈ 4.7 rad/s at the smallest scale; dt = 1 s gives ω·dt ≈ 4.7.
+        let err = parse("[mission]\ndt = 1.0").unwrap_err();
+        assert_eq!(err.key(), Some("mission.dt"), "{err}");
+        let msg = err.to_string();
+        assert!(msg.contains("unstable: ω·dt = 4.7"), "{msg}");
+        assert!(msg.contains("mission.allow_unstable = true"), "{msg}");
+        // damping·dt above 2 alone.
+        let err = parse("[mission]\ndt = 0.05\n[vehicles]\ndamping = 50.0").unwrap_err();
+        assert_eq!(err.key(), Some("mission.dt"), "{err}");
+        assert!(err.to_string().contains("damping·dt = 2.50"), "{err}");
+        let m = parse("[mission]\ndt = 1.0\nallow_unstable = true").unwrap();
+        let w = m.stiffness_warning().expect("still warned");
+        assert!(w.contains("allow_unstable"), "{w}");
+        // Stiff but stable (1 < ω·dt ≤ 2): a warning only.
+        let m = parse("[mission]\ndt = 0.3").unwrap();
+        let st = m.stiffness().unwrap();
+        assert!(st.omega_dt > 1.0 && st.omega_dt <= 2.0, "{st:?}");
+        assert!(m.stiffness_warning().is_some());
+        // An override that makes the step unstable is refused, naming the key.
+        let err = parse(MINIMAL)
+            .unwrap()
+            .with_overrides(&Overrides {
+                vehicles: Some(64),
+                ..Overrides::default()
+            })
+            .unwrap_err();
+        assert_eq!(err.key(), Some("mission.dt"), "{err}");
+    }
+
+    #[test]
+    fn a_huge_or_endless_file_is_refused_without_reading_it_all() {
+        let err = Mission::load(Path::new("/dev/zero")).unwrap_err();
+        assert!(matches!(err, ConfigError::TooLarge { .. }), "{err}");
+        assert!(
+            err.to_string()
+                .starts_with("/dev/zero: the mission file is larger than 1048576 bytes"),
+            "{err}"
+        );
+        let dir = std::env::temp_dir().join(format!("vbap-config-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let big = dir.join("big.toml");
+        let mut text = String::from(MINIMAL);
+        while text.len() as u64 <= MAX_FILE_BYTES {
+            text.push_str("# padding padding padding padding padding padding padding padding\n");
+        }
+        std::fs::write(&big, &text).unwrap();
+        assert!(matches!(
+            Mission::load(&big).unwrap_err(),
+            ConfigError::TooLarge { .. }
+        ));
+        // Just under the limit is read.
+        text.truncate(MAX_FILE_BYTES as usize - 1);
+        let cut = text.rfind('\n').unwrap() + 1;
+        text.truncate(cut);
+        std::fs::write(&big, &text).unwrap();
+        assert!(Mission::load(&big).is_ok());
+        // Not text.
+        std::fs::write(&big, [0xff, 0xfe, 0x00]).unwrap();
+        let err = Mission::load(&big).unwrap_err();
+        assert!(err.to_string().contains("not UTF-8"), "{err}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn the_glider_fault_examples_validate_when_uncommented() {
+        for name in ["glider.toml", "glider_surfacing.toml"] {
+            let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../deploy/missions/");
+            let text = std::fs::read_to_string(format!("{dir}{name}")).unwrap();
+            let uncommented = uncomment_example(&text);
+            assert_ne!(uncommented, text, "{name} has a commented example");
+            let m = Mission::from_toml_str(&uncommented, name)
+                .unwrap_or_else(|e| panic!("{e}\n{uncommented}"));
+            assert_eq!(m.faults.len(), 1, "{name}");
+            assert_eq!(m.faults[0].kind, FaultKind::Kill);
+            assert_eq!(m.faults[0].until, Some(43200.0));
+            assert_eq!(m.restart.vehicles, RestartPolicy::OnFailure);
+        }
+    }
+
+    /// Uncomments the trailing example of a mission file: from its first line `# [` on,
+    /// every line `# x` becomes `x` (`## x` stays a comment).
+    pub(super) fn uncomment_example(text: &str) -> String {
+        let mut on = false;
+        let mut out = String::new();
+        for line in text.lines() {
+            on |= line.starts_with("# [");
+            match line.strip_prefix("# ") {
+                Some(code) if on => out.push_str(code),
+                _ => out.push_str(line),
+            }
+            out.push('\n');
+        }
+        out
+    }
+
+    #[test]
+    fn a_minimal_file_gives_every_default() {
+        let m = parse_raw(MINIMAL).expect("defaults are valid");
         let s = &m.mission;
         assert_eq!(s.name, "demo");
         assert_eq!(s.seed, 1);
@@ -1440,6 +1906,7 @@ mod tests {
             (0.0, 0.0, 0.0, 0.0, 0.0)
         );
         assert!(m.faults.is_empty());
+        assert!(!s.allow_unstable);
         assert_eq!(m, Mission::default());
         assert_eq!(m.ticks(), 6000);
         assert_eq!(m.start_vec(), Vec3::zeros());
@@ -1611,6 +2078,11 @@ mod tests {
         ),
         ("[mission]\nname = 3", "mission.name"),
         ("mission = 3", "mission"),
+        ("[mission]\ndt = 1.0", "mission.dt"),
+        ("[mission]\nallow_unstable = 1", "mission.allow_unstable"),
+        ("[vehicles]\ndamping = 45.0", "mission.dt"),
+        ("[field]\nwidth = -1e-300", "field.width"),
+        ("[batch]\nmin_convergence_rate = 0.5\n[mission]\nname = \"a.b\"", "mission.name"),
     ];
 
     #[test]
@@ -1635,19 +2107,19 @@ mod tests {
 
     #[test]
     fn unknown_keys_are_refused_by_name_and_line() {
-        let err = parse("[mission]\nname = \"a\"\n[field]\nwidht = 3.0\n").unwrap_err();
+        let err = parse_raw("[mission]\nname = \"a\"\n[field]\nwidht = 3.0\n").unwrap_err();
         assert_eq!(err.key(), Some("field.widht"), "{err}");
         let msg = err.to_string();
         assert!(msg.contains("unknown field `widht`"), "{msg}");
         assert!(msg.contains("line 4, column 1"), "{msg}");
-        let err = parse("speed = 3.0\n").unwrap_err();
+        let err = parse_raw("speed = 3.0\n").unwrap_err();
         assert_eq!(err.key(), Some("speed"), "{err}");
-        let err = parse("[fields]\nkind = \"gaussian\"\n").unwrap_err();
+        let err = parse_raw("[fields]\nkind = \"gaussian\"\n").unwrap_err();
         assert_eq!(err.key(), Some("fields"), "{err}");
-        let err =
-            parse("[[faults]]\nkind = \"kill\"\nvehicle = 1\nat = 1.0\nwhen = 2.0\n").unwrap_err();
+        let err = parse_raw("[[faults]]\nkind = \"kill\"\nvehicle = 1\nat = 1.0\nwhen = 2.0\n")
+            .unwrap_err();
         assert_eq!(err.key(), Some("faults[0].when"), "{err}");
-        let err = parse(
+        let err = parse_raw(
             "[field]\nkind = \"gaussian_sum\"\n[[field.bumps]]\ncenter = [0.0, 0.0]\namplitude = 1.0\nwidth = 1.0\nsigma = 2\n",
         )
         .unwrap_err();
@@ -1656,7 +2128,7 @@ mod tests {
 
     #[test]
     fn syntax_errors_keep_line_and_column() {
-        let err = parse("[mission]\nname = 'x\n").unwrap_err();
+        let err = parse_raw("[mission]\nname = 'x\n").unwrap_err();
         match &err {
             ConfigError::Syntax { line, column, .. } => assert_eq!((*line, *column), (2, 10)),
             other => panic!("not a syntax error: {other}"),
@@ -1664,7 +2136,7 @@ mod tests {
         assert!(err
             .to_string()
             .starts_with("missions/x.toml: line 2, column 10: invalid TOML"));
-        let err = parse("[mission]\nseed = 1\n[mission]\n").unwrap_err();
+        let err = parse_raw("[mission]\nseed = 1\n[mission]\n").unwrap_err();
         assert!(matches!(err, ConfigError::Syntax { line: 3, .. }), "{err}");
     }
 
@@ -1750,6 +2222,36 @@ vehicle = 0
 at = 100.0
 value = -0.5
 "#;
+
+    #[test]
+    fn resolved_floats_are_short_and_exact() {
+        let text = "[mission]\nname = \"tiny\"\nfield_label = \"T 0.0000000000000000000001 '#\\\" x\"\n\
+                    [field]\ncenter = [1e300, -1e-300]\namplitude = 2.5e-7\nwidth = 9000.0\n\
+                    [formation]\nadapt_gain = 1e-300\nhessian_guess = [[2.5e-8, 0.0], [0.0, 1e-320]]\n";
+        let m = parse_raw(text).unwrap();
+        let resolved = m.to_toml_string();
+        for line in resolved.lines() {
+            assert!(line.len() < 120, "{line}");
+        }
+        assert!(resolved.contains("adapt_gain = 1e-300"), "{resolved}");
+        assert!(resolved.contains("amplitude = 2.5e-7"), "{resolved}");
+        assert!(resolved.contains("width = 9000.0"), "{resolved}");
+        assert!(resolved.contains("center = [1e300, -1e-300]"), "{resolved}");
+        assert!(
+            resolved.contains("T 0.0000000000000000000001 '#"),
+            "strings untouched: {resolved}"
+        );
+        let back = parse_raw(&resolved).unwrap_or_else(|e| panic!("{e}\n{resolved}"));
+        assert_eq!(back, m);
+        assert_eq!(
+            back.mission.field_label,
+            "T 0.0000000000000000000001 '#\" x"
+        );
+        assert_eq!(
+            back.formation.hessian_guess.unwrap()[1][1].to_bits(),
+            1e-320f64.to_bits()
+        );
+    }
 
     #[test]
     fn resolved_mission_round_trips() {
@@ -1904,18 +2406,41 @@ mod stiffness_tests {
             assert_eq!(m.stiffness_warning(), None, "{name}");
         }
         let m = Mission::load(&std::path::Path::new(dir).join("paper.toml")).unwrap();
-        let crowded = m
-            .with_overrides(&Overrides {
-                vehicles: Some(32),
-                ..Overrides::default()
-            })
-            .unwrap();
-        let w = crowded
+        let crowded = Overrides {
+            vehicles: Some(32),
+            ..Overrides::default()
+        };
+        // 32 vehicles on the paper's radius: unstable, refused naming the time step...
+        let err = m.clone().with_overrides(&crowded).unwrap_err();
+        assert_eq!(err.key(), Some("mission.dt"), "{err}");
+        assert!(err.to_string().contains("--vehicles 32"), "{err}");
+        // ...unless allowed, and then still warned about.
+        let mut allowed = m.clone();
+        allowed.mission.allow_unstable = true;
+        let w = allowed
+            .with_overrides(&crowded)
+            .unwrap()
             .stiffness_warning()
             .expect("32 vehicles on the paper's radius are stiff");
         assert!(
-            w.contains("formation.alpha") && w.contains("mission.dt"),
+            w.contains("formation.alpha")
+                && w.contains("mission.dt")
+                && w.contains("allow_unstable"),
             "{w}"
         );
+        // Between the two limits: valid, with a warning.
+        let stiff = (5..32)
+            .map(|n| {
+                let mut c = m.clone();
+                c.vehicles.count = n;
+                c
+            })
+            .find(|c| {
+                c.stiffness()
+                    .is_some_and(|s| s.omega_dt > 1.0 && !s.unstable())
+            })
+            .expect("a fleet size between the limits");
+        assert_eq!(stiff.validate().map_err(|e| e.to_string()), Ok(()));
+        assert!(stiff.stiffness_warning().is_some());
     }
 }

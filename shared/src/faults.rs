@@ -140,8 +140,15 @@ mod tests {
     fn plan_in_ticks_and_sensor_faults() {
         let text = r#"
 [mission]
+name = "t"
 dt = 0.5
 duration = 100.0
+[field]
+center = [20.0, 10.0]
+amplitude = 10.0
+width = 15.0
+[formation]
+min_scale = 1.0
 [restart]
 vehicles = "on-failure"
 [[faults]]

@@ -299,7 +299,7 @@ mod tests {
 
     fn mission(links: &str) -> Mission {
         Mission::from_toml_str(
-            &format!("[vehicles]\ncount = 4\n[links]\n{links}"),
+            &format!("[mission]\nname = \"t\"\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 4\n[links]\n{links}"),
             "<test>",
         )
         .unwrap()
@@ -407,7 +407,7 @@ mod tests {
 
     #[test]
     fn link_down_drops_inside_its_interval_only() {
-        let text = "[vehicles]\ncount = 4\n[[faults]]\nkind = \"link_down\"\nvehicle = 1\nat = 10.0\nuntil = 20.0\n";
+        let text = "[mission]\nname = \"t\"\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 4\n[[faults]]\nkind = \"link_down\"\nvehicle = 1\nat = 10.0\nuntil = 20.0\n";
         let m = LinkModel::new(&Mission::from_toml_str(text, "<test>").unwrap());
         let mut s = LinkState::default();
         assert_eq!(

@@ -32,8 +32,15 @@
 //! A cell that does not apply to the event is empty. All numbers are unsigned integers.
 //! `hop` and `reason` are identifiers: a comma or line break in them is written as `_`.
 //! The file is appended to (a restarted process continues it, the header is not repeated)
-//! and buffered (64 KiB): a process killed with SIGKILL loses its last unwritten lines,
-//! never half a line.
+//! and buffered (64 KiB); a vehicle agent flushes it before every wait, i.e. at least once
+//! per tick, so an agent killed with SIGKILL loses at most the records of the tick it was
+//! working on (those taken since its last wait), never half a line.
+//!
+//! # On or off
+//!
+//! Records are on unless the environment variable [`RECORDS_ENV`] (`VBAP_MSG_RECORDS`) is
+//! `off` (or `0`, `false`); the log level (`RUST_LOG`) does not switch them, so
+//! `RUST_LOG=info` keeps what `vbap analyze` needs.
 //!
 //! Run directories of earlier versions carry the same records as JSON lines in
 //! `logs/<process>.jsonl` (target `vbap::msg`; the `held` record's hop is named
@@ -50,7 +57,27 @@ use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use crate::telemetry::MSG_TARGET;
+/// Environment variable switching the records: `on` (the default; also `1`, `true`, empty)
+/// or `off` (`0`, `false`).
+pub const RECORDS_ENV: &str = "VBAP_MSG_RECORDS";
+
+/// The value of [`RECORDS_ENV`] as a switch: `None` (unset) and `on`/`1`/`true`/empty are on,
+/// `off`/`0`/`false` off (any case); anything else is an error naming the variable.
+pub fn parse_records_switch(value: Option<&str>) -> Result<bool, String> {
+    match value.map(|v| v.trim().to_ascii_lowercase()).as_deref() {
+        None | Some("" | "on" | "1" | "true") => Ok(true),
+        Some("off" | "0" | "false") => Ok(false),
+        Some(other) => Err(format!(
+            "{RECORDS_ENV}={other:?}: must be \"on\" or \"off\" (message records for vbap analyze)"
+        )),
+    }
+}
+
+/// Whether this process writes message records ([`RECORDS_ENV`]; a malformed value counts
+/// as on: the front door refuses it before any process starts).
+pub fn records_on() -> bool {
+    parse_records_switch(std::env::var(RECORDS_ENV).ok().as_deref()).unwrap_or(true)
+}
 
 /// Header line of every message-record file.
 pub const MSG_HEADER: &str =
@@ -249,18 +276,15 @@ impl MsgLog {
     }
 
     /// The message log beside a process's tracing log: `X/<p>.jsonl` -> `X/<p>.msgs.csv`.
-    /// Disabled when `log_file` is None, or when the tracing filter does not enable events
-    /// of target `vbap::msg` at DEBUG (so `RUST_LOG=info` turns the records off). Asked with
-    /// `tracing::event_enabled!`: plain `enabled!` asks about a hint, which the env filter
-    /// of [`crate::telemetry`] never enables. Call after `telemetry::init`.
+    /// Disabled when `log_file` is None or records are switched off ([`records_on`]); the
+    /// tracing filter plays no part.
     pub fn beside(log_file: Option<&Path>) -> std::io::Result<Self> {
-        let Some(log_file) = log_file else {
-            return Ok(Self::disabled());
-        };
-        if !tracing::event_enabled!(target: MSG_TARGET, tracing::Level::DEBUG) {
-            return Ok(Self::disabled());
+        match log_file {
+            Some(log_file) if records_on() => {
+                Self::open(&log_file.with_extension(&MSG_SUFFIX[1..]))
+            }
+            _ => Ok(Self::disabled()),
         }
-        Self::open(&log_file.with_extension(&MSG_SUFFIX[1..]))
     }
 
     /// Whether this log has a file (records are written to it unless a write failed).
@@ -526,7 +550,26 @@ mod tests {
     }
 
     #[test]
-    fn beside_follows_the_tracing_filter() {
+    fn the_switch_reads_on_and_off_and_refuses_the_rest() {
+        for on in [
+            None,
+            Some(""),
+            Some("on"),
+            Some("ON"),
+            Some("1"),
+            Some("true"),
+        ] {
+            assert_eq!(parse_records_switch(on), Ok(true), "{on:?}");
+        }
+        for off in [Some("off"), Some("Off"), Some("0"), Some("false")] {
+            assert_eq!(parse_records_switch(off), Ok(false), "{off:?}");
+        }
+        let err = parse_records_switch(Some("maybe")).unwrap_err();
+        assert!(err.starts_with("VBAP_MSG_RECORDS=\"maybe\""), "{err}");
+    }
+
+    #[test]
+    fn beside_ignores_the_tracing_filter() {
         let dir = temp("beside");
         let jsonl = dir.join("logs/coordinator.jsonl");
         let csv = dir.join("logs/coordinator.msgs.csv");
@@ -537,9 +580,11 @@ mod tests {
                 .finish();
             tracing::subscriber::with_default(sub, || MsgLog::beside(Some(&jsonl)).unwrap())
         };
-        let off = with_filter("info");
-        assert!(!off.is_enabled());
-        assert!(!csv.exists());
+        // RUST_LOG=info (or even error) keeps the records.
+        for filter in ["info", "error"] {
+            let log = with_filter(filter);
+            assert!(log.is_enabled(), "{filter}");
+        }
         let mut on = with_filter(crate::telemetry::DEFAULT_FILTER);
         assert!(on.is_enabled());
         on.recv("state", 0, u32::MAX - 1, 0, 0, 1, 2);

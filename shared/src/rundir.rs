@@ -195,6 +195,24 @@ pub struct InputRow<'a> {
     pub measurement: f64,
 }
 
+/// An `f64` written in the shortest form that reads back to the same number: plain decimals
+/// (`{}`) for 1e-4 ≤ |x| < 1e16 and zero, the exponent form (`{:e}`, e.g. `1e-25`) outside,
+/// where plain decimals would run to hundreds of digits (`{}` writes 1e-300 in full). Every
+/// CSV writer of a run uses it, in `vbap sim` and `vbap run` alike.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Num(pub f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if self.0 != 0.0 && a.is_finite() && !(1e-4..1e16).contains(&a) {
+            write!(f, "{:e}", self.0)
+        } else {
+            write!(f, "{}", self.0)
+        }
+    }
+}
+
 /// Appends rows to `vehicles.csv`, `body.csv` and `planner_inputs.csv`.
 pub struct TrackWriter {
     vehicles: AppendFile,
@@ -220,13 +238,13 @@ impl TrackWriter {
             r.role,
             r.id,
             r.tick,
-            r.position.x,
-            r.position.y,
-            r.position.z,
-            r.velocity.x,
-            r.velocity.y,
-            r.velocity.z,
-            r.measurement
+            Num(r.position.x),
+            Num(r.position.y),
+            Num(r.position.z),
+            Num(r.velocity.x),
+            Num(r.velocity.y),
+            Num(r.velocity.z),
+            Num(r.measurement)
         )
     }
     /// Appends one vehicle row.
@@ -234,16 +252,16 @@ impl TrackWriter {
         writeln!(
             self.vehicles,
             "{},{},{},{},{},{},{},{},{},{}",
-            r.t,
+            Num(r.t),
             r.k,
             r.id,
-            r.position.x,
-            r.position.y,
-            r.position.z,
-            r.velocity.x,
-            r.velocity.y,
-            r.velocity.z,
-            r.measurement
+            Num(r.position.x),
+            Num(r.position.y),
+            Num(r.position.z),
+            Num(r.velocity.x),
+            Num(r.velocity.y),
+            Num(r.velocity.z),
+            Num(r.measurement)
         )
     }
     /// Appends one body row.
@@ -251,23 +269,23 @@ impl TrackWriter {
         writeln!(
             self.body,
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            r.t,
+            Num(r.t),
             r.k,
-            r.s,
-            r.sdot,
-            r.r.x,
-            r.r.y,
-            r.r.z,
-            r.scale,
-            r.grad.x,
-            r.grad.y,
-            r.grad.z,
-            r.v,
+            Num(r.s),
+            Num(r.sdot),
+            Num(r.r.x),
+            Num(r.r.y),
+            Num(r.r.z),
+            Num(r.scale),
+            Num(r.grad.x),
+            Num(r.grad.y),
+            Num(r.grad.z),
+            Num(r.v),
             r.n_vehicles,
-            r.p_trace,
-            r.true_grad.x,
-            r.true_grad.y,
-            r.true_grad.z
+            Num(r.p_trace),
+            Num(r.true_grad.x),
+            Num(r.true_grad.y),
+            Num(r.true_grad.z)
         )
     }
     /// Flushes both files.
@@ -439,6 +457,37 @@ mod tests {
         let p = Percentiles::of(&mut v);
         assert_eq!((p.p50, p.p90, p.p99, p.max), (50.0, 90.0, 99.0, 100.0));
         assert_eq!(Percentiles::of(&mut []), Percentiles::default());
+    }
+
+    #[test]
+    fn tiny_and_huge_floats_are_short_and_round_trip() {
+        for x in [
+            1e-300,
+            -1e-300,
+            5e-324,
+            f64::MIN_POSITIVE,
+            1.2345678901234567e-25,
+            9.99e-5,
+            1e-4,
+            0.1 + 0.2,
+            -3.5,
+            0.0,
+            -0.0,
+            123456.789,
+            9.9e15,
+            1e16,
+            f64::MAX,
+        ] {
+            let s = Num(x).to_string();
+            assert!(s.len() <= 24, "{x:?} written as {s} ({} chars)", s.len());
+            let back = s.parse::<f64>().unwrap();
+            assert_eq!(back.to_bits(), x.to_bits(), "{x:?} written as {s}");
+        }
+        // Ordinary values keep their plain decimal form.
+        assert_eq!(Num(0.25).to_string(), "0.25");
+        assert_eq!(Num(3.0).to_string(), "3");
+        assert_eq!(Num(1e-25).to_string(), "1e-25");
+        assert_eq!(Num(f64::NAN).to_string(), "NaN");
     }
 
     #[test]

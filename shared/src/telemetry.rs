@@ -10,8 +10,8 @@
 //!
 //! Per-message records (latency analysis) are not tracing events: they go to
 //! `<process>.msgs.csv` beside the log file, through [`crate::msglog`], a cheaper format.
-//! The filter still switches them: they are written when it enables target [`MSG_TARGET`]
-//! at `debug` (the default), so `RUST_LOG=info` turns them off. Logs of earlier versions
+//! The log level does not switch them (`RUST_LOG=info` keeps them): their own switch is the
+//! environment variable `VBAP_MSG_RECORDS` (`on` by default, `off`). Logs of earlier versions
 //! carry them as JSON lines of that target (fields `hop`, `sender`, `tick`, `seq`,
 //! `sent_ns`, `recv_ns`, …); `vbap analyze` reads both.
 
@@ -23,8 +23,8 @@ use std::sync::{Arc, Mutex};
 use tracing_subscriber::fmt::MakeWriter;
 use tracing_subscriber::EnvFilter;
 
-/// Target of per-message records: its level in the filter switches
-/// [`crate::msglog::MsgLog::beside`] on (`debug`) and off.
+/// Target of per-message records in the JSON logs of earlier versions (the records now have
+/// their own file and switch, [`crate::msglog`]).
 pub const MSG_TARGET: &str = "vbap::msg";
 
 /// Default filter: info everywhere, message records included, iceoryx2 warnings only.

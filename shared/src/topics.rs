@@ -1,8 +1,10 @@
 //! Every iceoryx2 service name and limit of vbap, and the only place they are spelled.
 //!
-//! One *domain* per mission: the iceoryx2 prefix `vbap_<mission>_` keeps two missions on one
-//! host (and two tests) apart, and every service name also starts with the mission name
-//! (DESIGN §4). The creator of a service fixes its limits for the service's life, so every
+//! One *domain* per mission: the iceoryx2 prefix `vbap_<mission>.` keeps two missions on one
+//! host (and two tests) apart, and every service name also starts with the mission name.
+//! The `.` ends the mission name: a name holds only letters, digits and `_`, so no domain's
+//! prefix is the beginning of another's (`vbap_pfx.` is not a prefix of `vbap_pfx_2.`),
+//! whatever the names. The creator of a service fixes its limits for the service's life, so every
 //! process opens every service with the same [`Limits`], sized from the fleet.
 //!
 //! Topology (a star through the coordinator, O(N) connections):
@@ -111,10 +113,11 @@ pub struct Domain {
 }
 
 impl Domain {
-    /// The domain of mission `mission`: iceoryx2 prefix `vbap_<mission>_`.
+    /// The domain of mission `mission`: iceoryx2 prefix `vbap_<mission>.` (see
+    /// [`Domain::shm_prefix`]).
     pub fn new(mission: &str) -> Result<Self, TopicError> {
         let mut config = Config::default();
-        let prefix = format!("vbap_{mission}_");
+        let prefix = domain_prefix(mission);
         config.global.prefix = FileName::new(prefix.as_bytes()).map_err(|e| TopicError::Name {
             name: prefix.clone(),
             reason: format!("{e:?}"),
@@ -130,9 +133,12 @@ impl Domain {
         &self.config
     }
 
-    /// The shared-memory file prefix of this domain (files `/dev/shm/<prefix>*`).
+    /// The file prefix of this domain (files `/dev/shm/<prefix>*` and under iceoryx2's
+    /// root folder): `vbap_<mission>.`. The `.`, which a mission name cannot hold (iceoryx2's
+    /// `FileName` accepts it), ends the name, so the files of this domain and no other's
+    /// start with it.
     pub fn shm_prefix(&self) -> String {
-        format!("vbap_{}_", self.mission)
+        domain_prefix(&self.mission)
     }
 
     /// Creates a node named `name` in this domain; signals are left to iceoryx2's waits
@@ -187,6 +193,44 @@ impl Domain {
                 node: name.to_string(),
                 reason: format!("{e:?}"),
             })
+    }
+
+    /// The folders iceoryx2 keeps this domain's files in: /dev/shm and its root folder.
+    pub const FILE_ROOTS: [&'static str; 2] = ["/dev/shm", "/tmp/iceoryx2"];
+
+    /// Files of this domain still present under [`Domain::FILE_ROOTS`] (exactly those whose
+    /// name starts with [`Domain::shm_prefix`]).
+    pub fn files(&self) -> Vec<std::path::PathBuf> {
+        let mut out = Vec::new();
+        for root in Self::FILE_ROOTS {
+            walk_prefixed(std::path::Path::new(root), &self.shm_prefix(), &mut |p| {
+                out.push(p.to_path_buf())
+            });
+        }
+        out
+    }
+
+    /// Removes every file of this domain (see [`Domain::files`]), and the folders of its
+    /// nodes (`nodes/<id>/`) left empty by that; returns how many files were removed. Call
+    /// only when no process of the domain is alive.
+    pub fn remove_files(&self) -> usize {
+        let mut removed = 0;
+        let mut dirs = std::collections::BTreeSet::new();
+        for path in self.files() {
+            if std::fs::remove_file(&path).is_ok() {
+                removed += 1;
+                if let Some(parent) = path.parent() {
+                    dirs.insert(parent.to_path_buf());
+                }
+            }
+        }
+        for dir in dirs {
+            // A node's own folder, emptied: remove_dir fails on anything not empty.
+            if dir.parent().and_then(|p| p.file_name()) == Some(std::ffi::OsStr::new("nodes")) {
+                let _ = std::fs::remove_dir(&dir);
+            }
+        }
+        removed
     }
 
     /// Removes the stale resources of every dead node of this domain; returns how many
@@ -404,6 +448,26 @@ impl Domain {
     }
 }
 
+/// Calls `found` for every file under `dir` (recursively) whose name starts with `prefix`.
+fn walk_prefixed(dir: &std::path::Path, prefix: &str, found: &mut dyn FnMut(&std::path::Path)) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if entry.file_type().is_ok_and(|t| t.is_dir()) {
+            walk_prefixed(&path, prefix, found);
+        } else if entry.file_name().to_string_lossy().starts_with(prefix) {
+            found(&path);
+        }
+    }
+}
+
+/// The iceoryx2 file prefix of mission `mission`'s domain: `vbap_<mission>.`.
+pub fn domain_prefix(mission: &str) -> String {
+    format!("vbap_{mission}.")
+}
+
 fn service_err(name: &ServiceName, e: impl std::fmt::Debug) -> TopicError {
     TopicError::Service {
         service: name.to_string(),
@@ -489,4 +553,34 @@ pub fn wait_for_wake(
     timeout: std::time::Duration,
 ) -> Result<Wake, TopicError> {
     wait_for_wake_ids(waitset, listener, timeout, &mut Vec::new())
+}
+
+#[cfg(test)]
+mod prefix_tests {
+    use super::*;
+
+    #[test]
+    fn no_domain_prefix_begins_another_whatever_the_names() {
+        let names = [
+            "pfx",
+            "pfx_2",
+            "pfx_",
+            "p",
+            "glider",
+            "glider_surfacing",
+            "a_b",
+            "a",
+        ];
+        for a in names {
+            let domain = Domain::new(a).expect("iceoryx2 accepts the prefix as a file name");
+            assert_eq!(domain.shm_prefix(), domain_prefix(a));
+            for b in names {
+                if a != b {
+                    // A file of b's domain (its prefix, then anything) never starts with a's.
+                    let file_of_b = format!("{}node.details", domain_prefix(b));
+                    assert!(!file_of_b.starts_with(&domain_prefix(a)), "{a} vs {b}");
+                }
+            }
+        }
+    }
 }

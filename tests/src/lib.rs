@@ -166,7 +166,7 @@ pub fn leftover_files(name: &str) -> Vec<PathBuf> {
             }
         }
     }
-    let prefix = format!("vbap_{name}_");
+    let prefix = shared::topics::domain_prefix(name);
     let mut out = Vec::new();
     walk(Path::new("/dev/shm"), &prefix, &mut out);
     walk(Path::new("/tmp/iceoryx2"), &prefix, &mut out);

@@ -27,6 +27,9 @@ duration = 10000.0
 dt = 0.05
 pace = 1.0
 [field]
+center = [20.0, 10.0]
+amplitude = 10.0
+width = 15.0
 noise_std = 0.1
 [vehicles]
 count = 4

@@ -127,7 +127,11 @@ fn formation_json_reproduces_table_i() {
 #[test]
 fn check_names_the_key_and_exits_2() {
     let tmp = TempDir::new("check");
-    let file = write_mission(&tmp, "bad.toml", "[mission]\ndt = 0.0\n");
+    let file = write_mission(
+        &tmp,
+        "bad.toml",
+        "[mission]\nname = \"bad\"\ndt = 0.0\n[field]\ncenter = [1.0, 1.0]\namplitude = 1.0\nwidth = 1.0\n",
+    );
     let out = vbap().arg("check").arg(&file).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
@@ -150,6 +154,9 @@ name = "hold"
 duration = 6.0
 dt = 0.05
 [field]
+center = [20.0, 10.0]
+amplitude = 10.0
+width = 15.0
 noise_std = 0.1
 [vehicles]
 count = 3

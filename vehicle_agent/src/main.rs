@@ -43,5 +43,6 @@ fn main() {
     let log = shared::telemetry::init(&process, args.log.as_deref());
     let msgs = shared::process::message_log(args.log.as_deref());
     let result = vehicle_agent::run::run(&mission, args.id, args.rejoin, msgs, announce_ready);
+    shared::process::leave_domain(&mission.mission.name, args.parent);
     finish(&process, result.err().map(|e| format!("{e:#}")), log);
 }

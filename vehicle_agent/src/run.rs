@@ -172,6 +172,9 @@ pub fn run(
             // Lockstep: a deadline as a safety net, so a lost wake-up costs a second, not the
             // mission (on a timeout the body subscriber is read once).
             let timeout = hold_after.unwrap_or(Duration::from_secs(1));
+            // The records so far reach the file before every wait (at least once a tick):
+            // a SIGKILL loses at most those of the tick under way.
+            msgs.flush();
             match wait_for_wake(&waitset, &wake, timeout)? {
                 Wake::Stop => {
                     info!(vehicle = id, tick = k, "stopped by signal");
