@@ -33,6 +33,9 @@ damping = 5.0
 [formation]
 alpha = 60.0
 radius = 1.2
+# Stiff on purpose (fast settling), so the formation may not shrink below 0.6: the step
+# stays stable (omega dt < 2 at min_scale).
+min_scale = 0.6
 
 [body]
 v_u = 10.0
