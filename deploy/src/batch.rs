@@ -847,9 +847,9 @@ mod tests {
         }
         assert_eq!(
             csv_row(&rows[2]),
-            "3,false,,3,3,0.2,false,1,ok",
+            "3,false,,3,3,0.2,false,1,ok,,,,,,,,,",
             "empty cells for missing values"
         );
-        assert_eq!(csv_row(&rows[3]), "4,false,,,,,,0.5,boom");
+        assert_eq!(csv_row(&rows[3]), "4,false,,,,,,0.5,boom,,,,,,,,,");
     }
 }

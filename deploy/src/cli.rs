@@ -168,9 +168,27 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
                     d.map_or("n/a".into(), |d| format!("{d:.3}"))
                 ));
             };
+            // Ctrl-C / SIGTERM stop the simulation after the tick in progress; its files
+            // and summary (verdict "interrupted") are still written.
+            std::thread::spawn(|| {
+                if let Ok(rt) = tokio::runtime::Builder::new_current_thread()
+                    .enable_all()
+                    .build()
+                {
+                    rt.block_on(crate::supervise::shutdown_signal());
+                    crate::sim::STOP.store(true, std::sync::atomic::Ordering::Relaxed);
+                }
+            });
             let summary = crate::sim::simulate(&mission, &dir, &mut progress)?;
             bar.finish_and_clear();
             print_summary(&summary, &dir, args.json)?;
+            if summary.verdict == "interrupted" {
+                eprintln!(
+                    "vbap: interrupted; partial run directory {}",
+                    dir.root.display()
+                );
+                return Ok(130);
+            }
             Ok(EXIT_OK)
         }
         Cmd::Run(args) => {

@@ -209,6 +209,9 @@ fn stop_with(sig: &str) {
         out.join("summary.json").exists(),
         "the coordinator wrote a summary on the way out"
     );
+    let s = summary(&out);
+    assert_eq!(s["verdict"], "interrupted", "{:?}", s["reasons"]);
+    assert_eq!(s["converged"], false);
 }
 
 #[test]
