@@ -20,11 +20,9 @@
 use std::collections::BTreeSet;
 
 use shared::config::Mission;
-use shared::math::body::BodyRates;
-use shared::math::fit::{fit_slots, nearest_neighbours, spacing};
+use shared::math::fit::{fit_slots, nearest_neighbours, potential_energy_sparse, spacing};
 pub use shared::math::fit::{IN_FORMATION, NEAR_COLLISION};
 use shared::math::formation::FormationDesign;
-use shared::math::lyapunov::lyapunov_terms;
 use shared::rundir::{Event, FormationRow, FormationSummary, TruthRow};
 
 use crate::fleet::Fleet;
@@ -162,15 +160,16 @@ pub fn tick(
         .filter(|q| members.contains(&q.id))
         .map(|q| (q.position, q.velocity))
         .unzip();
-    let v_true = lyapunov_terms(
+    // V = max(0, ½ Σ|v|² + potential − E_n), as `lyapunov_terms` (the sparse sum of the
+    // potential costs O(n) per vehicle near the formation instead of O(n²)).
+    let kinetic: f64 = vel.iter().map(|v| v.norm_squared()).sum();
+    let potential = potential_energy_sparse(
         &pos,
-        &vel,
-        &command.body,
-        &BodyRates::zero(),
-        design,
-        command.damping,
-    )
-    .v / v_u;
+        &command.body.leader_positions(design),
+        &command.body.scaled_inter(design),
+        &command.body.scaled_leader(design),
+    );
+    let v_true = (0.5 * kinetic + potential - design.equilibrium_energy(pos.len())).max(0.0) / v_u;
     let v_seen = command.terms.v / v_u;
 
     // Slots and nearest pairs of every vehicle with a true state.
@@ -534,9 +533,21 @@ pub fn verdict(stats: &TruthStats, body: &BodyOutcome) -> (String, Vec<String>) 
     }
     let broken = !f.out_of_formation_at_end.is_empty();
     if broken {
-        let list: Vec<String> = f
-            .out_of_formation_at_end
+        // The worst first, at most LIST of them named.
+        const LIST: usize = 8;
+        let mut worst = f.out_of_formation_at_end.clone();
+        worst.sort_by(|a, b| {
+            let e = |v: &u32| {
+                stats.vehicles[*v as usize]
+                    .slot_error
+                    .unwrap_or(f64::INFINITY)
+            };
+            e(b).total_cmp(&e(a)).then(a.cmp(b))
+        });
+        let more = worst.len().saturating_sub(LIST);
+        let mut list: Vec<String> = worst
             .iter()
+            .take(LIST)
             .map(|&v| {
                 let e = stats.vehicles[v as usize].slot_error;
                 match e {
@@ -545,6 +556,9 @@ pub fn verdict(stats: &TruthStats, body: &BodyOutcome) -> (String, Vec<String>) 
                 }
             })
             .collect();
+        if more > 0 {
+            list.push(format!("and {more} more"));
+        }
         reasons.push(format!(
             "{} of {} live vehicles ended out of formation (more than {} spacing from a slot): {}",
             f.out_of_formation_at_end.len(),

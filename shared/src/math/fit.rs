@@ -20,12 +20,14 @@
 //!   rotation exactly: only the assignment is fitted.
 //!
 //! The assignment gives every vehicle its nearest slot when those are distinct; otherwise
-//! pairs are taken greedily in order of distance (ties by vehicle, then slot index), which
-//! is exact whenever every vehicle is within half a spacing of a distinct slot and an upper
-//! bound of the optimal assignment's worst error otherwise. Vehicles left without a slot
-//! (more vehicles than slots, e.g. one admitted back before the redesign) are measured to
-//! their nearest slot. Cost: `O(n m)` per pass (`n` vehicles, `m` slots), a few passes;
-//! `O(n m log(n m))` only when nearest slots collide.
+//! the vehicles choose greedily, the one nearest to any slot first (ties by index), each
+//! taking the nearest slot still free. That is exact whenever every vehicle is within half
+//! a spacing of a distinct slot; otherwise it is a cheap upper bound of the optimal
+//! assignment (a vehicle far from the formation may be charged to a farther slot than an
+//! optimal assignment would give it, never to a nearer one than its nearest). Vehicles
+//! left without a slot (more vehicles than slots, e.g. one admitted back before the
+//! redesign, or the last to choose) are measured to their nearest slot. Cost: `O(n m)` per
+//! pass (`n` vehicles, `m` slots), a few passes.
 
 use super::body::VirtualBody;
 use super::formation::FormationDesign;
@@ -113,12 +115,14 @@ pub fn fit_slots(
     }
     let slots = rotate(&rotation, &base);
     let slot = assign(&q, &slots);
+    let near = nearest_all(&q, &slots);
     let errors = q
         .iter()
         .zip(&slot)
-        .map(|(x, s)| match s {
+        .enumerate()
+        .map(|(i, (x, s))| match s {
             Some(j) => (x - slots[*j]).norm(),
-            None => nearest(x, &slots).1.sqrt(),
+            None => near[i].1.sqrt(),
         })
         .collect();
     SlotFit {
@@ -128,23 +132,94 @@ pub fn fit_slots(
     }
 }
 
+/// Indices of `positions` sorted by x (ties by index).
+fn by_x(positions: &[Vec3]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..positions.len()).collect();
+    order.sort_by(|&a, &b| positions[a].x.total_cmp(&positions[b].x).then(a.cmp(&b)));
+    order
+}
+
 /// For every position, its nearest other position: (index, distance), `None` when alone.
-/// Ties go to the lower index. `O(n²)`.
+/// Ties go to the lower index. A sweep along x: each position looks at the others in x
+/// order only while their x-distance alone is below the best distance so far (`O(n log
+/// n)` for spread-out fleets, `O(n²)` at worst).
 pub fn nearest_neighbours(positions: &[Vec3]) -> Vec<Option<(usize, f64)>> {
     let n = positions.len();
+    let order = by_x(positions);
     let mut best: Vec<Option<(usize, f64)>> = vec![None; n];
-    for i in 0..n {
-        for j in i + 1..n {
-            let d = (positions[i] - positions[j]).norm();
-            if best[i].is_none_or(|(_, b)| d < b) {
-                best[i] = Some((j, d));
+    for (p, &i) in order.iter().enumerate() {
+        let x = positions[i];
+        let mut b: Option<(usize, f64)> = None;
+        let mut consider = |j: usize, b: &mut Option<(usize, f64)>| {
+            let d = (x - positions[j]).norm();
+            if b.is_none_or(|(k, bd)| d < bd || (d == bd && j < k)) {
+                *b = Some((j, d));
             }
-            if best[j].is_none_or(|(_, b)| d < b) {
-                best[j] = Some((i, d));
+        };
+        for &j in &order[p + 1..] {
+            if b.is_some_and(|(_, bd)| positions[j].x - x.x > bd) {
+                break;
+            }
+            consider(j, &mut b);
+        }
+        for &j in order[..p].iter().rev() {
+            if b.is_some_and(|(_, bd)| x.x - positions[j].x > bd) {
+                break;
+            }
+            consider(j, &mut b);
+        }
+        best[i] = b;
+    }
+    best
+}
+
+/// The potential part of (II.2), as `lyapunov::potential_energy`, for large fleets: every
+/// pair (vehicle–vehicle, vehicle–leader) beyond its potential's cut-off `d1` sits on the
+/// plateau, so only pairs closer than `d1` are evaluated (found by a sweep along x) and the
+/// others counted. Equal to `potential_energy` up to rounding (the sum is taken in another
+/// order); energy per unit mass. `+∞` if two positions coincide.
+pub fn potential_energy_sparse(
+    positions: &[Vec3],
+    leaders: &[Vec3],
+    inter: &super::potential::PairPotential,
+    leader: &super::potential::PairPotential,
+) -> f64 {
+    let n = positions.len();
+    let order = by_x(positions);
+    let mut energy = 0.0;
+    let mut close = 0usize;
+    for (p, &i) in order.iter().enumerate() {
+        for &j in &order[p + 1..] {
+            if positions[j].x - positions[i].x >= inter.d1 {
+                break;
+            }
+            let d = (positions[i] - positions[j]).norm();
+            if d < inter.d1 {
+                energy += inter.value(d);
+                close += 1;
             }
         }
     }
-    best
+    let pairs = n * n.saturating_sub(1) / 2;
+    energy += (pairs - close) as f64 * inter.plateau();
+    let lorder = by_x(leaders);
+    let lx: Vec<f64> = lorder.iter().map(|&l| leaders[l].x).collect();
+    let mut lclose = 0usize;
+    for x in positions {
+        let from = lx.partition_point(|&v| v <= x.x - leader.d1);
+        for &l in &lorder[from..] {
+            if leaders[l].x - x.x >= leader.d1 {
+                break;
+            }
+            let d = (x - leaders[l]).norm();
+            if d < leader.d1 {
+                energy += leader.value(d);
+                lclose += 1;
+            }
+        }
+    }
+    energy += (n * leaders.len() - lclose) as f64 * leader.plateau();
+    energy
 }
 
 fn rotate(r: &Mat3, base: &[Vec3]) -> Vec<Vec3> {
@@ -163,13 +238,106 @@ fn nearest(x: &Vec3, slots: &[Vec3]) -> (usize, f64) {
     best
 }
 
+/// (index, squared distance) of the slot nearest to every vehicle. When the slots lie on
+/// one circle about the centre in the plane z = 0 (2-D central designs), the nearest slot
+/// of a vehicle in that plane is the one nearest in angle (`|x − p|² = |x|² + ρ² −
+/// 2|x|ρ cos Δφ`), found by bisection in `O(log m)`; otherwise by a scan in `O(m)`.
+fn nearest_all(q: &[Vec3], slots: &[Vec3]) -> Vec<(usize, f64)> {
+    let Some(angles) = circle_order(slots) else {
+        return q.iter().map(|x| nearest(x, slots)).collect();
+    };
+    let m = angles.len();
+    q.iter()
+        .map(|x| {
+            if x.z != 0.0 || (x.x == 0.0 && x.y == 0.0) {
+                return nearest(x, slots);
+            }
+            let phi = x.y.atan2(x.x);
+            let at = angles.partition_point(|(a, _)| *a < phi);
+            let mut best = (0, f64::INFINITY);
+            for c in [at + m - 1, at] {
+                let j = angles[c % m].1;
+                let d = (x - slots[j]).norm_squared();
+                if d < best.1 || (d == best.1 && j < best.0) {
+                    best = (j, d);
+                }
+            }
+            best
+        })
+        .collect()
+}
+
+/// The slots sorted by angle about the centre, when they lie on one circle about it in the
+/// plane z = 0 (then nearness in angle is nearness in distance, see [`nearest_all`]).
+fn circle_order(slots: &[Vec3]) -> Option<Vec<(f64, usize)>> {
+    let rho = slots.first()?.norm();
+    let on_circle = slots.len() > 2
+        && rho > 0.0
+        && slots
+            .iter()
+            .all(|p| p.z == 0.0 && (p.norm() - rho).abs() <= 1e-9 * rho);
+    if !on_circle {
+        return None;
+    }
+    let mut angles: Vec<(f64, usize)> = slots
+        .iter()
+        .enumerate()
+        .map(|(j, p)| (p.y.atan2(p.x), j))
+        .collect();
+    angles.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    Some(angles)
+}
+
+/// The free slot nearest to `x`: on a circle, the first free one on either side in angle
+/// (`O(k)`, `k` the slots passed over); otherwise a scan.
+fn nearest_free(
+    x: &Vec3,
+    slots: &[Vec3],
+    used: &[bool],
+    circle: Option<&[(f64, usize)]>,
+) -> Option<usize> {
+    let pick = |best: Option<(usize, f64)>, j: usize| {
+        let d = (x - slots[j]).norm_squared();
+        match best {
+            Some((b, bd)) if bd < d || (bd == d && b < j) => Some((b, bd)),
+            _ => Some((j, d)),
+        }
+    };
+    let mut best: Option<(usize, f64)> = None;
+    match circle {
+        Some(angles) if x.z == 0.0 && (x.x != 0.0 || x.y != 0.0) => {
+            let m = angles.len();
+            let at = angles.partition_point(|(a, _)| *a < x.y.atan2(x.x));
+            if let Some(j) = (0..m).map(|s| angles[(at + s) % m].1).find(|&j| !used[j]) {
+                best = pick(best, j);
+            }
+            if let Some(j) = (1..=m)
+                .map(|s| angles[(at + m * 2 - s) % m].1)
+                .find(|&j| !used[j])
+            {
+                best = pick(best, j);
+            }
+        }
+        _ => {
+            for j in (0..slots.len()).filter(|&j| !used[j]) {
+                best = pick(best, j);
+            }
+        }
+    }
+    best.map(|(j, _)| j)
+}
+
 fn robust_cost(q: &[Vec3], slots: &[Vec3], trim: f64) -> f64 {
-    q.iter().map(|x| nearest(x, slots).1.min(trim * trim)).sum()
+    nearest_all(q, slots)
+        .into_iter()
+        .map(|(_, d)| d.min(trim * trim))
+        .sum()
 }
 
 /// Vehicle → slot: nearest slots when distinct, else greedy by distance.
 fn assign(q: &[Vec3], slots: &[Vec3]) -> Vec<Option<usize>> {
-    let near: Vec<usize> = q.iter().map(|x| nearest(x, slots).0).collect();
+    let near_d = nearest_all(q, slots);
+    let near: Vec<usize> = near_d.iter().map(|(j, _)| *j).collect();
     let mut taken = vec![false; slots.len()];
     let distinct = near
         .iter()
@@ -177,24 +345,20 @@ fn assign(q: &[Vec3], slots: &[Vec3]) -> Vec<Option<usize>> {
     if distinct {
         return near.into_iter().map(Some).collect();
     }
-    let mut pairs: Vec<(f64, usize, usize)> = Vec::with_capacity(q.len() * slots.len());
-    for (i, x) in q.iter().enumerate() {
-        for (j, s) in slots.iter().enumerate() {
-            pairs.push(((x - s).norm_squared(), i, j));
-        }
-    }
-    pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+    // Vehicles closest to a slot choose first, each the nearest slot still free.
+    let mut order: Vec<(f64, usize)> = near_d
+        .iter()
+        .enumerate()
+        .map(|(i, (_, d))| (*d, i))
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let circle = circle_order(slots);
     let mut slot = vec![None; q.len()];
     let mut used = vec![false; slots.len()];
-    let mut left = q.len().min(slots.len());
-    for (_, i, j) in pairs {
-        if left == 0 {
-            break;
-        }
-        if slot[i].is_none() && !used[j] {
+    for (_, i) in order.into_iter().take(slots.len()) {
+        if let Some(j) = nearest_free(&q[i], slots, &used, circle.as_deref()) {
             slot[i] = Some(j);
             used[j] = true;
-            left -= 1;
         }
     }
     slot
@@ -455,6 +619,79 @@ mod tests {
         let x = placed(&d, &body, &rot_z(0.004), 6);
         let f = fit_slots(&x, &d, &body, 2);
         assert!(f.errors.iter().all(|e| *e < 1e-9));
+    }
+
+    #[test]
+    fn nearest_slot_by_angle_equals_the_scan() {
+        let d = design_regular(9, 2, 2.0, 1.0, 1.0).unwrap();
+        let slots = rotate(&rot_z(0.4), &d.slots);
+        let mut rng = keyed(7, Stream::Test, 3, 0);
+        let q: Vec<Vec3> = (0..500)
+            .map(|_| {
+                Vec3::new(
+                    rng.random_range(-6.0..6.0),
+                    rng.random_range(-6.0..6.0),
+                    0.0,
+                )
+            })
+            .collect();
+        let fast = nearest_all(&q, &slots);
+        for (x, (j, d)) in q.iter().zip(&fast) {
+            let (k, e) = nearest(x, &slots);
+            assert_eq!(*d, e, "{x:?}");
+            assert!(*j == k || (x - slots[*j]).norm_squared() == e);
+        }
+        // The nearest free slot by angle equals the scan's.
+        let circle = circle_order(&slots);
+        let mut used = vec![false; slots.len()];
+        for (i, x) in q.iter().enumerate() {
+            let by_angle = nearest_free(x, &slots, &used, circle.as_deref());
+            let by_scan = nearest_free(x, &slots, &used, None);
+            let dist = |j: Option<usize>| j.map(|j| (x - slots[j]).norm_squared());
+            assert_eq!(dist(by_angle), dist(by_scan), "{x:?}");
+            if i % 60 == 0 {
+                if let Some(j) = by_scan {
+                    used[j] = true;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sparse_sums_equal_the_full_ones() {
+        use crate::math::lyapunov::potential_energy;
+        for (n, dim) in [(7, 2), (20, 3), (64, 2)] {
+            let d = design_regular(n, dim, 3.0, 1.0, 2.0).unwrap();
+            let mut rng = keyed(n as u64, Stream::Test, 4, 0);
+            let mut x: Vec<Vec3> = d.slots.clone();
+            for p in &mut x {
+                *p += Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    if dim == 3 {
+                        rng.random_range(-1.0..1.0)
+                    } else {
+                        0.0
+                    },
+                );
+            }
+            x[0] += Vec3::new(40.0, 0.0, 0.0);
+            let full = potential_energy(&x, &d.leaders, &d.inter, &d.leader);
+            let sparse = potential_energy_sparse(&x, &d.leaders, &d.inter, &d.leader);
+            assert!(
+                (full - sparse).abs() <= 1e-9 * full.abs().max(1.0),
+                "{full} vs {sparse}"
+            );
+            let fast = nearest_neighbours(&x);
+            for (i, got) in fast.iter().enumerate() {
+                let want = (0..x.len())
+                    .filter(|&j| j != i)
+                    .map(|j| ((x[i] - x[j]).norm(), j))
+                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+                    .map(|(d, j)| (j, d));
+                assert_eq!(*got, want, "vehicle {i}");
+            }
+        }
     }
 
     #[test]
