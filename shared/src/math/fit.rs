@@ -150,7 +150,7 @@ pub fn nearest_neighbours(positions: &[Vec3]) -> Vec<Option<(usize, f64)>> {
     for (p, &i) in order.iter().enumerate() {
         let x = positions[i];
         let mut b: Option<(usize, f64)> = None;
-        let mut consider = |j: usize, b: &mut Option<(usize, f64)>| {
+        let consider = |j: usize, b: &mut Option<(usize, f64)>| {
             let d = (x - positions[j]).norm();
             if b.is_none_or(|(k, bd)| d < bd || (d == bd && j < k)) {
                 *b = Some((j, d));
