@@ -507,6 +507,8 @@ pub struct Summary {
     pub vehicles_lost: usize,
     pub vehicles_rejoined: usize,
     pub reconfigurations: usize,
+    /// Largest V of (II.2) ÷ V_U from the vehicles' TRUE states (the coordinator's own,
+    /// from its possibly stale view, is `formation.max_V_seen_over_VU`).
     #[serde(rename = "max_V_over_VU")]
     pub max_v_over_vu: f64,
     pub messages: MessageCounts,
