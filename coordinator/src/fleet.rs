@@ -41,6 +41,9 @@ pub struct Fleet {
     last_truth: BTreeMap<u32, Report>,
     lost: BTreeSet<u32>,
     admitted: Vec<Report>,
+    /// Vehicles with at least one report delivered (the planned start states in `latest`
+    /// are no information).
+    heard: BTreeSet<u32>,
     /// Virtual body centre at each tick still needed for dead reckoning (journaled like
     /// `inbox`).
     #[serde(skip)]
@@ -94,6 +97,7 @@ impl Fleet {
             last_truth: BTreeMap::new(),
             lost: BTreeSet::new(),
             admitted: Vec::new(),
+            heard: BTreeSet::new(),
             body_track: BTreeMap::new(),
             counts: UplinkCounts::default(),
         }
@@ -112,6 +116,17 @@ impl Fleet {
     /// The alive vehicles, ordered by id.
     pub fn alive(&self) -> impl Iterator<Item = u32> + '_ {
         self.alive.iter().copied()
+    }
+
+    /// The newest report of vehicle `v` the link model delivered (the coordinator's newest
+    /// information about it, as taken at its `tick`); `None` when none was delivered since
+    /// the start or since the vehicle was lost.
+    pub fn newest_report(&self, v: u32) -> Option<&Report> {
+        if self.heard.contains(&v) {
+            self.latest.get(&v)
+        } else {
+            None
+        }
     }
 
     /// True when vehicle `v` was lost and not admitted back.
@@ -243,6 +258,7 @@ impl Fleet {
             .collect();
         for r in &fresh {
             self.counts.delivered += 1;
+            self.heard.insert(r.id);
             match self.latest.get(&r.id) {
                 Some(old) if old.tick > r.tick => {}
                 _ => {

@@ -13,3 +13,4 @@ pub mod planner;
 pub mod record;
 pub mod run;
 pub mod tick;
+pub mod truth;

@@ -8,14 +8,17 @@ use std::io;
 
 use shared::config::Mission;
 use shared::field::Field;
-use shared::math::convergence::theorem_5_1_bound;
+use shared::math::convergence::{default_delta_m, theorem_5_1_bound};
+use shared::math::formation::FormationDesign;
 use shared::math::Vec3;
 use shared::plot::{MissionPlot, Snapshot, Track};
 use shared::rundir::{
-    BodyRow, Event, EventLog, InputRow, RunDir, Summary, TrackWriter, VehicleRow,
+    BodyRow, Event, EventLog, InputRow, RunDir, Summary, TrackWriter, TruthWriter, VehicleRow,
 };
 
+use crate::fleet::Fleet;
 use crate::planner::{Command, Planner, Report};
+use crate::truth::{self, BodyOutcome, TruthStats};
 
 /// Number of formation snapshots drawn on the plot.
 const PLOT_SNAPSHOTS: usize = 6;
@@ -25,6 +28,7 @@ const PLOT_POINTS: usize = 2000;
 /// The running figures of `summary.json` (checkpointed with the coordinator).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RecorderStats {
+    /// Largest V ÷ V_U the coordinator computed from its own view (`seen`).
     pub max_v_over_vu: f64,
     pub last_outside: Option<f64>,
     pub ever_inside: bool,
@@ -37,6 +41,8 @@ pub struct RecorderStats {
     pub vehicles_lost: usize,
     pub vehicles_rejoined: usize,
     pub was_holding: bool,
+    /// The running figures of the true formation.
+    pub truth: TruthStats,
 }
 
 /// Records ticks, accumulates the figures of `summary.json`.
@@ -45,6 +51,7 @@ pub struct Recorder {
     field: Field,
     dir: RunDir,
     tracks: TrackWriter,
+    truth_files: TruthWriter,
     events: EventLog,
     stats: RecorderStats,
 }
@@ -65,6 +72,7 @@ impl Recorder {
             vehicles_lost: 0,
             vehicles_rejoined: 0,
             was_holding: false,
+            truth: TruthStats::new(mission),
         };
         Self::resume(mission, dir, stats)
     }
@@ -76,6 +84,7 @@ impl Recorder {
             field: mission.field(),
             dir: dir.clone(),
             tracks: TrackWriter::open(dir)?,
+            truth_files: TruthWriter::open(dir)?,
             events: EventLog::open(dir)?,
             stats,
         })
@@ -284,6 +293,43 @@ impl Recorder {
         Ok(())
     }
 
+    /// Records the true formation of tick `k` (`formation.csv`, `truth.csv`, events):
+    /// `truth` the true reports (ordered by id), `command` the planner's decision with
+    /// `design` its formation design, `fleet` the coordinator's view after the tick's
+    /// deliveries. Call after [`Recorder::tick`].
+    pub fn truth(
+        &mut self,
+        k: u64,
+        truth: &[Report],
+        command: &Command,
+        design: &FormationDesign,
+        fleet: &Fleet,
+    ) -> io::Result<()> {
+        let t = k as f64 * self.mission.mission.dt;
+        let distance = self
+            .field
+            .optimum(t, self.mission.mission.goal)
+            .map(|o| (command.body.r - o).norm());
+        let out = truth::tick(
+            &mut self.stats.truth,
+            &self.mission,
+            k,
+            truth,
+            command,
+            design,
+            fleet,
+            distance,
+        );
+        for row in &out.rows {
+            self.truth_files.formation(row)?;
+        }
+        self.truth_files.truth(&out.row)?;
+        for e in &out.events {
+            self.events.push(e)?;
+        }
+        Ok(())
+    }
+
     /// The run directory.
     pub fn dir(&self) -> &RunDir {
         &self.dir
@@ -292,17 +338,21 @@ impl Recorder {
     /// Flushes the files.
     pub fn flush(&mut self) -> io::Result<()> {
         self.tracks.flush()?;
+        self.truth_files.flush()?;
         self.events.flush()
     }
 
     /// Lengths of the appended files once flushed (what a checkpoint covers).
     pub fn offsets(&self) -> shared::rundir::FileOffsets {
         let (vehicles, body, inputs) = self.tracks.lengths();
+        let (formation, truth) = self.truth_files.lengths();
         shared::rundir::FileOffsets {
             vehicles,
             body,
             inputs,
             events: self.events.len(),
+            formation,
+            truth,
         }
     }
 
@@ -314,7 +364,19 @@ impl Recorder {
         let r = self.stats.last_r;
         let optimum = self.field.optimum(t, m.mission.goal);
         let distance = optimum.map(|o| (r - o).norm());
-        let converged = distance.is_some_and(|d| d <= m.mission.tolerance);
+        let (verdict, reasons) = truth::verdict(
+            &self.stats.truth,
+            &BodyOutcome {
+                ticks: self.stats.ticks,
+                planned: m.ticks(),
+                distance,
+                tolerance: m.mission.tolerance,
+                t,
+                unit: m.mission.length_unit.clone(),
+            },
+        );
+        // Converged: the body within tolerance AND every live vehicle in formation.
+        let converged = verdict == "converged";
         let time_to_converge_s = if converged {
             Some(
                 self.stats
@@ -326,13 +388,10 @@ impl Recorder {
         };
         let final_grad_norm = self.field.gradient(&r, t).norm();
         let bound = planner.filter().and_then(|f| {
-            theorem_5_1_bound(
-                m.estimator.confidence,
-                &f.covariance(),
-                m.mission.dim,
-                m.estimator.delta_m,
-            )
-            .ok()
+            let eps =
+                theorem_5_1_bound(m.estimator.confidence, &f.covariance(), m.mission.dim, 0.0)
+                    .ok()?;
+            Some(eps + m.estimator.delta_m.unwrap_or_else(|| default_delta_m(eps)))
         });
         Summary {
             mission: m.mission.name.clone(),
@@ -348,7 +407,9 @@ impl Recorder {
             vehicles_lost: self.stats.vehicles_lost,
             vehicles_rejoined: self.stats.vehicles_rejoined,
             reconfigurations: planner.reconfigurations(),
-            max_v_over_vu: self.stats.max_v_over_vu,
+            // The TRUE figure (from the vehicles' true states); the coordinator's own is
+            // `formation.max_V_seen_over_VU`.
+            max_v_over_vu: self.stats.truth.max_v_true,
             ticks: self.stats.ticks,
             final_time_s: t,
             final_body_position: [r.x, r.y, r.z],
@@ -356,6 +417,9 @@ impl Recorder {
             optimum: optimum.map(|o| [o.x, o.y, o.z]),
             estimated_sigma_m: Some(planner.sigma_m()),
             holding_ticks: self.stats.holding_ticks,
+            verdict,
+            reasons,
+            formation: Some(truth::summary(&self.stats.truth)),
             ..Summary::default()
         }
     }

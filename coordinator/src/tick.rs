@@ -49,6 +49,7 @@ pub fn plan_tick(
     let command = planner.step(k, &members, &fresh, dt)?;
     recorder.inputs(k, &members, &fresh)?;
     recorder.tick(k, truth, &command)?;
+    recorder.truth(k, truth, &command, planner.design(), fleet)?;
     let snapshot = fleet.snapshot(&members);
     Ok(TickOutcome {
         fates,

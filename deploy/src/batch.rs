@@ -10,10 +10,17 @@
 //!
 //! Outputs in `OUT` (default `runs/<name>-batch-<UTC timestamp>/`):
 //! - `batch.csv`: `seed,converged,time_to_converge_s,final_distance_to_optimum,
-//!   final_grad_norm,max_V_over_VU,in_set_m,wall_time_s,status` (empty = not applicable);
+//!   final_grad_norm,max_V_over_VU,in_set_m,wall_time_s,status,verdict,max_V_seen_over_VU,
+//!   min_pair_ratio,near_collision_ticks,worst_slot_error,alive_at_end,in_formation_at_end,
+//!   longest_contact_gap_s,stalled_s` (empty = not applicable; `max_V_over_VU` is the true
+//!   figure, the formation columns are the run's `summary.json` `formation` object, the
+//!   contact gap the longest over its vehicles);
 //! - `batch.json`: the aggregate: convergence rate, distributions (n, min, mean, p50, p90,
 //!   p99, max) of the time to converge (converged runs), the final distance to the optimum
-//!   and the final gradient norm (completed runs), the criteria and the verdict.
+//!   and the final gradient norm (completed runs), the rate of every run verdict
+//!   (`verdicts`), the share of runs that ended with every live vehicle in formation, had a
+//!   near collision or stalled, distributions of the seen V/V_U, the closest pair and the
+//!   worst slot error, the criteria and the batch's pass/fail verdict.
 //!
 //! # Pass/fail criteria
 //!
@@ -214,10 +221,23 @@ pub struct SeedResult {
     pub status: String,
     /// The seed's run directory.
     pub run_dir: PathBuf,
+    /// The run's verdict (summary.json `verdict`).
+    pub verdict: String,
+    /// The formation figures of summary.json.
+    #[serde(rename = "max_V_seen_over_VU")]
+    pub max_v_seen_over_vu: Option<f64>,
+    pub min_pair_ratio: Option<f64>,
+    pub near_collision_ticks: Option<u64>,
+    pub worst_slot_error: Option<f64>,
+    pub alive_at_end: Option<usize>,
+    pub in_formation_at_end: Option<usize>,
+    pub longest_contact_gap_s: Option<f64>,
+    pub stalled_s: Option<f64>,
 }
 
 impl SeedResult {
     fn from_summary(seed: u64, s: &Summary, run_dir: PathBuf) -> Self {
+        let f = s.formation.as_ref();
         Self {
             seed,
             converged: s.converged,
@@ -229,6 +249,21 @@ impl SeedResult {
             wall_time_s: s.wall_time_s,
             status: "ok".into(),
             run_dir,
+            verdict: s.verdict.clone(),
+            max_v_seen_over_vu: f.map(|f| f.max_v_seen_over_vu),
+            min_pair_ratio: f.and_then(|f| f.min_pair_ratio),
+            near_collision_ticks: f.map(|f| f.near_collision_ticks),
+            worst_slot_error: f.and_then(|f| f.worst_slot_error),
+            alive_at_end: f.map(|f| f.alive_at_end),
+            in_formation_at_end: f.map(|f| f.in_formation_at_end),
+            longest_contact_gap_s: f.and_then(|f| {
+                f.longest_contact_gap_s
+                    .iter()
+                    .flatten()
+                    .copied()
+                    .reduce(f64::max)
+            }),
+            stalled_s: f.map(|f| f.stalled_s),
         }
     }
     fn failed(seed: u64, why: String, wall: f64, run_dir: PathBuf) -> Self {
@@ -246,20 +281,24 @@ impl SeedResult {
 }
 
 /// Header of `batch.csv`.
-pub const BATCH_HEADER: &str = "seed,converged,time_to_converge_s,final_distance_to_optimum,final_grad_norm,max_V_over_VU,in_set_m,wall_time_s,status";
+pub const BATCH_HEADER: &str = "seed,converged,time_to_converge_s,final_distance_to_optimum,final_grad_norm,max_V_over_VU,in_set_m,wall_time_s,status,verdict,max_V_seen_over_VU,min_pair_ratio,near_collision_ticks,worst_slot_error,alive_at_end,in_formation_at_end,longest_contact_gap_s,stalled_s";
 
 fn csv_row(r: &SeedResult) -> String {
     use shared::rundir::Num;
     fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
         v.map(|v| v.to_string()).unwrap_or_default()
     }
-    let status = if r.status.contains([',', '"', '\n']) {
-        format!("\"{}\"", r.status.replace('"', "\"\"").replace('\n', " "))
-    } else {
-        r.status.clone()
+    let quote = |text: &str| {
+        if text.contains([',', '"', '\n']) {
+            format!("\"{}\"", text.replace('"', "\"\"").replace('\n', " "))
+        } else {
+            text.to_string()
+        }
     };
+    let status = quote(&r.status);
+    let verdict = quote(&r.verdict);
     format!(
-        "{},{},{},{},{},{},{},{},{status}",
+        "{},{},{},{},{},{},{},{},{status},{verdict},{},{},{},{},{},{},{},{}",
         r.seed,
         r.converged,
         opt(r.time_to_converge_s.map(Num)),
@@ -267,7 +306,15 @@ fn csv_row(r: &SeedResult) -> String {
         opt(r.final_grad_norm.map(Num)),
         opt(r.max_v_over_vu.map(Num)),
         opt(r.in_set_m),
-        Num(r.wall_time_s)
+        Num(r.wall_time_s),
+        opt(r.max_v_seen_over_vu.map(Num)),
+        opt(r.min_pair_ratio.map(Num)),
+        opt(r.near_collision_ticks),
+        opt(r.worst_slot_error.map(Num)),
+        opt(r.alive_at_end),
+        opt(r.in_formation_at_end),
+        opt(r.longest_contact_gap_s.map(Num)),
+        opt(r.stalled_s.map(Num))
     )
 }
 
@@ -326,6 +373,20 @@ pub struct Aggregate {
     pub max_v_over_vu: Distribution,
     /// Fraction of the completed runs that ended in the set M of Theorem 5.1.
     pub in_set_m_rate: Option<f64>,
+    /// Share of the runs (all, failed ones included) per verdict.
+    pub verdicts: std::collections::BTreeMap<String, f64>,
+    /// Fraction of the completed runs that ended with every live vehicle in formation.
+    pub formation_kept_rate: Option<f64>,
+    /// Fraction of the completed runs with at least one near-collision tick.
+    pub near_collision_rate: Option<f64>,
+    /// Fraction of the completed runs that stalled at some point.
+    pub stall_rate: Option<f64>,
+    /// Over the completed runs: the coordinator's own max V/V_U, the closest pair and the
+    /// worst slot error (÷ design spacing).
+    #[serde(rename = "max_V_seen_over_VU")]
+    pub max_v_seen_over_vu: Distribution,
+    pub min_pair_ratio: Distribution,
+    pub worst_slot_error: Distribution,
     /// Wall time per run, s.
     pub wall_time_s: Distribution,
     /// Wall time of the whole batch, s.
@@ -335,6 +396,12 @@ pub struct Aggregate {
     pub passed: bool,
     /// Every failed criterion, in words.
     pub failures: Vec<String>,
+}
+
+/// The fraction of `rows` for which `test` is true, among those where it is known.
+fn rate_of(rows: &[&SeedResult], test: impl Fn(&SeedResult) -> Option<bool>) -> Option<f64> {
+    let known: Vec<bool> = rows.iter().filter_map(|r| test(r)).collect();
+    (!known.is_empty()).then(|| known.iter().filter(|b| **b).count() as f64 / known.len() as f64)
 }
 
 /// Aggregates the rows and judges them against `criteria`.
@@ -369,6 +436,32 @@ pub fn aggregate(rows: &[SeedResult], criteria: &Criteria) -> Aggregate {
         max_v_over_vu: Distribution::of(done.iter().filter_map(|r| r.max_v_over_vu).collect()),
         in_set_m_rate: (!with_m.is_empty())
             .then(|| with_m.iter().filter(|b| **b).count() as f64 / with_m.len() as f64),
+        verdicts: {
+            let mut m = std::collections::BTreeMap::new();
+            for r in rows {
+                let v = if r.ok() {
+                    r.verdict.clone()
+                } else {
+                    "failed".to_string()
+                };
+                *m.entry(v).or_insert(0.0) += 1.0 / runs as f64;
+            }
+            m
+        },
+        formation_kept_rate: rate_of(&done, |r| {
+            r.alive_at_end
+                .zip(r.in_formation_at_end)
+                .map(|(a, i)| a == i)
+        }),
+        near_collision_rate: rate_of(&done, |r| r.near_collision_ticks.map(|n| n > 0)),
+        stall_rate: rate_of(&done, |r| r.stalled_s.map(|s| s > 0.0)),
+        max_v_seen_over_vu: Distribution::of(
+            done.iter().filter_map(|r| r.max_v_seen_over_vu).collect(),
+        ),
+        min_pair_ratio: Distribution::of(done.iter().filter_map(|r| r.min_pair_ratio).collect()),
+        worst_slot_error: Distribution::of(
+            done.iter().filter_map(|r| r.worst_slot_error).collect(),
+        ),
         wall_time_s: Distribution::of(rows.iter().map(|r| r.wall_time_s).collect()),
         criteria: criteria.clone(),
         ..Aggregate::default()
@@ -552,6 +645,7 @@ fn describe(r: &SeedResult) -> String {
     }
     let outcome = match (r.converged, r.time_to_converge_s) {
         (true, Some(t)) => format!("converged at t = {t:.2} s"),
+        _ if !r.verdict.is_empty() => r.verdict.clone(),
         _ => "not converged".into(),
     };
     let d = r
@@ -711,6 +805,7 @@ mod tests {
             wall_time_s: 1.0,
             status: "ok".into(),
             run_dir: PathBuf::new(),
+            ..SeedResult::default()
         }
     }
 
@@ -752,9 +847,9 @@ mod tests {
         }
         assert_eq!(
             csv_row(&rows[2]),
-            "3,false,,3,3,0.2,false,1,ok",
+            "3,false,,3,3,0.2,false,1,ok,,,,,,,,,",
             "empty cells for missing values"
         );
-        assert_eq!(csv_row(&rows[3]), "4,false,,,,,,0.5,boom");
+        assert_eq!(csv_row(&rows[3]), "4,false,,,,,,0.5,boom,,,,,,,,,");
     }
 }

@@ -74,6 +74,9 @@ struct RunArgs {
     /// Do not show the progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Print the summary as JSON (as summary.json) instead of the human summary.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Args, Debug)]
@@ -173,9 +176,27 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
                     d.map_or("n/a".into(), |d| format!("{d:.3}"))
                 ));
             };
+            // Ctrl-C / SIGTERM stop the simulation after the tick in progress; its files
+            // and summary (verdict "interrupted") are still written.
+            std::thread::spawn(|| {
+                if let Ok(rt) = tokio::runtime::Builder::new_current_thread()
+                    .enable_all()
+                    .build()
+                {
+                    rt.block_on(crate::supervise::shutdown_signal());
+                    crate::sim::STOP.store(true, std::sync::atomic::Ordering::Relaxed);
+                }
+            });
             let summary = crate::sim::simulate(&mission, &dir, &mut progress)?;
             bar.finish_and_clear();
-            print_summary(&summary, &dir)?;
+            print_summary(&summary, &dir, args.json)?;
+            if summary.verdict == "interrupted" {
+                eprintln!(
+                    "vbap: interrupted; partial run directory {}",
+                    dir.root.display()
+                );
+                return Ok(130);
+            }
             Ok(EXIT_OK)
         }
         Cmd::Run(args) => {
@@ -207,7 +228,10 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
                 .build()?;
             let outcome = runtime.block_on(crate::supervise::run(&mission, &dir, !args.quiet))?;
             match (&outcome.summary, outcome.interrupted) {
-                (_, true) => {
+                (s, true) => {
+                    if let Some(s) = s {
+                        print_summary(s, &dir, args.json)?;
+                    }
                     eprintln!(
                         "vbap: interrupted; partial run directory {}",
                         dir.root.display()
@@ -215,7 +239,7 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
                     Ok(130)
                 }
                 (Some(s), false) if outcome.coordinator_ok => {
-                    print_summary(s, &dir)?;
+                    print_summary(s, &dir, args.json)?;
                     Ok(EXIT_OK)
                 }
                 _ => {
@@ -303,16 +327,182 @@ pub(crate) fn default_run_dir(label: &str) -> Result<PathBuf> {
     Ok(Path::new("runs").join(format!("{label}-{stamp}")))
 }
 
-fn print_summary(summary: &Summary, dir: &RunDir) -> Result<()> {
+fn print_summary(summary: &Summary, dir: &RunDir, json: bool) -> Result<()> {
     use std::io::Write;
-    // A closed pipe (`| head`) is not an error of the run.
-    let _ = writeln!(
-        std::io::stdout(),
-        "{}",
+    let text = if json {
         serde_json::to_string_pretty(summary)?
-    );
+    } else {
+        human_summary(summary)
+    };
+    // A closed pipe (`| head`) is not an error of the run.
+    let _ = writeln!(std::io::stdout(), "{text}");
     eprintln!("run directory: {}", dir.root.display());
     Ok(())
+}
+
+/// A duration for people: seconds, with hours or days beside long ones.
+fn duration(s: f64) -> String {
+    if s >= 2.0 * 86400.0 {
+        format!("{s:.0} s ({:.1} d)", s / 86400.0)
+    } else if s >= 2.0 * 3600.0 {
+        format!("{s:.0} s ({:.1} h)", s / 3600.0)
+    } else {
+        format!("{} s", sig(s))
+    }
+}
+
+/// 4 significant digits.
+fn sig(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let mag = x.abs().log10().floor() as i32;
+    if (-3..6).contains(&mag) {
+        let decimals = (3 - mag).max(0) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+/// The terminal summary of `vbap run` / `vbap sim`: verdict, reasons, key figures.
+pub fn human_summary(s: &Summary) -> String {
+    use std::fmt::Write;
+    let mut o = String::new();
+    let verdict = if s.verdict.is_empty() {
+        if s.converged {
+            "converged"
+        } else {
+            "not converged"
+        }
+    } else {
+        s.verdict.as_str()
+    };
+    let _ = writeln!(o, "verdict: {verdict}");
+    for r in &s.reasons {
+        let _ = writeln!(o, "  - {r}");
+    }
+    let _ = writeln!(
+        o,
+        "figures ({} mission, seed {}, {}):",
+        s.mission, s.seed, s.mode
+    );
+    let row = |o: &mut String, k: &str, v: String| {
+        let _ = writeln!(o, "  {k:<22}{v}");
+    };
+    row(
+        &mut o,
+        "mission time",
+        format!(
+            "{} in {} ticks, wall {} s",
+            duration(s.final_time_s),
+            s.ticks,
+            sig(s.wall_time_s)
+        ),
+    );
+    if let Some(d) = s.final_distance_to_optimum {
+        row(
+            &mut o,
+            "body to optimum",
+            format!(
+                "{}{}",
+                sig(d),
+                s.time_to_converge_s
+                    .map_or(String::new(), |t| format!(", converged at {}", duration(t)))
+            ),
+        );
+    }
+    if let Some(f) = &s.formation {
+        row(
+            &mut o,
+            "V / V_U (true)",
+            format!(
+                "max {}, above 1 in {:.1}% of ticks; the coordinator saw max {}",
+                sig(f.max_v_true_over_vu),
+                100.0 * f.share_ticks_v_true_above_vu,
+                sig(f.max_v_seen_over_vu)
+            ),
+        );
+        if let (Some(r), Some(t), Some([a, b])) =
+            (f.min_pair_ratio, f.min_pair_t, f.min_pair_vehicles)
+        {
+            row(
+                &mut o,
+                "closest pair",
+                format!(
+                    "{} spacing (vehicles {a} and {b} at t = {}), {} near-collision ticks",
+                    sig(r),
+                    duration(t),
+                    f.near_collision_ticks
+                ),
+            );
+        }
+        if let (Some(e), Some(v), Some(t)) =
+            (f.worst_slot_error, f.worst_slot_vehicle, f.worst_slot_t)
+        {
+            row(
+                &mut o,
+                "worst slot error",
+                format!("{} spacing (vehicle {v} at t = {})", sig(e), duration(t)),
+            );
+        }
+        row(
+            &mut o,
+            "in formation at end",
+            format!(
+                "{} of {} alive ({} started, {} lost, {} rejoined)",
+                f.in_formation_at_end,
+                f.alive_at_end,
+                s.vehicles_started,
+                s.vehicles_lost,
+                s.vehicles_rejoined
+            ),
+        );
+        let gaps: Vec<String> = f
+            .longest_contact_gap_s
+            .iter()
+            .enumerate()
+            .filter_map(|(i, g)| g.map(|g| format!("{i}: {}", sig(g))))
+            .collect();
+        if !gaps.is_empty() {
+            row(&mut o, "longest silence (s)", gaps.join(", "));
+        }
+        if f.stalled_s > 0.0 {
+            row(
+                &mut o,
+                "stalled",
+                format!(
+                    "{}{}",
+                    duration(f.stalled_s),
+                    if f.stalled_at_end { ", to the end" } else { "" }
+                ),
+            );
+        }
+    }
+    if let (Some(inside), Some(b)) = (s.in_set_m, s.theorem_5_1_bound) {
+        row(
+            &mut o,
+            "in set M (Thm 5.1)",
+            format!(
+                "{inside} (|∇T| = {} against the bound {})",
+                sig(s.final_grad_norm),
+                sig(b)
+            ),
+        );
+    }
+    let m = &s.messages;
+    row(
+        &mut o,
+        "messages",
+        format!(
+            "{} sent, {} delivered, {} dropped by the links",
+            m.sent, m.delivered, m.dropped_injected
+        ),
+    );
+    o.push_str(
+        "  (all figures: summary.json; per tick: truth.csv, formation.csv; --json prints the JSON)",
+    );
+    o
 }
 
 fn parse_hessian(text: &str, dim: usize) -> Result<Mat3> {

@@ -19,6 +19,11 @@ use shared::rundir::{RunDir, Summary};
 use std::collections::BTreeMap;
 use vehicle_agent::{initial_agent, initial_design, Agent, DownlinkCounts, Guidance, Vehicle};
 
+/// Set (by the command line's SIGINT/SIGTERM handler) to stop a simulation early: it
+/// ends after the tick in progress and writes its files and summary (verdict
+/// "interrupted").
+pub static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// Progress callback: (tick, ticks, mission time s, distance to optimum if known).
 pub type Progress<'a> = &'a mut dyn FnMut(u64, u64, f64, Option<f64>);
 
@@ -53,6 +58,9 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
     let every = (ticks / 200).max(1);
     let mut downlink = DownlinkCounts::default();
     for k in 0..ticks {
+        if STOP.load(std::sync::atomic::Ordering::Relaxed) {
+            break;
+        }
         let t = k as f64 * dt;
         recorder.faults_starting(k)?;
         for v in plan.kills_at(k).collect::<Vec<_>>() {

@@ -597,6 +597,14 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
             report.fill_summary(s);
         }
         s.agent_rejected = count_agent_rejections(dir);
+        if interrupted && s.verdict != "interrupted" {
+            s.verdict = "interrupted".into();
+            s.converged = false;
+            s.reasons.insert(
+                0,
+                "the run was stopped by a signal (Ctrl-C / SIGTERM)".into(),
+            );
+        }
         s.write(dir).context("writing summary.json")?;
         if let Err(e) = crate::report_plots::write_run_plots(dir) {
             warn!(error = %e, "time-series plots failed");

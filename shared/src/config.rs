@@ -470,8 +470,10 @@ pub struct EstimatorSection {
     pub kalman_b: f64,
     /// c of Definition 5.1: confidence level of ε_est, 0 < c < 1.
     pub confidence: f64,
-    /// δ_M of Theorem 5.1 (field unit per length unit), ≥ 0.
-    pub delta_m: f64,
+    /// δ_M of Theorem 5.1 (field unit per length unit), ≥ 0; absent = 1 % of ε_est
+    /// (`shared::math::convergence::default_delta_m`), since the theorem needs δ_M > 0.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub delta_m: Option<f64>,
     /// σ_M assumed by the estimator (field unit), > 0; absent = estimated online from the
     /// least-squares residuals.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -485,7 +487,7 @@ impl Default for EstimatorSection {
         EstimatorSection {
             kalman_b: 0.05,
             confidence: 0.99,
-            delta_m: 0.0,
+            delta_m: None,
             sigma_m: None,
             initial_variance: 1.0,
         }
@@ -1296,7 +1298,9 @@ impl Mission {
             num(e.confidence),
             "must be strictly between 0 and 1",
         )?;
-        c.non_negative("estimator.delta_m", e.delta_m)?;
+        if let Some(d) = e.delta_m {
+            c.non_negative("estimator.delta_m", d)?;
+        }
         if let Some(s) = e.sigma_m {
             c.positive("estimator.sigma_m", s)?;
         }
@@ -1891,7 +1895,7 @@ mod tests {
         let e = &m.estimator;
         assert_eq!(e.kalman_b, 0.05);
         assert_eq!(e.confidence, 0.99);
-        assert_eq!(e.delta_m, 0.0);
+        assert_eq!(e.delta_m, None);
         assert_eq!(e.sigma_m, None);
         assert_eq!(e.initial_variance, 1.0);
         let l = &m.links;

@@ -52,6 +52,35 @@ pub enum Fate {
     Drop(DropReason),
 }
 
+/// A vehicle's scheduled contact state ([`LinkModel::contact`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Contact {
+    /// No surfacing schedule and no `link_down` fault active: in contact.
+    Contact,
+    /// In a surfacing window: can talk.
+    Surfaced,
+    /// Between surfacing windows: cannot talk.
+    Submerged,
+    /// A scheduled `link_down` fault is active.
+    LinkDown,
+}
+
+impl Contact {
+    /// Name in `formation.csv` and events.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Contact::Contact => "contact",
+            Contact::Surfaced => "surfaced",
+            Contact::Submerged => "submerged",
+            Contact::LinkDown => "link_down",
+        }
+    }
+    /// True when messages can cross (subject to loss and delay).
+    pub fn can_talk(self) -> bool {
+        matches!(self, Contact::Contact | Contact::Surfaced)
+    }
+}
+
 /// Per-link state of the burst model (one per vehicle and direction).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct LinkState {
@@ -150,6 +179,25 @@ impl LinkModel {
             start = start.next_up();
         }
         start
+    }
+
+    /// The contact state of vehicle `vehicle` at mission time `t` by the schedule alone
+    /// (surfacing windows, `link_down` faults; random loss and delay are not a state):
+    /// a `link_down` fault wins over the surfacing schedule.
+    pub fn contact(&self, vehicle: u32, t: f64) -> Contact {
+        if self
+            .link_down
+            .iter()
+            .any(|&(v, from, until)| v == vehicle && t >= from && t < until)
+        {
+            Contact::LinkDown
+        } else if self.period <= 0.0 {
+            Contact::Contact
+        } else if self.at_surface(vehicle, t) {
+            Contact::Surfaced
+        } else {
+            Contact::Submerged
+        }
     }
 
     fn link_id(vehicle: u32, dir: Direction) -> u64 {
@@ -303,6 +351,29 @@ mod tests {
             "<test>",
         )
         .unwrap()
+    }
+
+    #[test]
+    fn contact_states_follow_the_schedule() {
+        let m = LinkModel::new(&mission(
+            "surfacing_period = 100.0\nsurfacing_window = 10.0\nsurfacing_phase = \"staggered\"",
+        ));
+        // Vehicle 1 of 4 surfaces at 25 s of every 100 s.
+        assert_eq!(m.contact(1, 24.9), Contact::Submerged);
+        assert_eq!(m.contact(1, 25.0), Contact::Surfaced);
+        assert_eq!(m.contact(1, 134.0), Contact::Surfaced);
+        assert_eq!(m.contact(1, 135.0), Contact::Submerged);
+        let down = Mission::from_toml_str(
+            "[vehicles]\ncount = 4\n[[faults]]\nkind = \"link_down\"\nvehicle = 2\nat = 5.0\nuntil = 8.0",
+            "<test>",
+        )
+        .unwrap();
+        let m = LinkModel::new(&down);
+        assert_eq!(m.contact(2, 4.9), Contact::Contact);
+        assert_eq!(m.contact(2, 5.0), Contact::LinkDown);
+        assert_eq!(m.contact(2, 8.0), Contact::Contact);
+        assert_eq!(m.contact(1, 6.0), Contact::Contact);
+        assert!(!Contact::LinkDown.can_talk() && Contact::Surfaced.can_talk());
     }
 
     #[test]

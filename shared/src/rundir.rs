@@ -27,6 +27,22 @@ pub const INPUTS_HEADER: &str = "k,role,id,tick,x,y,z,vx,vy,vz,measurement";
 pub const BODY_HEADER: &str =
     "t,k,s,sdot,rx,ry,rz,scale,grad_x,grad_y,grad_z,V,n_vehicles,p_trace,true_grad_x,true_grad_y,true_grad_z";
 
+/// Header of `formation.csv`: one row per started vehicle per tick, from the true states.
+///
+/// `contact`: `contact` | `surfaced` | `submerged` | `link_down` | `dead` | `rejoining`;
+/// `info_age_s`: mission time since the state of the coordinator's newest delivered report
+/// of the vehicle was taken, s (empty: none delivered, or dead); `slot_error`: true
+/// distance from its slot of the current design ÷ design spacing; `nearest_ratio`: true
+/// distance to the nearest other live vehicle ÷ design spacing; `in_formation`: 1 when
+/// alive and `slot_error` ≤ `shared::math::fit::IN_FORMATION`. Empty field = none.
+pub const FORMATION_HEADER: &str =
+    "t,k,id,contact,info_age_s,slot_error,nearest_ratio,in_formation";
+/// Header of `truth.csv`: one row per tick. `V_true_over_VU`: V of (II.2) from the true
+/// states of the formation's members ÷ V_U; `V_seen_over_VU`: the coordinator's own V ÷
+/// V_U; `min_pair_ratio`, `max_slot_error`: over live vehicles, ÷ design spacing;
+/// `sdot_over_v0`: ṡ of (IV.4) ÷ v0.
+pub const TRUTH_HEADER: &str = "t,k,V_true_over_VU,V_seen_over_VU,min_pair_ratio,max_slot_error,n_alive,n_in_formation,sdot_over_v0";
+
 /// Paths of the files of one run directory.
 #[derive(Clone, Debug)]
 pub struct RunDir {
@@ -80,6 +96,14 @@ impl RunDir {
     pub fn plot(&self) -> PathBuf {
         self.root.join("plot.svg")
     }
+    /// `formation.csv`: per vehicle and tick, the true formation ([`FORMATION_HEADER`]).
+    pub fn formation(&self) -> PathBuf {
+        self.root.join("formation.csv")
+    }
+    /// `truth.csv`: per tick, the true figures ([`TRUTH_HEADER`]).
+    pub fn truth(&self) -> PathBuf {
+        self.root.join("truth.csv")
+    }
 }
 
 /// Lengths of the appended files at a checkpoint: a restarted coordinator cuts them back
@@ -90,6 +114,8 @@ pub struct FileOffsets {
     pub body: u64,
     pub inputs: u64,
     pub events: u64,
+    pub formation: u64,
+    pub truth: u64,
 }
 
 impl RunDir {
@@ -100,6 +126,8 @@ impl RunDir {
             (self.body(), o.body),
             (self.planner_inputs(), o.inputs),
             (self.events(), o.events),
+            (self.formation(), o.formation),
+            (self.truth(), o.truth),
         ] {
             if path.exists() {
                 OpenOptions::new().write(true).open(&path)?.set_len(len)?;
@@ -300,6 +328,94 @@ impl TrackWriter {
     }
 }
 
+/// One row of `formation.csv`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FormationRow<'a> {
+    pub t: f64,
+    pub k: u64,
+    pub id: u32,
+    pub contact: &'a str,
+    pub info_age_s: Option<f64>,
+    pub slot_error: Option<f64>,
+    pub nearest_ratio: Option<f64>,
+    pub in_formation: bool,
+}
+
+/// One row of `truth.csv`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TruthRow {
+    pub t: f64,
+    pub k: u64,
+    pub v_true_over_vu: f64,
+    pub v_seen_over_vu: f64,
+    pub min_pair_ratio: Option<f64>,
+    pub max_slot_error: Option<f64>,
+    pub n_alive: usize,
+    pub n_in_formation: usize,
+    pub sdot_over_v0: f64,
+}
+
+/// `Display` of a value, empty for none.
+fn opt(v: Option<f64>) -> String {
+    v.map_or(String::new(), |x| Num(x).to_string())
+}
+
+/// Appends rows to `formation.csv` and `truth.csv`.
+pub struct TruthWriter {
+    formation: AppendFile,
+    truth: AppendFile,
+}
+
+impl TruthWriter {
+    /// Opens (appending) the two files of `dir`.
+    pub fn open(dir: &RunDir) -> io::Result<Self> {
+        Ok(Self {
+            formation: open_append(&dir.formation(), FORMATION_HEADER)?,
+            truth: open_append(&dir.truth(), TRUTH_HEADER)?,
+        })
+    }
+    /// Appends one `formation.csv` row.
+    pub fn formation(&mut self, r: &FormationRow<'_>) -> io::Result<()> {
+        writeln!(
+            self.formation,
+            "{},{},{},{},{},{},{},{}",
+            Num(r.t),
+            r.k,
+            r.id,
+            r.contact,
+            opt(r.info_age_s),
+            opt(r.slot_error),
+            opt(r.nearest_ratio),
+            u8::from(r.in_formation)
+        )
+    }
+    /// Appends one `truth.csv` row.
+    pub fn truth(&mut self, r: &TruthRow) -> io::Result<()> {
+        writeln!(
+            self.truth,
+            "{},{},{},{},{},{},{},{},{}",
+            Num(r.t),
+            r.k,
+            Num(r.v_true_over_vu),
+            Num(r.v_seen_over_vu),
+            opt(r.min_pair_ratio),
+            opt(r.max_slot_error),
+            r.n_alive,
+            r.n_in_formation,
+            Num(r.sdot_over_v0)
+        )
+    }
+    /// Flushes both files.
+    pub fn flush(&mut self) -> io::Result<()> {
+        self.formation.flush()?;
+        self.truth.flush()
+    }
+    /// Lengths of `formation.csv` and `truth.csv` once flushed.
+    pub fn lengths(&self) -> (u64, u64) {
+        (self.formation.len(), self.truth.len())
+    }
+}
+
 /// An entry of `events.jsonl`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Event {
@@ -409,6 +525,8 @@ pub struct Summary {
     pub vehicles_lost: usize,
     pub vehicles_rejoined: usize,
     pub reconfigurations: usize,
+    /// Largest V of (II.2) ÷ V_U from the vehicles' TRUE states (the coordinator's own,
+    /// from its possibly stale view, is `formation.max_V_seen_over_VU`).
     #[serde(rename = "max_V_over_VU")]
     pub max_v_over_vu: f64,
     pub messages: MessageCounts,
@@ -429,6 +547,63 @@ pub struct Summary {
     pub rejoin_latency_ms: Vec<f64>,
     /// Body commands the agents rejected (from their logs).
     pub agent_rejected: u64,
+    /// The outcome in a word or three, judged from the true states: "converged",
+    /// "converged, formation broken", "stalled", "diverged", "not converged, formation
+    /// broken", "not converged", "interrupted" (see `coordinator::record::verdict`).
+    #[serde(default)]
+    pub verdict: String,
+    /// Why: sentences naming vehicles, times and figures.
+    #[serde(default)]
+    pub reasons: Vec<String>,
+    /// The true formation over the run (from `formation.csv` / `truth.csv` figures).
+    #[serde(default)]
+    pub formation: Option<FormationSummary>,
+}
+
+/// The `formation` object of `summary.json`: the formation judged from the vehicles' true
+/// states. Ratios are ÷ the design spacing (neighbour spacing `d0` × scale `k`) at the
+/// time; V ratios ÷ V_U of Theorem 4.1.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FormationSummary {
+    /// Largest V of (II.2) from the true states of the formation's members ÷ V_U.
+    #[serde(rename = "max_V_true_over_VU")]
+    pub max_v_true_over_vu: f64,
+    /// Largest V the coordinator computed from its own (possibly stale) view ÷ V_U.
+    #[serde(rename = "max_V_seen_over_VU")]
+    pub max_v_seen_over_vu: f64,
+    /// Share of ticks with the true V above V_U, 0..1.
+    #[serde(rename = "share_ticks_V_true_above_VU")]
+    pub share_ticks_v_true_above_vu: f64,
+    /// Smallest distance between two live vehicles ÷ design spacing, when and which pair.
+    pub min_pair_ratio: Option<f64>,
+    pub min_pair_t: Option<f64>,
+    pub min_pair_vehicles: Option<[u32; 2]>,
+    /// Ticks with some pair closer than `near_collision_ratio` × spacing.
+    pub near_collision_ticks: u64,
+    /// Largest distance of a live vehicle from its slot ÷ spacing, which vehicle, when.
+    pub worst_slot_error: Option<f64>,
+    pub worst_slot_vehicle: Option<u32>,
+    pub worst_slot_t: Option<f64>,
+    /// Vehicles alive at the end, and how many of them were in formation.
+    pub alive_at_end: usize,
+    pub in_formation_at_end: usize,
+    /// Live vehicles out of formation at the end (ids).
+    pub out_of_formation_at_end: Vec<u32>,
+    /// Distance of every started vehicle from its slot at the end ÷ spacing (index = id;
+    /// none when dead).
+    pub final_slot_error: Vec<Option<f64>>,
+    /// Longest time without new information from each vehicle (index = id), s: the
+    /// largest age of the coordinator's newest report of it.
+    pub longest_contact_gap_s: Vec<Option<f64>>,
+    /// Mission time spent stalled (ṡ below `stall_sdot_fraction` × v0 for longer than
+    /// `stall_after_s`), s, and whether the run ended stalled.
+    pub stalled_s: f64,
+    pub stalled_at_end: bool,
+    /// The thresholds used (÷ spacing, ÷ v0, s).
+    pub in_formation_ratio: f64,
+    pub near_collision_ratio: f64,
+    pub stall_sdot_fraction: f64,
+    pub stall_after_s: f64,
 }
 
 impl Summary {

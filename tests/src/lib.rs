@@ -206,7 +206,13 @@ pub fn read(path: &Path) -> String {
 
 /// Asserts two run directories hold byte-identical track files.
 pub fn assert_same_tracks(a: &Path, b: &Path) {
-    for file in ["vehicles.csv", "body.csv", "events.jsonl"] {
+    for file in [
+        "vehicles.csv",
+        "body.csv",
+        "events.jsonl",
+        "formation.csv",
+        "truth.csv",
+    ] {
         let (x, y) = (read(&a.join(file)), read(&b.join(file)));
         if x != y {
             let line = x.lines().zip(y.lines()).position(|(p, q)| p != q);

@@ -260,9 +260,18 @@ fn batch_in_process_writes_table_and_aggregate_and_judges() {
     ));
     for (i, seed) in [11, 12, 13].iter().enumerate() {
         assert!(rows[i + 1].starts_with(&format!("{seed},")), "{table}");
-        assert!(rows[i + 1].ends_with(",ok"), "{table}");
-        // Each row is that seed's own run.
+        assert_eq!(rows[i + 1].split(',').nth(8), Some("ok"), "{table}");
+        // Each row is that seed's own run, its verdict included (quoted when it holds a
+        // comma).
         let s = summary(&out_dir.join(format!("seed_{seed}")));
+        let verdict = s["verdict"].as_str().unwrap();
+        assert!(!verdict.is_empty());
+        let cell = if verdict.contains(',') {
+            format!(",\"{verdict}\",")
+        } else {
+            format!(",{verdict},")
+        };
+        assert!(rows[i + 1].contains(&cell), "{cell} in {table}");
         assert_eq!(s["seed"], *seed);
         let d = rows[i + 1].split(',').nth(3).unwrap();
         assert_eq!(d, s["final_distance_to_optimum"].to_string(), "{table}");
@@ -279,6 +288,12 @@ fn batch_in_process_writes_table_and_aggregate_and_judges() {
         agg["converged"].as_u64().unwrap() as f64 / 3.0,
         rate,
         "rate = converged / runs"
+    );
+    let verdicts = agg["verdicts"].as_object().unwrap();
+    let share: f64 = verdicts.values().map(|v| v.as_f64().unwrap()).sum();
+    assert!(
+        (share - 1.0).abs() < 1e-12,
+        "verdict rates add up to 1: {verdicts:?}"
     );
     let d = &agg["final_distance_to_optimum"];
     assert_eq!(d["n"], 3);

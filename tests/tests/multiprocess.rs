@@ -61,9 +61,17 @@ fn assert_run_equals_sim(text: &str) {
     let tmp = TempDir::new("eq");
     let file = write_mission(&tmp, "m.toml", text);
     vbap_quiet("sim", &file, &tmp.join("sim"));
-    let out = vbap_quiet("run", &file, &tmp.join("run"));
+    let out = run_ok(
+        vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--out")
+            .arg(tmp.join("run"))
+            .arg("--quiet")
+            .arg("--json"),
+    );
     let printed: serde_json::Value =
-        serde_json::from_slice(&out.stdout).expect("vbap run prints the summary as JSON");
+        serde_json::from_slice(&out.stdout).expect("vbap run --json prints the summary as JSON");
     assert_eq!(printed["mode"], "multi-process");
     assert_same_tracks(&tmp.join("sim"), &tmp.join("run"));
     let s = summary(&tmp.join("run"));
@@ -201,6 +209,9 @@ fn stop_with(sig: &str) {
         out.join("summary.json").exists(),
         "the coordinator wrote a summary on the way out"
     );
+    let s = summary(&out);
+    assert_eq!(s["verdict"], "interrupted", "{:?}", s["reasons"]);
+    assert_eq!(s["converged"], false);
 }
 
 #[test]

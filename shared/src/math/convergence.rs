@@ -340,6 +340,15 @@ pub fn theorem_5_1_bound(
     Ok(epsilon_est(c, &sigma)? + delta_m)
 }
 
+/// The default δ_M of Theorem 5.1 when the mission sets none: 1 % of `ε_est` (field unit
+/// per length unit). The theorem holds for any δ_M > 0 ("arbitrarily small"); a fixed
+/// fraction of `ε_est` is positive whenever the covariance is, carries the field's and the
+/// mission's units without tuning, and widens the set M by a margin far below the
+/// estimate's own uncertainty.
+pub fn default_delta_m(epsilon_est: f64) -> f64 {
+    0.01 * epsilon_est
+}
+
 /// Whether the true gradient norm lies within the set M of Theorem 5.1
 /// (`‖∇T(r)‖ ≤ bound`).
 pub fn in_set_m(true_grad_norm: f64, bound: f64) -> bool {

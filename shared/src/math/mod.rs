@@ -4,7 +4,7 @@
 //! z component is zero and stays zero. Equation numbers refer to `shared/paper.md`.
 //!
 //! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`],
-//! [`lyapunov`], [`speed`].
+//! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design.
 //! Gradient estimation (Section V): [`estimate`], [`optimal`], [`kalman`], [`convergence`],
 //! [`adapt`].
 
@@ -13,6 +13,7 @@ pub mod body;
 pub mod control;
 pub mod convergence;
 pub mod estimate;
+pub mod fit;
 pub mod formation;
 pub mod kalman;
 pub mod lyapunov;

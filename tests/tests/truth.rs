@@ -1,0 +1,284 @@
+//! Outcomes judged from the vehicles' true states: a broken formation is reported as
+//! broken, an ideal-links paper mission still converges with V ≤ V_U from the truth, and
+//! `vbap run` writes the truth files byte for byte as `vbap sim` does.
+
+use std::path::Path;
+
+use tests::*;
+
+/// The rows of a CSV file with a header: (header, rows of fields).
+fn csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let text = read(path);
+    let mut lines = text.lines();
+    let header = lines
+        .next()
+        .expect("a header")
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let rows = lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    (header, rows)
+}
+
+fn col(header: &[String], name: &str) -> usize {
+    header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("column {name} in {header:?}"))
+}
+
+fn num(s: &str) -> f64 {
+    s.parse().unwrap_or_else(|_| panic!("a number, got {s:?}"))
+}
+
+fn mission_file(name: &str) -> std::path::PathBuf {
+    workspace().join("deploy/missions").join(name)
+}
+
+/// The threshold of "in formation" (slot error ÷ spacing), as documented.
+const IN_FORMATION: f64 = 0.25;
+
+#[test]
+fn a_broken_formation_gets_a_verdict_that_says_so_from_the_true_states() {
+    let tmp = TempDir::new("broken");
+    let out = vbap_quiet("sim", &mission_file("lossy_kill.toml"), &tmp.join("sim"));
+    let dir = tmp.join("sim");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.starts_with("verdict: "),
+        "the terminal summary starts with the verdict: {text}"
+    );
+    let s = summary(&dir);
+    let verdict = s["verdict"].as_str().unwrap();
+    assert_eq!(s["converged"], false, "verdict {verdict}");
+    assert!(
+        verdict.contains("formation broken"),
+        "the verdict names the broken formation: {verdict}"
+    );
+    let reasons: Vec<&str> = s["reasons"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r.as_str().unwrap())
+        .collect();
+    let out_ids: Vec<u64> = s["formation"]["out_of_formation_at_end"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    assert!(!out_ids.is_empty());
+    for id in &out_ids {
+        assert!(
+            reasons
+                .iter()
+                .any(|r| r.contains(&format!("vehicle {id} "))),
+            "a reason names vehicle {id}: {reasons:?}"
+        );
+    }
+
+    // From the true states themselves: at the last tick, every vehicle named out of
+    // formation is farther from the ring of slots (radius R·k around the body centre) than
+    // the threshold — a lower bound of its distance from any slot.
+    let (bh, body) = csv(&dir.join("body.csv"));
+    let last = body.last().unwrap();
+    let k_last = &last[col(&bh, "k")];
+    let (rx, ry, scale) = (
+        num(&last[col(&bh, "rx")]),
+        num(&last[col(&bh, "ry")]),
+        num(&last[col(&bh, "scale")]),
+    );
+    let radius = 1.5 * scale;
+    // Five vehicles left on a regular pentagon of circumradius R·k: side 2 R k sin(π/5).
+    let spacing = 2.0 * radius * (std::f64::consts::PI / 5.0).sin();
+    let (vh, vehicles) = csv(&dir.join("vehicles.csv"));
+    let at_end: Vec<&Vec<String>> = vehicles
+        .iter()
+        .filter(|r| &r[col(&vh, "k")] == k_last)
+        .collect();
+    assert_eq!(at_end.len(), 5, "five vehicles alive at the end");
+    let mut far = Vec::new();
+    for r in &at_end {
+        let id: u64 = r[col(&vh, "id")].parse().unwrap();
+        let d =
+            ((num(&r[col(&vh, "x")]) - rx).powi(2) + (num(&r[col(&vh, "y")]) - ry).powi(2)).sqrt();
+        if (d - radius).abs() > IN_FORMATION * spacing {
+            far.push(id);
+        }
+        if out_ids.contains(&id) {
+            assert!(
+                (d - radius).abs() > IN_FORMATION * spacing,
+                "vehicle {id} is named out of formation but sits {d} from the centre (ring {radius})"
+            );
+        }
+    }
+    assert!(!far.is_empty(), "the true states show a broken formation");
+    for id in &far {
+        assert!(out_ids.contains(id), "vehicle {id} off the ring is named");
+    }
+
+    // formation.csv agrees with the summary at the end, and truth.csv with its maxima.
+    let (fh, rows) = csv(&dir.join("formation.csv"));
+    let end: Vec<&Vec<String>> = rows
+        .iter()
+        .filter(|r| &r[col(&fh, "k")] == k_last)
+        .collect();
+    assert_eq!(
+        end.len(),
+        6,
+        "a row per started vehicle, the dead one included"
+    );
+    for r in &end {
+        let id: u64 = r[col(&fh, "id")].parse().unwrap();
+        let contact = r[col(&fh, "contact")].as_str();
+        if id == 3 {
+            assert_eq!(contact, "dead");
+            assert_eq!(r[col(&fh, "slot_error")], "");
+            continue;
+        }
+        assert_eq!(contact, "contact");
+        let e = num(&r[col(&fh, "slot_error")]);
+        let inside = r[col(&fh, "in_formation")] == "1";
+        assert_eq!(inside, e <= IN_FORMATION);
+        assert_eq!(inside, !out_ids.contains(&id), "vehicle {id}");
+    }
+    let (th, truth) = csv(&dir.join("truth.csv"));
+    assert_eq!(truth.len(), body.len(), "a truth row per tick");
+    let max_v = truth
+        .iter()
+        .map(|r| num(&r[col(&th, "V_true_over_VU")]))
+        .fold(0.0, f64::max);
+    assert_eq!(
+        max_v,
+        s["formation"]["max_V_true_over_VU"].as_f64().unwrap()
+    );
+    assert_eq!(
+        max_v,
+        s["max_V_over_VU"].as_f64().unwrap(),
+        "the top-level figure is the true one"
+    );
+    assert!(max_v > 1.0, "V from the truth exceeds V_U: {max_v}");
+
+    // Events say it as it happened: the loss, and the broken formation.
+    let events = read(&dir.join("events.jsonl"));
+    assert!(events.contains("\"kind\":\"formation_broken\""));
+    assert!(events.contains("\"kind\":\"lost\""));
+}
+
+#[test]
+fn an_ideal_paper_mission_converges_with_true_v_below_v_u() {
+    let tmp = TempDir::new("paper");
+    vbap_quiet("sim", &mission_file("paper.toml"), &tmp.join("sim"));
+    let dir = tmp.join("sim");
+    let s = summary(&dir);
+    assert_eq!(s["verdict"], "converged", "{:?}", s["reasons"]);
+    assert_eq!(s["converged"], true);
+    assert_eq!(s["in_set_m"], true);
+    let f = &s["formation"];
+    let max_v = f["max_V_true_over_VU"].as_f64().unwrap();
+    assert!(
+        max_v <= 1.0,
+        "Theorem 4.1: V ≤ V_U along the true states, got {max_v}"
+    );
+    assert!(max_v > 0.0);
+    assert_eq!(f["near_collision_ticks"], 0);
+    assert_eq!(f["alive_at_end"], 4);
+    assert_eq!(f["in_formation_at_end"], 4);
+    let (th, truth) = csv(&dir.join("truth.csv"));
+    for r in &truth {
+        let v = num(&r[col(&th, "V_true_over_VU")]);
+        assert!(v <= 1.0, "tick {}: V_true/V_U = {v}", r[col(&th, "k")]);
+        assert_eq!(r[col(&th, "n_alive")], "4");
+    }
+    // With ideal links the coordinator's view is the truth: the same V every tick.
+    for r in &truth {
+        let (a, b) = (
+            num(&r[col(&th, "V_true_over_VU")]),
+            num(&r[col(&th, "V_seen_over_VU")]),
+        );
+        if r[col(&th, "k")] != "0" {
+            assert!((a - b).abs() <= 1e-9 * a.max(1.0), "{a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn a_json_summary_on_request() {
+    let tmp = TempDir::new("json");
+    let out = run_ok(
+        vbap()
+            .arg("sim")
+            .arg(mission_file("paper.toml"))
+            .arg("--out")
+            .arg(tmp.join("sim"))
+            .arg("--quiet")
+            .arg("--json")
+            .args(["--duration", "5"]),
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_eq!(v, summary(&tmp.join("sim")));
+    assert_eq!(v["verdict"], "not converged", "5 s is too short to arrive");
+}
+
+#[test]
+fn run_equals_sim_with_the_truth_files_through_a_kill_and_lossy_links() {
+    let tmp = TempDir::new("truth-eq");
+    let name = unique_name("truth");
+    let text = read(&mission_file("lossy_kill.toml"))
+        .replace("name = \"lossy_kill\"", &format!("name = \"{name}\""))
+        .replace("duration = 300.0", "duration = 70.0");
+    let file = write_mission(&tmp, "m.toml", &text);
+    vbap_quiet("sim", &file, &tmp.join("sim"));
+    vbap_quiet("run", &file, &tmp.join("run"));
+    assert_same_tracks(&tmp.join("sim"), &tmp.join("run"));
+    let (a, b) = (summary(&tmp.join("sim")), summary(&tmp.join("run")));
+    assert_eq!(a["formation"], b["formation"]);
+    assert_eq!(a["verdict"], b["verdict"]);
+    assert_eq!(a["reasons"], b["reasons"]);
+    assert!(leftover_files(&name).is_empty());
+}
+
+#[test]
+fn an_interrupted_simulation_says_so() {
+    let tmp = TempDir::new("sim-int");
+    let out = tmp.join("sim");
+    // A mission far longer than the test: the signal comes long before its end.
+    let mut sim = ChildGuard(Some(
+        vbap()
+            .arg("sim")
+            .arg(mission_file("glider.toml"))
+            .arg("--out")
+            .arg(&out)
+            .arg("--quiet")
+            .args(["--duration", "1e8"])
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .expect("spawning vbap sim"),
+    ));
+    let body = out.join("body.csv");
+    wait_until(
+        || line_count(&body) > 3,
+        std::time::Duration::from_secs(120),
+        "the simulation to make progress",
+    );
+    sim.signal("INT");
+    let child = sim.0.take().unwrap();
+    let done = child.wait_with_output().unwrap();
+    assert_eq!(
+        done.status.code(),
+        Some(130),
+        "an interrupted run exits 130"
+    );
+    let text = String::from_utf8_lossy(&done.stdout);
+    assert!(text.starts_with("verdict: interrupted"), "{text}");
+    let s = summary(&out);
+    assert_eq!(s["verdict"], "interrupted");
+    assert_eq!(s["converged"], false);
+    let ticks = s["ticks"].as_u64().unwrap();
+    assert!(ticks < 10_000_000, "stopped early: {ticks} ticks");
+    // What was written is complete up to the stop: a body row per recorded tick.
+    assert_eq!(line_count(&body), ticks as usize + 1);
+    assert_eq!(line_count(&out.join("truth.csv")), ticks as usize + 1);
+}
