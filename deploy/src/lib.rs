@@ -5,6 +5,7 @@
 //! - [`analyze`]: timing analysis from the tracing logs (`vbap analyze`).
 //! - [`progress`]: the progress bar of `vbap run`.
 //! - [`replay`], [`batch`], [`bench`], [`report_plots`]: study a run, many runs, the speed.
+//! - [`truth_plots`]: the contact timeline and the true formation in the run's pictures.
 //! - [`cli`]: the command line.
 
 pub mod analyze;
@@ -16,3 +17,4 @@ pub mod replay;
 pub mod report_plots;
 pub mod sim;
 pub mod supervise;
+pub mod truth_plots;
