@@ -65,6 +65,11 @@ pub const TRUTH_COLUMNS: [&str; 9] = [
 ];
 /// Most vehicles drawn one line each in a panel; beyond, the worst only.
 pub const MAX_VEHICLE_LINES: usize = 12;
+/// An information age above this many ticks is a silence (out of contact).
+pub const SILENCE_TICKS: u64 = 10;
+/// Most silences (age sawteeth) of one vehicle drawn as its own line in the age panel;
+/// beyond, the lines would cover each other: the oldest over the vehicles is drawn instead.
+pub const MAX_SAWTEETH: u64 = 24;
 
 const N_STATES: usize = CONTACT_STATES.len();
 
@@ -153,6 +158,8 @@ pub struct Lane {
     pub delivered: Vec<bool>,
     /// Deliveries counted (ticks at which the coordinator's information was renewed).
     pub deliveries: u64,
+    /// Deliveries that ended a silence of more than [`SILENCE_TICKS`] ticks.
+    pub silences: u64,
     /// Distance from its slot ÷ design spacing over time (s); NaN while dead.
     pub slot_error: Decimator,
     /// Age of the coordinator's newest information over time (s, s); NaN when none.
@@ -173,6 +180,7 @@ impl Lane {
             state_time: vec![[0.0; N_STATES]; cols],
             delivered: vec![false; cols],
             deliveries: 0,
+            silences: 0,
             slot_error: Decimator::with_bucket(bucket),
             info_age: Decimator::with_bucket(bucket),
             max_age: None,
@@ -287,6 +295,12 @@ impl Formation {
                 };
                 if renewed {
                     lane.deliveries += 1;
+                    if lane
+                        .prev_age
+                        .is_some_and(|(_, ap)| ap > SILENCE_TICKS as f64 * dt)
+                    {
+                        lane.silences += 1;
+                    }
                     if t >= t0 && t < t1 {
                         let c = (((t - t0) / width) as usize).min(cols - 1);
                         lane.delivered[c] = true;
@@ -991,14 +1005,15 @@ fn age_panel(
             .map(|(t, a)| (unit.of(t), age_unit.of(a)))
             .collect()
     };
-    if f.lanes.len() <= MAX_VEHICLE_LINES {
+    let max_label = |id: u32, lane: &Lane| match lane.max_age {
+        Some((a, _)) => format!("vehicle {id} (max {})", age_unit.fmt(a)),
+        None => format!("vehicle {id} (no report)"),
+    };
+    let sawteeth = f.lanes.values().map(|l| l.silences).max().unwrap_or(0);
+    if f.lanes.len() <= MAX_VEHICLE_LINES && sawteeth <= MAX_SAWTEETH {
         for (id, lane) in &f.lanes {
-            let label = match lane.max_age {
-                Some((a, _)) => format!("vehicle {id} (max {})", age_unit.fmt(a)),
-                None => format!("vehicle {id} (no report)"),
-            };
             p.series.push(Series::line(
-                &label,
+                &max_label(*id, lane),
                 in_age(lane.info_age.points()),
                 style::palette(*id as usize),
             ));
@@ -1009,6 +1024,13 @@ fn age_panel(
             in_age(f.worst_age.points()),
             style::PALETTE[3],
         ));
+        let per_vehicle: Vec<String> = f
+            .lanes
+            .iter()
+            .take(MAX_VEHICLE_LINES)
+            .map(|(id, lane)| max_label(*id, lane))
+            .collect();
+        p.notes.push(per_vehicle.join(", "));
     }
     let period = mission.links.surfacing_period;
     if period > 0.0 {

@@ -1510,6 +1510,13 @@ impl LabelPlacer {
                 }
             }
         }
+        // Slid sideways into the region where it is too wide for where it was.
+        let (left, right) = (self.region.0, self.region.2 - w);
+        for c in &mut candidates {
+            if right >= left {
+                c.0 = c.0.clamp(left, right);
+            }
+        }
         let mut best = candidates[0];
         let mut best_cost = i64::MAX;
         for &(x, y) in &candidates {
