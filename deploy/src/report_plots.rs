@@ -1546,7 +1546,7 @@ mod tests {
         }
         std::fs::write(dir.root.join(crate::truth_plots::FORMATION_CSV), f).unwrap();
         std::fs::write(dir.root.join(crate::truth_plots::TRUTH_CSV), tr).unwrap();
-        let s = r#"{"formation": {"in_formation_threshold": 0.5, "near_collision_ratio": 0.1}}"#;
+        let s = r#"{"formation": {"in_formation_ratio": 0.5, "near_collision_ratio": 0.1}}"#;
         std::fs::write(dir.summary(), s).unwrap();
     }
 
@@ -1600,6 +1600,7 @@ mod tests {
             "slot error ÷ spacing",
             "in formation: ≤ 0.5",
             "Nearest pair",
+            "near collision: &lt; 0.1",
             "in formation (true slot error)",
         ] {
             assert!(

@@ -208,6 +208,8 @@ pub struct Formation {
     pub out_min: Option<f64>,
     /// The in-formation threshold on the slot error (÷ spacing), from `summary.json`.
     pub threshold: Option<f64>,
+    /// The near-collision threshold on a pair's distance (÷ spacing), from `summary.json`.
+    pub near_collision: Option<f64>,
 }
 
 impl Formation {
@@ -233,6 +235,7 @@ impl Formation {
             in_max: None,
             out_min: None,
             threshold: None,
+            near_collision: None,
         };
         let mut tick: Option<(u64, f64, f64)> = None; // (k, t, worst age)
         for_each_row(path, reader, &FORMATION_COLUMNS, |line, r| {
@@ -351,6 +354,8 @@ pub struct Truth {
     pub max_v_seen: f64,
     /// Smallest nearest-pair ratio and when (s).
     pub closest: Option<(f64, f64)>,
+    /// The near-collision threshold (÷ spacing), from `summary.json`.
+    pub near_collision: Option<f64>,
     /// Rows read.
     pub rows: u64,
 }
@@ -396,16 +401,13 @@ impl Truth {
     }
 }
 
-/// The in-formation threshold (slot error ÷ spacing) as `summary.json` records it: a number
-/// under a key containing "threshold" (and not "collision") in its `formation` object.
-pub fn threshold_from_summary(dir: &RunDir) -> Option<f64> {
+/// A threshold of the truth metrics as `summary.json` records it in its `formation` object
+/// (`in_formation_ratio`: the largest slot error ÷ spacing still in formation;
+/// `near_collision_ratio`: a pair closer than this × spacing is a near collision).
+pub fn summary_ratio(dir: &RunDir, key: &str) -> Option<f64> {
     let text = std::fs::read_to_string(dir.summary()).ok()?;
     let json: serde_json::Value = serde_json::from_str(&text).ok()?;
-    let formation = json.get("formation")?.as_object()?;
-    formation
-        .iter()
-        .filter(|(k, _)| k.contains("threshold") && !k.contains("collision"))
-        .find_map(|(_, v)| v.as_f64())
+    json.get("formation")?.get(key)?.as_f64()
 }
 
 /// Decimation bucket for `ticks` rows and about `points` points.
@@ -434,7 +436,8 @@ pub fn read_formation_or_warn(
     );
     match read {
         Ok(mut f) => {
-            f.threshold = threshold_from_summary(dir);
+            f.threshold = summary_ratio(dir, "in_formation_ratio");
+            f.near_collision = summary_ratio(dir, "near_collision_ratio");
             Some(f)
         }
         Err(e) => {
@@ -447,6 +450,7 @@ pub fn read_formation_or_warn(
 /// `truth.csv` of `dir`; None when absent (an older run) or not readable (a warning says
 /// why).
 pub fn read_truth_or_warn(dir: &RunDir, mission: &Mission) -> Option<Truth> {
+    let near_collision = summary_ratio(dir, "near_collision_ratio");
     let path = dir.root.join(TRUTH_CSV);
     let file = File::open(&path).ok()?;
     match Truth::read(
@@ -454,7 +458,10 @@ pub fn read_truth_or_warn(dir: &RunDir, mission: &Mission) -> Option<Truth> {
         BufReader::with_capacity(1 << 16, file),
         bucket(mission.ticks(), MAX_POINTS / 2),
     ) {
-        Ok(t) => Some(t),
+        Ok(t) => Some(Truth {
+            near_collision,
+            ..t
+        }),
         Err(e) => {
             tracing::warn!(error = %format!("{e:#}"), "true V and nearest-pair plots left out");
             None
@@ -520,11 +527,11 @@ pub fn slot_error_panel(f: &Formation, truth: Option<&Truth>, x: Axis) -> Panel 
         }),
         None => p.notes.push(match (f.in_max, f.out_min) {
             (Some(a), Some(b)) => format!(
-                "in-formation threshold not in summary.json: between {} and {} by the in_formation column",
+                "in-formation threshold (formation.in_formation_ratio) not in summary.json: between {} and {} by the in_formation column",
                 style::fmt_significant(a, 3, 3),
                 style::fmt_significant(b, 3, 3)
             ),
-            _ => "in-formation threshold not in summary.json".into(),
+            _ => "in-formation threshold (formation.in_formation_ratio) not in summary.json".into(),
         }),
     }
     p
@@ -561,6 +568,13 @@ pub fn nearest_pair_panel(tr: &Truth, x: Axis) -> Panel {
         label: "design spacing".into(),
         colour: "#555555",
     });
+    if let Some(r) = tr.near_collision {
+        p.hlines.push(RefLine {
+            y: r,
+            label: format!("near collision: < {}", style::fmt_significant(r, 3, 3)),
+            colour: style::event_style("near_collision").map_or("#d62728", |s| s.colour),
+        });
+    }
     p
 }
 
@@ -573,13 +587,16 @@ const DELIVERY: &str = "#08306b";
 const LABEL_LINES: usize = 3;
 
 /// Intervals [start, end) (s) between an opening and a closing kind of event (an open one
-/// ends at `t_end`), with the opening event's label.
+/// ends at `t_end`; one starts at the opening event's `detail.since` when it has one), with
+/// the opening event's label.
 fn intervals(events: &[Event], open: &str, close: &str, t_end: f64) -> Vec<(f64, f64, String)> {
     let mut out = Vec::new();
     let mut current: Option<(f64, String)> = None;
     for e in events {
         if e.kind == open && current.is_none() {
-            current = Some((e.t, style::event_label(e)));
+            // The condition began at `detail.since` (s) when the event was debounced.
+            let since = e.detail.get("since").and_then(|v| v.as_f64());
+            current = Some((since.unwrap_or(e.t).min(e.t), style::event_label(e)));
         } else if e.kind == close {
             if let Some((t, label)) = current.take() {
                 out.push((t, e.t, label));
@@ -1181,5 +1198,17 @@ mod tests {
                 (5.0, 9.0, "stall (holding)".to_string())
             ]
         );
+        // A debounced event: the condition began at detail.since.
+        let broken = Event {
+            detail: serde_json::json!({"vehicles": [1, 5], "since": 3.5}),
+            ..ev(4.0, "formation_broken")
+        };
+        let iv = intervals(
+            &[broken, ev(6.0, "formation_restored")],
+            "formation_broken",
+            "formation_restored",
+            9.0,
+        );
+        assert_eq!(iv, vec![(3.5, 6.0, "broken: 1, 5".to_string())]);
     }
 }
