@@ -552,7 +552,7 @@ pub fn nearest_pair_panel(tr: &Truth, x: Axis) -> Panel {
     );
     let label = match tr.closest {
         Some((r, t)) => format!(
-            "nearest pair (min {} at {})",
+            "closest {} at {}",
             style::fmt_significant(r, 2, 3),
             unit.fmt(t)
         ),
@@ -856,39 +856,8 @@ pub fn render_contact_svg(
             let Some(st) = style::event_style(&e.kind) else {
                 continue;
             };
-            let (cx, cy) = (x_of(e.t), y + h / 2.0);
             let r = (h / 2.0).clamp(3.0, 7.0);
-            let shape = match e.kind.as_str() {
-                "lost" => format!(
-                    r#"<path d="M{:.1},{:.1}L{:.1},{:.1}M{:.1},{:.1}L{:.1},{:.1}" stroke="{}" stroke-width="2.5"/>"#,
-                    cx - r,
-                    cy - r,
-                    cx + r,
-                    cy + r,
-                    cx - r,
-                    cy + r,
-                    cx + r,
-                    cy - r,
-                    st.colour
-                ),
-                "near_collision" => format!(
-                    r#"<path d="M{cx:.1},{:.1}L{:.1},{cy:.1}L{cx:.1},{:.1}L{:.1},{cy:.1}Z" fill="{}" stroke="white"/>"#,
-                    cy - r,
-                    cx + r,
-                    cy + r,
-                    cx - r,
-                    st.colour
-                ),
-                _ => format!(
-                    r#"<path d="M{:.1},{:.1}L{:.1},{:.1}L{cx:.1},{:.1}Z" fill="{}" stroke="white"/>"#,
-                    cx - r,
-                    cy - r,
-                    cx + r,
-                    cy - r,
-                    cy + r,
-                    st.colour
-                ),
-            };
+            let shape = vehicle_symbol(&e.kind, (x_of(e.t), y + h / 2.0), r, st.colour);
             let _ = writeln!(
                 svg,
                 "<g><title>{}</title>{shape}</g>",
@@ -952,8 +921,8 @@ pub fn render_contact_svg(
         if let Some(st) = style::event_style(&e.kind) {
             if kinds.insert(e.kind.as_str()) {
                 entries.push(format!(
-                    r#"<circle cx="14" cy="0" r="5" fill="{}"/>{}"#,
-                    st.colour,
+                    "{}{}",
+                    vehicle_symbol(&e.kind, (14.0, 0.0), 6.0, st.colour),
                     legend_text(st.legend)
                 ));
             }
@@ -984,6 +953,39 @@ pub fn render_contact_svg(
     report_plots::render_panel(&mut svg, &age_panel, 0, axis_bottom + 20.0, false);
     svg.push_str("</svg>\n");
     svg
+}
+
+/// The symbol of a vehicle's event on its row, centred at `(cx, cy)` px, half-size `r`:
+/// a cross for a loss, a diamond for a near collision, a downward triangle otherwise.
+fn vehicle_symbol(kind: &str, (cx, cy): (f64, f64), r: f64, colour: &str) -> String {
+    match kind {
+        "lost" => format!(
+            r#"<path d="M{:.1},{:.1}L{:.1},{:.1}M{:.1},{:.1}L{:.1},{:.1}" stroke="{colour}" stroke-width="2.5"/>"#,
+            cx - r,
+            cy - r,
+            cx + r,
+            cy + r,
+            cx - r,
+            cy + r,
+            cx + r,
+            cy - r
+        ),
+        "near_collision" => format!(
+            r#"<path d="M{cx:.1},{:.1}L{:.1},{cy:.1}L{cx:.1},{:.1}L{:.1},{cy:.1}Z" fill="{colour}" stroke="white"/>"#,
+            cy - r,
+            cx + r,
+            cy + r,
+            cx - r
+        ),
+        _ => format!(
+            r#"<path d="M{:.1},{:.1}L{:.1},{:.1}L{cx:.1},{:.1}Z" fill="{colour}" stroke="white"/>"#,
+            cx - r,
+            cy - r,
+            cx + r,
+            cy - r,
+            cy + r
+        ),
+    }
 }
 
 fn legend_text(label: &str) -> String {
@@ -1026,8 +1028,10 @@ fn age_panel(
         Some((a, _)) => format!("vehicle {id} (max {})", age_unit.fmt(a)),
         None => format!("vehicle {id} (no report)"),
     };
+    // One line per vehicle shows its silences when there are a few; with none (ages
+    // jittering with the link delay) or very many, the lines would cover each other.
     let sawteeth = f.lanes.values().map(|l| l.silences).max().unwrap_or(0);
-    if f.lanes.len() <= MAX_VEHICLE_LINES && sawteeth <= MAX_SAWTEETH {
+    if f.lanes.len() <= MAX_VEHICLE_LINES && (1..=MAX_SAWTEETH).contains(&sawteeth) {
         for (id, lane) in &f.lanes {
             p.series.push(Series::line(
                 &max_label(*id, lane),

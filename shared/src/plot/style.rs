@@ -116,10 +116,10 @@ impl TimeUnit {
         t_s / self.seconds
     }
 
-    /// `t_s` (seconds) written in this unit with its symbol, to 4 significant digits (at
-    /// most 3 decimals), trailing zeros dropped: "36 h", "1.5 d", "12.35 s", "0.25 h".
+    /// `t_s` (seconds) written in this unit with its symbol, to 3 significant digits (at
+    /// most 3 decimals), trailing zeros dropped: "36 h", "1.5 d", "12.4 s", "0.25 h".
     pub fn fmt(&self, t_s: f64) -> String {
-        format!("{} {}", fmt_significant(self.of(t_s), 4, 3), self.symbol)
+        format!("{} {}", fmt_significant(self.of(t_s), 3, 3), self.symbol)
     }
 
     /// Axis label "`what` (unit)".
@@ -390,7 +390,9 @@ mod tests {
         assert_eq!(TimeUnit::D.fmt(129_600.0), "1.5 d");
         // Short missions stay in seconds, with the tick's decimals.
         assert_eq!(TimeUnit::for_span(20.0), TimeUnit::S);
-        assert_eq!(TimeUnit::S.fmt(12.35), "12.35 s");
+        assert_eq!(TimeUnit::S.fmt(12.35), "12.3 s");
+        assert_eq!(TimeUnit::S.fmt(0.05), "0.05 s");
+        assert_eq!(TimeUnit::H.fmt(15_768.0), "4.38 h");
         assert_eq!(TimeUnit::S.fmt(0.0), "0 s");
         assert_eq!(TimeUnit::for_span(900.0), TimeUnit::S);
         assert_eq!(TimeUnit::for_span(1800.0), TimeUnit::MIN);
@@ -415,7 +417,7 @@ mod tests {
         assert_eq!(TimeUnit::for_magnitude(6000.0), TimeUnit::MIN);
         assert_eq!(TimeUnit::MIN.fmt(6000.0), "100 min");
         assert_eq!(TimeUnit::for_magnitude(7200.0), TimeUnit::H);
-        assert_eq!(TimeUnit::H.fmt(6000.0), "1.667 h");
+        assert_eq!(TimeUnit::H.fmt(6000.0), "1.67 h");
         assert_eq!(TimeUnit::for_magnitude(0.5), TimeUnit::MS);
         assert_eq!(TimeUnit::for_magnitude(20.0), TimeUnit::S);
         assert_eq!(TimeUnit::for_magnitude(600.0), TimeUnit::MIN);
