@@ -585,6 +585,8 @@ pub fn nearest_pair_panel(tr: &Truth, x: Axis) -> Panel {
 const DELIVERY: &str = "#08306b";
 /// Lines of event labels above the rows.
 const LABEL_LINES: usize = 3;
+/// Height of a legend row of the timeline, px.
+const LEGEND_ROW: f64 = 18.0;
 
 /// Intervals [start, end) (s) between an opening and a closing kind of event (an open one
 /// ends at `t_end`; one starts at the opening event's `detail.since` when it has one), with
@@ -902,7 +904,8 @@ pub fn render_contact_svg(
     // Legend: the states met, deliveries, the kinds of events drawn.
     let lx = x1 + 22.0;
     let mut ly = fleet_top + 6.0;
-    let legend_bottom = axis_bottom;
+    // Down to the first legend row of the age panel below.
+    let legend_bottom = axis_bottom + 40.0;
     let mut entries: Vec<String> = Vec::new();
     for (i, (_, colour, legend)) in CONTACT_STATES.iter().enumerate() {
         if f.lanes.values().any(|l| l.seen[i]) {
@@ -934,7 +937,7 @@ pub fn render_contact_svg(
             legend_text("fleet event (labelled above)")
         ));
     }
-    let max_entries = (((legend_bottom - ly) / 20.0) as usize).max(1);
+    let max_entries = (((legend_bottom - ly) / LEGEND_ROW) as usize).max(1);
     let total = entries.len();
     for (i, e) in entries.into_iter().enumerate() {
         if i + 1 == max_entries && total > max_entries {
@@ -947,7 +950,7 @@ pub fn render_contact_svg(
             break;
         }
         let _ = writeln!(svg, r#"<g transform="translate({lx},{ly:.1})">{e}</g>"#);
-        ly += 20.0;
+        ly += LEGEND_ROW;
     }
 
     report_plots::render_panel(&mut svg, &age_panel, 0, axis_bottom + 20.0, false);
