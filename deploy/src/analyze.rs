@@ -153,11 +153,19 @@ impl Report {
     /// The human-readable report of `vbap analyze`.
     pub fn to_text(&self) -> String {
         use std::fmt::Write as _;
+        // An injected delay (ms of mission time) in the unit of its size: "250 ms", "45 min".
+        let delay = |ms: f64| {
+            if ms == 0.0 {
+                "0".to_string()
+            } else {
+                shared::plot::style::fmt_duration(ms * 1e-3)
+            }
+        };
         let mut out = String::new();
         let _ = writeln!(out, "pace: {}, {} message records", self.pace, self.records);
         let _ = writeln!(
             out,
-            "\n{:<14} {:>9} {:>9} {:>9} │ {:>9} {:>9} {:>9} {:>9} │ {:>8} {:>8} {:>8}",
+            "\n{:<14} {:>9} {:>9} {:>9} │ {:>9} {:>9} {:>9} {:>9} │ {:>9} {:>9} {:>9}",
             "hop",
             "delivered",
             "dropped",
@@ -175,7 +183,7 @@ impl Report {
             let q = h.injected_ms;
             let _ = writeln!(
                 out,
-                "{hop:<14} {:>9} {:>9} {:>9} │ {:>9.1} {:>9.1} {:>9.1} {:>9.1} │ {:>5.1} ms {:>5.1} ms {:>5.1} ms",
+                "{hop:<14} {:>9} {:>9} {:>9} │ {:>9.1} {:>9.1} {:>9.1} {:>9.1} │ {:>9} {:>9} {:>9}",
                 h.delivered,
                 h.dropped_injected,
                 h.dropped_overflow,
@@ -183,9 +191,9 @@ impl Report {
                 p.p90,
                 p.p99,
                 p.max,
-                q.p50,
-                q.p99,
-                q.max
+                delay(q.p50),
+                delay(q.p99),
+                delay(q.max)
             );
         }
         let _ = writeln!(
