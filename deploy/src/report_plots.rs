@@ -1,21 +1,27 @@
 //! Time-series plots of a run directory, and the small SVG chart writer they (and
 //! `vbap analyze`'s plots) are drawn with.
 //!
-//! [`write_run_plots`] reads `body.csv`, `events.jsonl` and the resolved `mission.toml` and
-//! writes two figures, each a stack of panels on one time axis, with the events of
-//! `events.jsonl` (vehicle lost, rejoined, formation reconfigured, faults, holding,
-//! converged) drawn as coloured dashed vertical lines:
-//! - `timeseries_formation.svg`: V/V_U (Theorem 4.1), the body speed ṡ against v₀, the
-//!   formation scale k, the vehicles in the formation;
+//! [`write_run_plots`] reads `body.csv`, `events.jsonl` and the resolved `mission.toml`
+//! (and, when the run has them, the truth files `formation.csv` and `truth.csv`, through
+//! [`crate::truth_plots`]) and writes two figures, each a stack of panels on one time axis
+//! in s, min, h or days by the run's length, with the events of `events.jsonl` (vehicle
+//! lost, rejoined, formation reconfigured or broken, faults, holding, stalls, near
+//! collisions, converged) drawn as coloured dashed vertical lines, and the contact timeline:
+//! - `timeseries_formation.svg`: V/V_U (Theorem 4.1; true and as the coordinator sees it
+//!   when `truth.csv` is there), the body speed ṡ against v₀, the formation scale k, each
+//!   vehicle's distance from its slot and the nearest pair ÷ spacing (truth files only),
+//!   the vehicles in the formation (members, alive, truly in formation);
 //! - `timeseries_estimate.svg`: the gradient-estimate error ‖∇T_est − ∇T‖ against the true
 //!   ‖∇T‖, the trace of the Kalman covariance P, the distance of the body centre to the
-//!   optimum against the tolerance (log axes).
+//!   optimum against the tolerance (log axes);
+//! - `contact.svg` ([`crate::truth_plots::render_contact_svg`]), from `formation.csv` only.
 //!
 //! Long runs are decimated while streaming (minimum and maximum of each of ~1500 buckets,
 //! so spikes survive), so the files stay small whatever the number of ticks.
 //!
 //! The chart writer ([`Figure`], [`Panel`], [`Axis`], [`Series`]) writes plain SVG 1.1 by
-//! hand: linear or logarithmic axes with 1-2-5 ticks, clipped polylines, horizontal
+//! hand: linear or logarithmic axes with 1-2-5 ticks (time axes at steps of the clock),
+//! clipped polylines, horizontal
 //! reference lines, event markers and a legend column. Its output is deterministic (same
 //! input, same bytes) and renders the same in browsers and `rsvg-convert`.
 
