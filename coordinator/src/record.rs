@@ -24,6 +24,8 @@ use crate::truth::{self, BodyOutcome, TruthStats};
 const PLOT_SNAPSHOTS: usize = 6;
 /// Track points kept per vehicle for the plot (downsampled evenly).
 const PLOT_POINTS: usize = 2000;
+/// Events closer than 1/`EVENT_SNAPSHOT_GAP` of the mission share one snapshot on the plot.
+const EVENT_SNAPSHOT_GAP: u64 = 50;
 
 /// The running figures of `summary.json` (checkpointed with the coordinator).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -425,7 +427,7 @@ impl Recorder {
     }
 
     /// Writes `plot.svg`: tracks on the field's contours, the body path, formation
-    /// snapshots and the optimum.
+    /// snapshots (evenly spaced, and at the telling events of `events.jsonl`) and the optimum.
     pub fn write_plot(&self) -> Result<(), shared::plot::PlotError> {
         let m = &self.mission;
         let t = self.stats.last_t;
@@ -437,11 +439,18 @@ impl Recorder {
         };
         let sample = move |x: f64, y: f64| field.value(&Vec3::new(x, y, z), t);
         let optimum = field.optimum(t, m.mission.goal).map(|o| (o.x, o.y));
+        let io_err =
+            |path: std::path::PathBuf| move |source| shared::plot::PlotError::Io { path, source };
+        let events =
+            shared::plot::read_events(&self.dir.events()).map_err(io_err(self.dir.events()))?;
+        let at_events = shared::plot::event_snapshots(
+            &events,
+            shared::plot::MAX_EVENT_SNAPSHOTS,
+            (m.ticks() / EVENT_SNAPSHOT_GAP).max(1),
+        );
         let (tracks, body_path, snapshots) =
-            plot_data(&self.dir, m.ticks()).map_err(|e| shared::plot::PlotError::Io {
-                path: self.dir.vehicles(),
-                source: e,
-            })?;
+            plot_data(&self.dir, m.ticks(), &at_events.into_iter().collect())
+                .map_err(io_err(self.dir.vehicles()))?;
         let plot = MissionPlot {
             title: format!("{} (seed {})", m.mission.name, m.mission.seed),
             length_unit: m.mission.length_unit.clone(),
@@ -461,12 +470,29 @@ impl Recorder {
 /// `body.csv` (downsampled), so the plot needs nothing kept in memory.
 type PlotData = (Vec<Track>, Vec<(f64, f64)>, Vec<Snapshot>);
 
-fn plot_data(dir: &RunDir, ticks: u64) -> io::Result<PlotData> {
+/// `at_events`: extra snapshot ticks with their event labels; an evenly spaced snapshot
+/// closer than 1/[`EVENT_SNAPSHOT_GAP`] of the mission to one of them is left out (the first
+/// and the last are kept).
+fn plot_data(
+    dir: &RunDir,
+    ticks: u64,
+    at_events: &std::collections::BTreeMap<u64, String>,
+) -> io::Result<PlotData> {
     use std::collections::BTreeMap;
     use std::io::BufRead;
     let ticks = ticks.max(1);
     let stride = (ticks / PLOT_POINTS as u64).max(1);
     let every = (ticks / PLOT_SNAPSHOTS as u64).max(1);
+    let gap = (ticks / EVENT_SNAPSHOT_GAP).max(1);
+    let snapshot_at = |k: u64| {
+        // Evenly spaced, the last one at the end (not also half a step before it).
+        let regular = (k.is_multiple_of(every) && k + every / 2 < ticks) || k + 1 == ticks;
+        let crowded = at_events
+            .range(k.saturating_sub(gap)..=k.saturating_add(gap))
+            .next()
+            .is_some();
+        at_events.contains_key(&k) || (regular && (k == 0 || k + 1 == ticks || !crowded))
+    };
     let num = |s: Option<&str>| s.and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
     let mut body: BTreeMap<u64, (f64, f64, f64)> = BTreeMap::new();
     let mut path = Vec::new();
@@ -483,7 +509,7 @@ fn plot_data(dir: &RunDir, ticks: u64) -> io::Result<PlotData> {
         if k.is_multiple_of(stride) {
             path.push((x, y));
         }
-        if k.is_multiple_of(every) || k + 1 == ticks {
+        if snapshot_at(k) {
             body.insert(k, (t, x, y));
         }
     }
@@ -511,6 +537,7 @@ fn plot_data(dir: &RunDir, ticks: u64) -> io::Result<PlotData> {
         .filter_map(|(k, positions)| {
             body.get(&k).map(|&(t, x, y)| Snapshot {
                 t,
+                label: at_events.get(&k).cloned().unwrap_or_default(),
                 positions,
                 centre: (x, y),
             })

@@ -48,6 +48,7 @@ use shared::rundir::{Percentiles, RunDir, Summary};
 use shared::telemetry::MSG_TARGET;
 
 use crate::report_plots::{self, Axis, Figure, Panel, Series, PALETTE};
+use shared::plot::style::TimeUnit;
 
 /// File name of the latency plot.
 pub const LATENCY_SVG: &str = "latency.svg";
@@ -152,11 +153,19 @@ impl Report {
     /// The human-readable report of `vbap analyze`.
     pub fn to_text(&self) -> String {
         use std::fmt::Write as _;
+        // An injected delay (ms of mission time) in the unit of its size: "250 ms", "45 min".
+        let delay = |ms: f64| {
+            if ms == 0.0 {
+                "0".to_string()
+            } else {
+                shared::plot::style::fmt_duration(ms * 1e-3)
+            }
+        };
         let mut out = String::new();
         let _ = writeln!(out, "pace: {}, {} message records", self.pace, self.records);
         let _ = writeln!(
             out,
-            "\n{:<14} {:>9} {:>9} {:>9} │ {:>9} {:>9} {:>9} {:>9} │ {:>8} {:>8} {:>8}",
+            "\n{:<14} {:>9} {:>9} {:>9} │ {:>9} {:>9} {:>9} {:>9} │ {:>9} {:>9} {:>9}",
             "hop",
             "delivered",
             "dropped",
@@ -174,7 +183,7 @@ impl Report {
             let q = h.injected_ms;
             let _ = writeln!(
                 out,
-                "{hop:<14} {:>9} {:>9} {:>9} │ {:>9.1} {:>9.1} {:>9.1} {:>9.1} │ {:>5.1} ms {:>5.1} ms {:>5.1} ms",
+                "{hop:<14} {:>9} {:>9} {:>9} │ {:>9.1} {:>9.1} {:>9.1} {:>9.1} │ {:>9} {:>9} {:>9}",
                 h.delivered,
                 h.dropped_injected,
                 h.dropped_overflow,
@@ -182,9 +191,9 @@ impl Report {
                 p.p90,
                 p.p99,
                 p.max,
-                q.p50,
-                q.p99,
-                q.max
+                delay(q.p50),
+                delay(q.p99),
+                delay(q.max)
             );
         }
         let _ = writeln!(
@@ -271,19 +280,41 @@ pub struct Distributions {
 }
 
 /// `vbap analyze RUN_DIR [--json]`: prints the report and writes the plots; returns the
-/// exit code.
+/// exit code. A directory without message records is invalid input (exit 2): the message
+/// says what is missing, and no empty table or plot is written.
 pub fn main(run_dir: &Path, json: bool) -> Result<i32> {
-    if !run_dir.join("logs").is_dir() {
-        return Err(crate::cli::InvalidInput(format!(
-            "{}: not a run directory (no logs/)",
-            run_dir.display()
-        ))
-        .into());
+    let invalid = |why: String| -> anyhow::Error {
+        crate::cli::InvalidInput(format!("{}: {why}", run_dir.display())).into()
+    };
+    let logs = run_dir.join("logs");
+    if !logs.is_dir() {
+        if !run_dir.join("mission.toml").is_file() {
+            return Err(invalid(
+                "not a run directory (no mission.toml, no logs/)".into(),
+            ));
+        }
+        return Err(invalid(format!(
+            "no message records to analyse: {} does not exist ({NO_RECORDS_HINT})",
+            logs.display()
+        )));
     }
     let dir = RunDir {
         root: run_dir.to_path_buf(),
     };
-    let report = analyze(&dir)?;
+    let (report, dists) = compute(&dir)?;
+    if report.records == 0 {
+        let unparsed = if report.unparsed > 0 {
+            format!("; {} record lines could not be parsed", report.unparsed)
+        } else {
+            String::new()
+        };
+        return Err(invalid(format!(
+            "no message records to analyse: no logs/*{MSG_SUFFIX} with records and no `{MSG_TARGET}` records in logs/*.jsonl{unparsed} ({NO_RECORDS_HINT})"
+        )));
+    }
+    if let Err(e) = write_plots(&dir, &report, &dists) {
+        tracing::warn!(error = %format!("{e:#}"), "writing the analysis plots");
+    }
     if json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -296,6 +327,10 @@ pub fn main(run_dir: &Path, json: bool) -> Result<i32> {
     }
     Ok(shared::process::EXIT_OK)
 }
+
+/// Why a run directory may hold no message records.
+const NO_RECORDS_HINT: &str = "`vbap sim` runs in one process and records no messages; \
+`vbap run` records them unless RUST_LOG turned them off";
 
 /// Reads the logs of `dir`, computes the report and writes `latency.svg` and `loops.svg`
 /// into `dir` (a plot that cannot be written is logged, not an error).
@@ -841,10 +876,18 @@ fn write_plots(dir: &RunDir, report: &Report, d: &Distributions) -> Result<()> {
         .filter(|(_, (_, v))| v.iter().any(|&x| x > 0.0))
         .collect();
     if !injected.is_empty() {
+        // In the unit of its size: ms for a LAN, s for acoustic modems, min or h for
+        // gliders that hold their reports until they surface.
+        let largest_ms = injected
+            .iter()
+            .flat_map(|(_, (_, v))| v.iter().copied())
+            .fold(0.0, f64::max);
+        let unit = TimeUnit::for_magnitude(largest_ms * 1e-3);
         let mut p = Panel::new(
             "Injected link delay (link model): cumulative distribution",
             Axis {
-                label: "injected delay (ms of mission time)".into(),
+                label: unit.axis_label("injected delay, mission time"),
+                time: Some(unit),
                 ..Axis::default()
             },
             Axis {
@@ -854,8 +897,9 @@ fn write_plots(dir: &RunDir, report: &Report, d: &Distributions) -> Result<()> {
             },
         );
         for (i, (hop, v)) in injected {
+            let in_unit: Vec<f64> = v.iter().map(|ms| unit.of(ms * 1e-3)).collect();
             p.series
-                .push(Series::line(hop, cdf_points(v, 1500), hop_colour(i)));
+                .push(Series::line(hop, cdf_points(&in_unit, 1500), hop_colour(i)));
         }
         panels.push(p);
     }

@@ -6,6 +6,7 @@
 //! - [`progress`]: the progress bar of `vbap run`.
 //! - [`replay`], [`batch`], [`bench`], [`report_plots`]: study a run, many runs, the speed.
 //! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).
+//! - [`truth_plots`]: the contact timeline and the true formation in the run's pictures.
 //! - [`cli`]: the command line.
 //! - [`lock`]: one supervisor per mission name on a host.
 
@@ -20,3 +21,4 @@ pub mod replay;
 pub mod report_plots;
 pub mod sim;
 pub mod supervise;
+pub mod truth_plots;

@@ -1,21 +1,27 @@
 //! Time-series plots of a run directory, and the small SVG chart writer they (and
 //! `vbap analyze`'s plots) are drawn with.
 //!
-//! [`write_run_plots`] reads `body.csv`, `events.jsonl` and the resolved `mission.toml` and
-//! writes two figures, each a stack of panels on one time axis, with the events of
-//! `events.jsonl` (vehicle lost, rejoined, formation reconfigured, faults, holding,
-//! converged) drawn as coloured dashed vertical lines:
-//! - `timeseries_formation.svg`: V/V_U (Theorem 4.1), the body speed ṡ against v₀, the
-//!   formation scale k, the vehicles in the formation;
+//! [`write_run_plots`] reads `body.csv`, `events.jsonl` and the resolved `mission.toml`
+//! (and, when the run has them, the truth files `formation.csv` and `truth.csv`, through
+//! [`crate::truth_plots`]) and writes two figures, each a stack of panels on one time axis
+//! in s, min, h or days by the run's length, with the events of `events.jsonl` (vehicle
+//! lost, rejoined, formation reconfigured or broken, faults, holding, stalls, near
+//! collisions, converged) drawn as coloured dashed vertical lines, and the contact timeline:
+//! - `timeseries_formation.svg`: V/V_U (Theorem 4.1; true and as the coordinator sees it
+//!   when `truth.csv` is there), the body speed ṡ against v₀, the formation scale k, each
+//!   vehicle's distance from its slot and the nearest pair ÷ spacing (truth files only),
+//!   the vehicles in the formation (members, alive, truly in formation);
 //! - `timeseries_estimate.svg`: the gradient-estimate error ‖∇T_est − ∇T‖ against the true
 //!   ‖∇T‖, the trace of the Kalman covariance P, the distance of the body centre to the
-//!   optimum against the tolerance (log axes).
+//!   optimum against the tolerance (log axes);
+//! - `contact.svg` ([`crate::truth_plots::render_contact_svg`]), from `formation.csv` only.
 //!
 //! Long runs are decimated while streaming (minimum and maximum of each of ~1500 buckets,
 //! so spikes survive), so the files stay small whatever the number of ticks.
 //!
 //! The chart writer ([`Figure`], [`Panel`], [`Axis`], [`Series`]) writes plain SVG 1.1 by
-//! hand: linear or logarithmic axes with 1-2-5 ticks, clipped polylines, horizontal
+//! hand: linear or logarithmic axes with 1-2-5 ticks (time axes at steps of the clock),
+//! clipped polylines, horizontal
 //! reference lines, event markers and a legend column. Its output is deterministic (same
 //! input, same bytes) and renders the same in browsers and `rsvg-convert`.
 
@@ -28,7 +34,11 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use shared::config::Mission;
 use shared::math::Vec3;
+pub use shared::plot::style::PALETTE;
+use shared::plot::style::{self, TimeUnit};
 use shared::rundir::{Event, RunDir};
+
+use crate::truth_plots::{self, Formation, Truth};
 
 /// File name of the formation time series.
 pub const FORMATION_SVG: &str = "timeseries_formation.svg";
@@ -49,10 +59,34 @@ pub fn write_run_plots(dir: &RunDir) -> Result<()> {
         // A run stopped before its first tick: nothing to plot.
         return Ok(());
     }
-    let events = read_events(dir)?;
-    let (formation, estimate) = run_figures(&mission, &data, &events);
+    let events = shared::plot::read_events(&dir.events())
+        .with_context(|| format!("reading {}", dir.events().display()))?;
+    let unit = TimeUnit::for_span(data.last_t);
+    // The files of the truth metrics (absent in older runs: their panels are left out).
+    let t_range = (data.first_t, data.last_t + mission.mission.dt);
+    let formation_data = truth_plots::read_formation_or_warn(dir, &mission, t_range);
+    let truth = truth_plots::read_truth_or_warn(dir, &mission);
+    let (formation, estimate) = run_figures(
+        &mission,
+        &data,
+        &events,
+        formation_data.as_ref(),
+        truth.as_ref(),
+    );
     write_svg(&formation, &dir.root.join(FORMATION_SVG))?;
     write_svg(&estimate, &dir.root.join(ESTIMATE_SVG))?;
+    let contact = dir.root.join(truth_plots::CONTACT_SVG);
+    match formation_data {
+        Some(f) => {
+            let svg = truth_plots::render_contact_svg(&mission, &f, &events, unit);
+            std::fs::write(&contact, svg)
+                .with_context(|| format!("writing {}", contact.display()))?;
+        }
+        // An older run: no contact states recorded; no stale picture of another run either.
+        None => {
+            let _ = std::fs::remove_file(&contact);
+        }
+    }
     Ok(())
 }
 
@@ -167,89 +201,23 @@ impl RunSeries {
     }
 }
 
-/// Reads `events.jsonl` (absent: no events). Unparsable lines are skipped.
-fn read_events(dir: &RunDir) -> Result<Vec<Event>> {
-    let path = dir.events();
-    let Ok(file) = File::open(&path) else {
-        return Ok(Vec::new());
-    };
-    let mut out = Vec::new();
-    for line in BufReader::new(file).lines() {
-        let line = line.with_context(|| format!("reading {}", path.display()))?;
-        if let Ok(e) = serde_json::from_str::<Event>(&line) {
-            out.push(e);
-        }
-    }
-    Ok(out)
-}
-
-/// The time unit of a plot: seconds for short runs, minutes, hours or days for long ones.
-fn time_unit(last_t: f64) -> (&'static str, f64) {
-    if last_t <= 900.0 {
-        ("s", 1.0)
-    } else if last_t <= 3.0 * 3600.0 {
-        ("min", 60.0)
-    } else if last_t <= 4.0 * 86400.0 {
-        ("h", 3600.0)
-    } else {
-        ("days", 86400.0)
-    }
-}
-
-/// Colour, legend label and whether a kind of event is drawn.
-fn event_style(kind: &str) -> Option<(&'static str, &'static str)> {
-    Some(match kind {
-        "lost" => ("#d62728", "vehicle lost"),
-        "rejoin" => ("#2ca02c", "vehicle rejoined"),
-        "join" => ("#2ca02c", "vehicle joined"),
-        "reconfigured" => ("#9467bd", "formation redesigned"),
-        "fault" => ("#ff7f0e", "fault applied"),
-        "holding" => ("#7f7f7f", "holding (too few vehicles)"),
-        "resumed" => ("#bcbd22", "resumed"),
-        "converged" => ("#17becf", "converged (within tolerance)"),
-        "restart" | "restarted" => ("#8c564b", "process restarted"),
-        _ => return None,
-    })
-}
-
-/// Event markers: the kinds of [`event_style`] (per-message kinds like `link_drop` are too
-/// many to draw), labelled with the vehicle and the fault kind when known.
-fn event_markers(events: &[Event], scale: f64) -> Vec<Marker> {
+/// Event markers: the kinds [`style::event_style`] draws (per-message kinds like
+/// `link_drop` are too many to draw, periodic ones like `surfaced` are in `contact.svg`),
+/// with the short labels of [`style::event_label`] ("kill 2", "lost 2", "redesign").
+pub(crate) fn event_markers(events: &[Event], unit: TimeUnit) -> Vec<Marker> {
     events
         .iter()
         .filter(|e| !(e.kind == "join" && e.k == 0))
         .filter_map(|e| {
-            let (colour, legend) = event_style(&e.kind)?;
-            // Short labels (the colour tells the kind): "kill 2", "lost 2", "redesign".
-            // The fault's kind: `detail.fault` (the supervisor's events) or `detail.kind`.
-            let fault = ["fault", "kind"]
-                .iter()
-                .find_map(|k| e.detail.get(*k).and_then(|v| v.as_str()));
-            let mut label = match (e.kind.as_str(), fault) {
-                ("fault", Some(kind)) => kind.to_string(),
-                ("reconfigured", _) => "redesign".to_string(),
-                (kind, _) => kind.to_string(),
-            };
-            if let Some(v) = e.vehicle {
-                label = format!("{label} {v}");
-            }
+            let st = style::event_style(&e.kind)?;
             Some(Marker {
-                x: e.t / scale,
-                label,
-                colour,
-                legend: legend.to_string(),
+                x: unit.of(e.t),
+                label: style::event_label(e),
+                colour: st.colour,
+                legend: st.legend.to_string(),
             })
         })
         .collect()
-}
-
-/// `v` rounded to `digits` significant digits, printed in the shortest form.
-fn round_sig(v: f64, digits: i32) -> f64 {
-    if v == 0.0 || !v.is_finite() {
-        return v;
-    }
-    let scale = 10f64.powi(digits - 1 - v.abs().log10().floor() as i32);
-    (v * scale).round() / scale
 }
 
 /// Splits `"T (°C)"` into the field's unit `"°C"`; `""` when there is none.
@@ -268,13 +236,20 @@ fn with_unit(what: &str, unit: &str) -> String {
     }
 }
 
-fn run_figures(mission: &Mission, s: &RunSeries, events: &[Event]) -> (Figure, Figure) {
+fn run_figures(
+    mission: &Mission,
+    s: &RunSeries,
+    events: &[Event],
+    formation_data: Option<&Formation>,
+    truth: Option<&Truth>,
+) -> (Figure, Figure) {
     let m = &mission.mission;
-    let (tu, tscale) = time_unit(s.last_t);
+    let unit = TimeUnit::for_span(s.last_t);
+    let tscale = unit.seconds;
     let rescale = |pts: &[(f64, f64)]| -> Vec<(f64, f64)> {
         pts.iter().map(|&(t, y)| (t / tscale, y)).collect()
     };
-    let markers = event_markers(events, tscale);
+    let markers = event_markers(events, unit);
     let len = m.length_unit.as_str();
     let funit = field_unit(&m.field_label);
     let grad_unit = match (funit.is_empty(), len.is_empty()) {
@@ -292,26 +267,37 @@ fn run_figures(mission: &Mission, s: &RunSeries, events: &[Event]) -> (Figure, F
     let t_range = Some((s.first_t / tscale, (s.last_t + m.dt) / tscale));
     let time_axis = |label: bool| Axis {
         label: if label {
-            format!("mission time t ({tu})")
+            unit.axis_label("mission time t")
         } else {
             String::new()
         },
         range: t_range,
+        time: Some(unit),
         ..Axis::default()
     };
     let converged = events
         .iter()
         .find(|e| e.kind == "converged")
-        .map(|e| format!("converged at t = {} {tu}", round_sig(e.t / tscale, 5)))
+        .map(|e| format!("converged at t = {}", unit.fmt(e.t)))
         .unwrap_or_else(|| "not converged".into());
+    let max_v = match truth {
+        Some(tr) => format!(
+            "max V/V_{{U}} true {}, seen {}",
+            style::fmt_significant(tr.max_v_true, 3, 3),
+            style::fmt_significant(tr.max_v_seen, 3, 3)
+        ),
+        None => format!("max V/V_{{U}} = {:.3}", s.max_v_over_vu),
+    };
     let subtitle = format!(
-        "{} vehicles, {} ticks of {} s · max V/V_{{U}} = {:.3} · {converged}",
-        mission.vehicles.count, s.rows, m.dt, s.max_v_over_vu
+        "{} vehicles, {} ticks of {} over {} · {max_v} · {converged}",
+        mission.vehicles.count,
+        s.rows,
+        style::fmt_duration(m.dt),
+        unit.fmt(s.last_t + m.dt - s.first_t),
     );
     let title = |what: &str| format!("{} (seed {}): {what}", m.name, m.seed);
 
     // --- formation and speed
-    let v_bound_shown = s.max_v_over_vu >= 0.25;
     let mut v_panel = Panel::new(
         "Lyapunov function of the formation (Theorem 4.1 keeps V ≤ V_{U})",
         time_axis(false),
@@ -321,12 +307,41 @@ fn run_figures(mission: &Mission, s: &RunSeries, events: &[Event]) -> (Figure, F
             ..Axis::default()
         },
     );
-    v_panel.series.push(Series::line(
-        "V / V_{U}",
-        rescale(&s.v_over_vu.points()),
-        PALETTE[0],
-    ));
-    if v_bound_shown {
+    let max_v_shown = match truth {
+        Some(tr) => {
+            v_panel.title =
+                "Lyapunov function V of (II.2), true and as the coordinator sees it (Theorem 4.1 keeps V ≤ V_{U})"
+                    .into();
+            v_panel.series.push(Series::line(
+                "true (vehicles' true states)",
+                rescale(&tr.v_true.points()),
+                PALETTE[0],
+            ));
+            v_panel.series.push(Series {
+                dashed: true,
+                ..Series::line(
+                    "seen (coordinator's view)",
+                    rescale(&tr.v_seen.points()),
+                    PALETTE[1],
+                )
+            });
+            tr.max_v_true.max(tr.max_v_seen)
+        }
+        None => {
+            v_panel.series.push(Series::line(
+                "V / V_{U}",
+                rescale(&s.v_over_vu.points()),
+                PALETTE[0],
+            ));
+            s.max_v_over_vu
+        }
+    };
+    // Far above the bound (a broken formation): a log axis keeps the bound readable.
+    if max_v_shown > 20.0 {
+        v_panel.y.log = true;
+        v_panel.y.from_zero = false;
+    }
+    if max_v_shown >= 0.25 {
         v_panel.hlines.push(RefLine {
             y: 1.0,
             label: "bound V = V_{U}".into(),
@@ -335,7 +350,7 @@ fn run_figures(mission: &Mission, s: &RunSeries, events: &[Event]) -> (Figure, F
     } else {
         v_panel.notes.push(format!(
             "the bound V = V_{{U}} is off scale (max V/V_{{U}} = {:.3})",
-            s.max_v_over_vu
+            max_v_shown
         ));
     }
     let mut sdot_panel = Panel::new(
@@ -381,15 +396,43 @@ fn run_figures(mission: &Mission, s: &RunSeries, events: &[Event]) -> (Figure, F
     n_panel.series.push(Series {
         step: true,
         ..Series::line(
-            "vehicles in the formation",
+            if truth.is_some() {
+                "members (coordinator's design)"
+            } else {
+                "vehicles in the formation"
+            },
             rescale(&s.vehicles.points()),
             PALETTE[4],
         )
     });
+    if let Some(tr) = truth {
+        n_panel.title = "Vehicles: members of the design, alive, truly in formation".into();
+        n_panel.series.push(Series {
+            step: true,
+            dashed: true,
+            ..Series::line("alive", rescale(&tr.n_alive.points()), "#555555")
+        });
+        n_panel.series.push(Series {
+            step: true,
+            ..Series::line(
+                "in formation (true slot error)",
+                rescale(&tr.n_in_formation.points()),
+                PALETTE[2],
+            )
+        });
+    }
+    let mut panels = vec![v_panel, sdot_panel, k_panel];
+    if let Some(f) = formation_data {
+        panels.push(truth_plots::slot_error_panel(f, truth, time_axis(false)));
+    }
+    if let Some(tr) = truth {
+        panels.push(truth_plots::nearest_pair_panel(tr, time_axis(false)));
+    }
+    panels.push(n_panel);
     let mut formation = Figure {
         title: title("formation and speed"),
         subtitle: subtitle.clone(),
-        panels: vec![v_panel, sdot_panel, k_panel, n_panel],
+        panels,
     };
 
     // --- estimate
@@ -459,7 +502,7 @@ fn run_figures(mission: &Mission, s: &RunSeries, events: &[Event]) -> (Figure, F
         panels: [
             Some(g_panel),
             Some(p_panel),
-            drops_panel(events, s, m.dt, tscale, tu),
+            drops_panel(events, s, m.dt, unit),
             Some(d_panel),
         ]
         .into_iter()
@@ -476,7 +519,8 @@ fn run_figures(mission: &Mission, s: &RunSeries, events: &[Event]) -> (Figure, F
 
 /// Messages the link model dropped (`link_drop` events), as a rate per bucket of time;
 /// `None` when there were none.
-fn drops_panel(events: &[Event], s: &RunSeries, dt: f64, tscale: f64, tu: &str) -> Option<Panel> {
+fn drops_panel(events: &[Event], s: &RunSeries, dt: f64, unit: TimeUnit) -> Option<Panel> {
+    let tscale = unit.seconds;
     let drops: Vec<f64> = events
         .iter()
         .filter(|e| e.kind == "link_drop")
@@ -506,6 +550,7 @@ fn drops_panel(events: &[Event], s: &RunSeries, dt: f64, tscale: f64, tu: &str) 
         "Messages dropped by the link model (link_drop events)",
         Axis {
             range: Some((s.first_t / tscale, (s.last_t + dt) / tscale)),
+            time: Some(unit),
             ..Axis::default()
         },
         Axis {
@@ -517,11 +562,7 @@ fn drops_panel(events: &[Event], s: &RunSeries, dt: f64, tscale: f64, tu: &str) 
     p.series.push(Series {
         step: true,
         ..Series::line(
-            &format!(
-                "{} drops, rate per {} {tu}",
-                drops.len(),
-                round_sig(width / tscale, 3)
-            ),
+            &format!("{} drops, rate per {}", drops.len(), unit.fmt(width)),
             points,
             PALETTE[5],
         )
@@ -550,6 +591,13 @@ impl Decimator {
             ..Self::default()
         }
     }
+    /// A decimator with buckets of `bucket` samples.
+    pub fn with_bucket(bucket: u64) -> Self {
+        Self {
+            bucket,
+            ..Self::default()
+        }
+    }
     /// Adds a sample (non-finite samples are kept: they break the line).
     pub fn push(&mut self, x: f64, y: f64) {
         self.cur.push((x, y));
@@ -567,8 +615,11 @@ impl Decimator {
         }
         let first = 0;
         let last = self.cur.len() - 1;
-        let mut lo = first;
-        let mut hi = first;
+        // Extremes among the finite values; the first gap (non-finite value) is kept too,
+        // so a line broken inside the bucket stays broken.
+        let finite = |i: &usize| self.cur[*i].1.is_finite();
+        let mut lo = (0..self.cur.len()).find(finite).unwrap_or(first);
+        let mut hi = lo;
         for (i, p) in self.cur.iter().enumerate() {
             if p.1 < self.cur[lo].1 {
                 lo = i;
@@ -577,7 +628,8 @@ impl Decimator {
                 hi = i;
             }
         }
-        let mut keep: Vec<usize> = vec![first, lo, hi, last];
+        let gap = (0..self.cur.len()).find(|i| !finite(i)).unwrap_or(first);
+        let mut keep: Vec<usize> = vec![first, lo, hi, gap, last];
         keep.sort_unstable();
         keep.dedup();
         for i in keep {
@@ -596,19 +648,13 @@ impl Decimator {
 // ---------------------------------------------------------------------------------------------
 // The SVG chart writer.
 
-/// Series colours (Tableau 10, as in plot.svg).
-pub const PALETTE: [&str; 10] = [
-    "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
-    "#bcbd22", "#17becf",
-];
-
-const WIDTH: f64 = 1200.0;
-const MARGIN_LEFT: f64 = 100.0;
+pub(crate) const WIDTH: f64 = 1200.0;
+pub(crate) const MARGIN_LEFT: f64 = 100.0;
 const LEGEND_W: f64 = 280.0;
-const PLOT_W: f64 = WIDTH - MARGIN_LEFT - LEGEND_W - 25.0;
+pub(crate) const PLOT_W: f64 = WIDTH - MARGIN_LEFT - LEGEND_W - 25.0;
 const PANEL_TITLE_H: f64 = 30.0;
 const PLOT_H: f64 = 200.0;
-const FONT: &str = "DejaVu Sans, Verdana, Arial, sans-serif";
+pub(crate) const FONT: &str = "DejaVu Sans, Verdana, Arial, sans-serif";
 
 /// A figure: a title and panels stacked vertically.
 #[derive(Clone, Debug, Default)]
@@ -665,6 +711,8 @@ pub struct Axis {
     pub from_zero: bool,
     /// Integer ticks only.
     pub integer: bool,
+    /// A time axis in this unit: ticks at steps of the clock (every 6 h, 15 min, ...).
+    pub time: Option<TimeUnit>,
 }
 
 /// A line of data.
@@ -724,7 +772,7 @@ pub fn write_svg(fig: &Figure, path: &Path) -> Result<()> {
 }
 
 /// Escapes text for SVG.
-fn esc(s: &str) -> String {
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -732,7 +780,7 @@ fn esc(s: &str) -> String {
 }
 
 /// Text with `_{sub}` / `^{sup}` turned into shifted, smaller tspans.
-fn rich(s: &str, size: f64) -> String {
+pub(crate) fn rich(s: &str, size: f64) -> String {
     let mut out = String::new();
     let mut rest = s;
     let shift = (size * 0.3).round();
@@ -766,49 +814,25 @@ fn rich(s: &str, size: f64) -> String {
 }
 
 /// Approximate rendered width of `s` at font size `size`, px.
-fn text_width(s: &str, size: f64) -> f64 {
+pub(crate) fn text_width(s: &str, size: f64) -> f64 {
     let plain: String = s.replace("_{", "").replace("^{", "").replace('}', "");
     plain.chars().count() as f64 * size * 0.58
 }
 
-/// Number formatting for tick labels with step `step`.
-fn fmt_tick(v: f64, step: f64) -> String {
-    if v == 0.0 {
-        return "0".into();
-    }
-    let a = v.abs();
-    if !(1e-4..1e6).contains(&a) {
-        return format!("{v:.1e}").replace(".0e", "e");
-    }
-    let decimals = if step >= 1.0 {
-        // A step of 2.5 needs one decimal (2.5, 7.5, ...).
-        usize::from(step.fract().abs() > 1e-9)
-    } else {
-        (-step.log10() - 1e-9).ceil().max(0.0) as usize + usize::from(is_25(step))
-    };
-    let s = format!("{v:.decimals$}");
-    if s.starts_with('-') && s.trim_start_matches(['-', '0', '.']).is_empty() {
-        "0".into()
-    } else {
-        s
-    }
-}
-
-fn is_25(step: f64) -> bool {
-    let m = step / 10f64.powf(step.log10().floor());
-    (m - 2.5).abs() < 1e-6
-}
-
-/// "Nice" linear ticks covering [lo, hi], about `target` of them.
-fn linear_ticks(lo: f64, hi: f64, target: usize, integer: bool) -> (Vec<f64>, f64) {
+/// "Nice" linear ticks covering [lo, hi], about `target` of them (on a time axis, at steps
+/// of the clock).
+pub(crate) fn linear_ticks(
+    lo: f64,
+    hi: f64,
+    target: usize,
+    integer: bool,
+    time: Option<TimeUnit>,
+) -> (Vec<f64>, f64) {
     let span = (hi - lo).max(f64::MIN_POSITIVE);
-    let raw = span / target.max(1) as f64;
-    let mag = 10f64.powf(raw.log10().floor());
-    let mut step = [1.0, 2.0, 2.5, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| *s >= raw)
-        .unwrap_or(10.0 * mag);
+    let mut step = match time {
+        Some(unit) => unit.tick_step(span, target),
+        None => style::nice_step(span / target.max(1) as f64),
+    };
     if integer {
         step = step.max(1.0).round();
     }
@@ -929,9 +953,7 @@ fn axis_range(axis: &Axis, values: impl Iterator<Item = f64>) -> Option<(f64, f6
 /// Renders `fig` to an SVG document.
 pub fn render_svg(fig: &Figure) -> String {
     let head_h = if fig.subtitle.is_empty() { 48.0 } else { 70.0 };
-    let panel_h = |p: &Panel| {
-        PANEL_TITLE_H + PLOT_H + 28.0 + if p.x.label.is_empty() { 0.0 } else { 24.0 } + 12.0
-    };
+    let panel_h = panel_height;
     let height = head_h + fig.panels.iter().map(panel_h).sum::<f64>() + 10.0;
     let mut svg = String::new();
     let _ = writeln!(
@@ -965,7 +987,20 @@ pub fn render_svg(fig: &Figure) -> String {
     svg
 }
 
-fn render_panel(svg: &mut String, p: &Panel, index: usize, top: f64, label_markers: bool) {
+/// Height of a panel in the figure, px.
+pub(crate) fn panel_height(p: &Panel) -> f64 {
+    PANEL_TITLE_H + PLOT_H + 28.0 + if p.x.label.is_empty() { 0.0 } else { 24.0 } + 12.0
+}
+
+/// Draws panel `p` (the `index`-th of its figure) with its top at `top` px; event labels
+/// only when `label_markers`.
+pub(crate) fn render_panel(
+    svg: &mut String,
+    p: &Panel,
+    index: usize,
+    top: f64,
+    label_markers: bool,
+) {
     let x0 = MARGIN_LEFT;
     let x1 = MARGIN_LEFT + PLOT_W;
     let y0 = top + PANEL_TITLE_H;
@@ -1047,9 +1082,9 @@ fn render_panel(svg: &mut String, p: &Panel, index: usize, top: f64, label_marke
     for (horizontal, axis, scale) in [(false, &p.x, &xs), (true, &p.y, &ys)] {
         if axis.log && scale.hi / scale.lo < 10.0 {
             // Less than a decade: nice linear values, placed on the log scale.
-            let (ticks, step) = linear_ticks(scale.lo, scale.hi, 5, axis.integer);
+            let (ticks, step) = linear_ticks(scale.lo, scale.hi, 5, axis.integer, None);
             for v in ticks.into_iter().filter(|v| *v > 0.0) {
-                grid(svg, horizontal, v, Some(fmt_tick(v, step)), true);
+                grid(svg, horizontal, v, Some(style::fmt_tick(v, step)), true);
             }
         } else if axis.log {
             for (v, labelled) in log_ticks(scale.lo, scale.hi) {
@@ -1057,9 +1092,9 @@ fn render_panel(svg: &mut String, p: &Panel, index: usize, top: f64, label_marke
             }
         } else {
             let target = if horizontal { 5 } else { 10 };
-            let (ticks, step) = linear_ticks(scale.lo, scale.hi, target, axis.integer);
+            let (ticks, step) = linear_ticks(scale.lo, scale.hi, target, axis.integer, axis.time);
             for v in ticks {
-                grid(svg, horizontal, v, Some(fmt_tick(v, step)), true);
+                grid(svg, horizontal, v, Some(style::fmt_tick(v, step)), true);
             }
         }
     }
@@ -1329,12 +1364,16 @@ mod tests {
 
     #[test]
     fn ticks_are_nice() {
-        let (t, step) = linear_ticks(0.0, 1.04, 5, false);
+        let (t, step) = linear_ticks(0.0, 1.04, 5, false, None);
         assert_eq!(step, 0.25);
         assert_eq!(t, vec![0.0, 0.25, 0.5, 0.75, 1.0]);
-        assert_eq!(fmt_tick(0.25, step), "0.25");
-        let (t, _) = linear_ticks(0.0, 4.4, 5, true);
+        assert_eq!(style::fmt_tick(0.25, step), "0.25");
+        let (t, _) = linear_ticks(0.0, 4.4, 5, true, None);
         assert_eq!(t, vec![0.0, 1.0, 2.0, 3.0, 4.0]);
+        // A 36 h mission: a tick every 6 h.
+        let (t, step) = linear_ticks(0.0, 36.0, 10, false, Some(TimeUnit::H));
+        assert_eq!(step, 6.0);
+        assert_eq!(t, vec![0.0, 6.0, 12.0, 18.0, 24.0, 30.0, 36.0]);
         let lt: Vec<f64> = log_ticks(0.003, 20.0)
             .into_iter()
             .filter(|(_, l)| *l)
@@ -1459,6 +1498,127 @@ mod tests {
             formation.contains(">bound V = V<tspan"),
             "bound drawn when V is near it"
         );
+        if std::env::var_os("VBAP_KEEP_TEST_PLOTS").is_some() {
+            eprintln!("kept {}", root.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&root);
+        }
+    }
+
+    /// Writes `formation.csv` and `truth.csv` for `ticks` ticks of 0.05 s and 3 vehicles:
+    /// each surfaces for a quarter of every 10 s (staggered), vehicle 2 is dead from 40 % to
+    /// 60 % of the run then rejoining for a tick, vehicle 1's link is down from 10 % to 20 %.
+    fn synthetic_truth(dir: &RunDir, ticks: u64) {
+        let mut f =
+            String::from("t,k,id,contact,info_age_s,slot_error,nearest_ratio,in_formation\n");
+        let mut tr = String::from("t,k,V_true_over_VU,V_seen_over_VU,min_pair_ratio,max_slot_error,n_alive,n_in_formation,sdot_over_v0\n");
+        let mut age = [None::<f64>; 3];
+        for k in 0..ticks {
+            let t = k as f64 * 0.05;
+            let frac = k as f64 / ticks as f64;
+            let mut alive = 0;
+            for (id, a) in age.iter_mut().enumerate() {
+                let surfaced = ((t / 10.0 + id as f64 / 3.0) % 1.0) < 0.25;
+                let state = if id == 2 && (0.4..0.6).contains(&frac) {
+                    "dead"
+                } else if id == 2 && frac >= 0.6 && *a == Some(-1.0) {
+                    "rejoining"
+                } else if id == 1 && (0.1..0.2).contains(&frac) {
+                    "link_down"
+                } else if surfaced {
+                    "surfaced"
+                } else {
+                    "submerged"
+                };
+                if state == "dead" {
+                    *a = Some(-1.0);
+                    f.push_str(&format!("{t},{k},{id},dead,,,,0\n"));
+                    continue;
+                }
+                alive += 1;
+                *a = match (*a, state) {
+                    (_, "surfaced" | "rejoining") => Some(0.2),
+                    (Some(x), _) if x >= 0.0 => Some(x + 0.05),
+                    _ => None,
+                };
+                let age_s = a.map(|x| x.to_string()).unwrap_or_default();
+                f.push_str(&format!("{t},{k},{id},{state},{age_s},0.1,0.9,1\n"));
+            }
+            tr.push_str(&format!(
+                "{t},{k},{},{},0.9,0.1,{alive},{alive},1\n",
+                2.0 * frac,
+                frac
+            ));
+        }
+        std::fs::write(dir.root.join(crate::truth_plots::FORMATION_CSV), f).unwrap();
+        std::fs::write(dir.root.join(crate::truth_plots::TRUTH_CSV), tr).unwrap();
+        let s = r#"{"formation": {"in_formation_ratio": 0.5, "near_collision_ratio": 0.1}}"#;
+        std::fs::write(dir.summary(), s).unwrap();
+    }
+
+    #[test]
+    fn run_plots_draw_the_truth_when_present_and_leave_it_out_when_absent() {
+        let root = std::env::temp_dir().join(format!("vbap-plots-truth-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = synthetic_run(&root, 4000);
+        // An older run: no truth files, no contact.svg, no error.
+        write_run_plots(&dir).unwrap();
+        assert!(!root.join(crate::truth_plots::CONTACT_SVG).exists());
+        let old = std::fs::read_to_string(root.join(FORMATION_SVG)).unwrap();
+        assert!(!old.contains("slot error"));
+
+        synthetic_truth(&dir, 4000);
+        write_run_plots(&dir).unwrap();
+        let contact = std::fs::read_to_string(root.join(crate::truth_plots::CONTACT_SVG)).unwrap();
+        assert!(contact.starts_with("<svg") && contact.trim_end().ends_with("</svg>"));
+        assert_eq!(contact.matches("<svg").count(), 1);
+        assert_eq!(contact.matches("</svg>").count(), 1);
+        for id in 0..3 {
+            assert_eq!(
+                contact.matches(&format!(">vehicle {id}</text>")).count(),
+                1,
+                "one row label for vehicle {id}"
+            );
+        }
+        for state in [
+            "surfaced (can talk)",
+            "submerged (cannot talk)",
+            "link down (fault)",
+            "dead / lost",
+            "rejoining",
+        ] {
+            assert!(contact.contains(state), "legend: {state}");
+        }
+        assert!(contact.contains("report delivered"));
+        // 200 s: seconds; the rejoin, the kill and the redesign of the synthetic events.
+        assert!(contact.contains("mission time t (s)"));
+        assert!(
+            contact.contains("kill 2 at 40 s"),
+            "vehicle event on its row"
+        );
+        assert!(contact.contains(">redesign<"), "fleet event labelled");
+        assert!(contact.contains("fleet never stalled"));
+        assert!(contact.contains("surfacing period") || contact.contains("information age"));
+        let formation = std::fs::read_to_string(root.join(FORMATION_SVG)).unwrap();
+        for s in [
+            "true (vehicles",
+            "seen (coordinator",
+            "slot error ÷ spacing",
+            "in formation: ≤ 0.5",
+            "Nearest pair",
+            "near collision: &lt; 0.1",
+            "in formation (true slot error)",
+        ] {
+            assert!(
+                formation.contains(s),
+                "timeseries_formation.svg lacks {s:?}"
+            );
+        }
+        // Malformed truth is left out with a warning, never an error.
+        std::fs::write(root.join(crate::truth_plots::FORMATION_CSV), "t,k\n0,0\n").unwrap();
+        std::fs::write(root.join(crate::truth_plots::TRUTH_CSV), "t\n0\n").unwrap();
+        write_run_plots(&dir).unwrap();
+        assert!(!root.join(crate::truth_plots::CONTACT_SVG).exists());
         if std::env::var_os("VBAP_KEEP_TEST_PLOTS").is_some() {
             eprintln!("kept {}", root.display());
         } else {

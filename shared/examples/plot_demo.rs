@@ -44,6 +44,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .map(|&k| Snapshot {
             t: k as f64 * dt,
+            label: if k == n / 2 {
+                "lost 2, redesign".into()
+            } else {
+                String::new()
+            },
             positions: tracks.iter().map(|t| t.points[k]).collect(),
             centre: centre_at(k as f64 / (n - 1) as f64),
         })
@@ -134,6 +139,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         field_label: "f".into(),
         snapshots: vec![Snapshot {
             t: 12.5,
+            label: String::new(),
             positions: tracks.iter().map(|t| t.points[100]).collect(),
             centre: (0.0, 0.0),
         }],

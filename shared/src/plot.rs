@@ -11,8 +11,15 @@
 //! - each vehicle's track (start: hollow circle, end: filled dot), colour by vehicle id;
 //! - the virtual body's centre path (thick, dashed, black);
 //! - formation snapshots: closed polygons through the vehicles in angular order about the
-//!   centre, labelled with their time;
+//!   centre, labelled with their time (in s, min, h or days by the mission's length); the
+//!   snapshots taken at events (a vehicle lost, the formation broken, ...) are drawn in red
+//!   and labelled with the event too;
 //! - the optimum (star) and events (crosses with short labels).
+//!
+//! [`style`] holds what every figure of a run shares (palette, event colours and labels,
+//! tick steps, time units); the hand-written SVG plots of `vbap` use it too.
+
+pub mod style;
 
 use std::path::{Path, PathBuf};
 
@@ -20,6 +27,9 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use crate::rundir::Event;
+use style::{nice_step, TimeUnit};
 
 /// One vehicle's planar track: positions (x, y) in the mission's length unit, in time order.
 #[derive(Debug, Clone, PartialEq)]
@@ -34,8 +44,11 @@ pub struct Track {
 /// The formation at one instant, drawn as a closed polygon.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Snapshot {
-    /// Mission time of the snapshot (s, or non-dimensional when the plot's length unit is "").
+    /// Mission time of the snapshot, s.
     pub t: f64,
+    /// The events this snapshot was taken at ("lost 2, redesign"); empty for the evenly
+    /// spaced ones. An event snapshot is drawn in red with this label after its time.
+    pub label: String,
     /// Vehicle positions (x, y); any order (they are joined in angular order about `centre`).
     pub positions: Vec<(f64, f64)>,
     /// Virtual-body centre r (x, y) at `t`.
@@ -161,19 +174,17 @@ const SIMPLIFY_PX: f64 = 0.4;
 /// Most contour-line points drawn (about 8 bytes of SVG each); a rougher field gets no lines.
 const CONTOUR_POINT_BUDGET: usize = 40_000;
 
-/// Qualitative palette (Tableau 10) for tracks and series.
-const PALETTE: [RGBColor; 10] = [
-    RGBColor(0x1f, 0x77, 0xb4),
-    RGBColor(0xff, 0x7f, 0x0e),
-    RGBColor(0x2c, 0xa0, 0x2c),
-    RGBColor(0xd6, 0x27, 0x28),
-    RGBColor(0x94, 0x67, 0xbd),
-    RGBColor(0x8c, 0x56, 0x4b),
-    RGBColor(0xe3, 0x77, 0xc2),
-    RGBColor(0x7f, 0x7f, 0x7f),
-    RGBColor(0xbc, 0xbd, 0x22),
-    RGBColor(0x17, 0xbe, 0xcf),
-];
+/// Qualitative palette for tracks and series: [`style::PALETTE`] as plotters colours.
+const PALETTE: [RGBColor; 10] = {
+    let mut out = [RGBColor(0, 0, 0); 10];
+    let mut i = 0;
+    while i < out.len() {
+        let (r, g, b) = style::rgb(style::PALETTE[i]);
+        out[i] = RGBColor(r, g, b);
+        i += 1;
+    }
+    out
+};
 
 /// Viridis sampled at t = 0, 0.1, ..., 1 (linearly interpolated between).
 const VIRIDIS: [(u8, u8, u8); 11] = [
@@ -243,7 +254,9 @@ pub fn render_mission_svg(plot: &MissionPlot<'_>) -> Result<String, PlotError> {
             .draw()
             .map_err(draw_err)?;
 
-        // Formation snapshots (under the tracks).
+        // Formation snapshots (under the tracks), labelled in one time unit.
+        let time_unit =
+            TimeUnit::for_span(plot.snapshots.iter().map(|s| s.t.abs()).fold(0.0, f64::max));
         let mut placer = LabelPlacer::new(chart.plotting_area().get_pixel_range());
         for snap in &plot.snapshots {
             draw_snapshot(&mut chart, snap)?;
@@ -276,22 +289,23 @@ pub fn render_mission_svg(plot: &MissionPlot<'_>) -> Result<String, PlotError> {
             placer.block((c.0 - 7, c.1 - 7, c.0 + 7, c.1 + 7));
         }
         for snap in &plot.snapshots {
-            let top = snap
-                .positions
-                .iter()
-                .copied()
-                .chain(std::iter::once(snap.centre))
-                .map(to_px)
-                .min_by_key(|p| p.1)
-                .unwrap_or(to_px(snap.centre));
-            let unit = if plot.length_unit.is_empty() {
-                ""
-            } else {
-                " s"
-            };
-            let text = format!("t = {}{}", fmt_time(snap.t), unit);
-            let (x, _) = to_px(snap.centre);
-            placer.place_label(&root, &text, (x, top.1 - 6), 13.0, LabelSide::Above)?;
+            // Above or below the formation's core: a vehicle flung far away does not
+            // carry the label off with it.
+            let core = formation_core(snap);
+            let ys = core.iter().map(|&p| to_px(p).1);
+            let (top, bottom) = (ys.clone().min(), ys.max());
+            let mut text = format!("t = {}", time_unit.fmt(snap.t));
+            if !snap.label.is_empty() {
+                text = format!("{text}: {}", snap.label);
+            }
+            let (x, y) = to_px(snap.centre);
+            placer.place_label(
+                &root,
+                &text,
+                (x, top.unwrap_or(y) - 6),
+                13.0,
+                LabelSide::AboveOrBelow(bottom.unwrap_or(y) + 6),
+            )?;
         }
         for (x, y, label) in &plot.events {
             if !label.is_empty() {
@@ -460,6 +474,86 @@ pub fn render_timeseries_svg(
         root.present().map_err(draw_err)?;
     }
     Ok(svg)
+}
+
+/// Most formation snapshots `plot.svg` draws at events (besides the evenly spaced ones).
+pub const MAX_EVENT_SNAPSHOTS: usize = 6;
+
+/// The events of `events.jsonl` at `path`, in file order (no file: none; lines that are not
+/// an event, such as a partial last line of an interrupted run, are skipped).
+pub fn read_events(path: &Path) -> std::io::Result<Vec<Event>> {
+    use std::io::BufRead;
+    let file = match std::fs::File::open(path) {
+        Ok(f) => f,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(e),
+    };
+    let mut out = Vec::new();
+    for line in std::io::BufReader::new(file).lines() {
+        if let Ok(e) = serde_json::from_str::<Event>(&line?) {
+            out.push(e);
+        }
+    }
+    Ok(out)
+}
+
+/// The ticks at which the mission plot draws a formation snapshot for an event, each with its
+/// label, in tick order: events of the kinds of [`style::SNAPSHOT_EVENTS`] (a vehicle lost,
+/// the formation broken, a stall, a near collision, a rejoin, a redesign). Events less than
+/// `min_gap` ticks after the first of a group share its snapshot ("lost 2, redesign"). Of
+/// more than `max` groups, the first group of each kind is kept first (in the order of
+/// [`style::SNAPSHOT_EVENTS`]), then the others by that order and time.
+pub fn event_snapshots(events: &[Event], max: usize, min_gap: u64) -> Vec<(u64, String)> {
+    let priority = |kind: &str| style::SNAPSHOT_EVENTS.iter().position(|k| *k == kind);
+    let mut wanted: Vec<(u64, usize, String)> = events
+        .iter()
+        .filter_map(|e| priority(&e.kind).map(|p| (e.k, p, style::event_label(e))))
+        .collect();
+    wanted.sort_by_key(|w| w.0);
+    // Groups: (first tick, best priority, kinds seen, labels).
+    let mut groups: Vec<(u64, usize, Vec<usize>, Vec<String>)> = Vec::new();
+    for (k, p, label) in wanted {
+        match groups.last_mut() {
+            Some(g) if k < g.0 + min_gap.max(1) => {
+                g.1 = g.1.min(p);
+                g.2.push(p);
+                if !g.3.contains(&label) {
+                    g.3.push(label);
+                }
+            }
+            _ => groups.push((k, p, vec![p], vec![label])),
+        }
+    }
+    let mut chosen: Vec<usize> = Vec::new();
+    if groups.len() <= max {
+        chosen = (0..groups.len()).collect();
+    } else {
+        for p in 0..style::SNAPSHOT_EVENTS.len() {
+            if chosen.len() >= max {
+                break;
+            }
+            if let Some(i) = groups.iter().position(|g| g.2.contains(&p)) {
+                if !chosen.contains(&i) {
+                    chosen.push(i);
+                }
+            }
+        }
+        let mut rest: Vec<usize> = (0..groups.len()).filter(|i| !chosen.contains(i)).collect();
+        rest.sort_by_key(|&i| (groups[i].1, groups[i].0));
+        chosen.extend(rest.into_iter().take(max.saturating_sub(chosen.len())));
+        chosen.sort_unstable();
+    }
+    chosen
+        .into_iter()
+        .map(|i| {
+            let labels = &groups[i].3;
+            let mut label = labels.join(", ");
+            if label.chars().count() > 48 {
+                label = label.chars().take(47).collect::<String>() + "…";
+            }
+            (groups[i].0, label)
+        })
+        .collect()
 }
 
 /// Bounds covering every track, the body path, the snapshots, the optimum and the events, with
@@ -744,23 +838,6 @@ fn nice_levels(lo: f64, hi: f64, target: usize) -> Levels {
     Levels { base, step, n }
 }
 
-fn nice_step(raw: f64) -> f64 {
-    let mag = 10f64.powf(raw.log10().floor());
-    let f = raw / mag;
-    let m = if f <= 1.0 {
-        1.0
-    } else if f <= 2.0 {
-        2.0
-    } else if f <= 2.5 {
-        2.5
-    } else if f <= 5.0 {
-        5.0
-    } else {
-        10.0
-    };
-    m * mag
-}
-
 /// A filled field rectangle: two opposite corners (length unit) and its colour.
 type FieldRect = ((f64, f64), (f64, f64), RGBColor);
 
@@ -998,8 +1075,15 @@ fn track_colour(id: u32) -> RGBColor {
 }
 
 const SNAPSHOT: RGBColor = RGBColor(0x22, 0x22, 0x22);
+/// Colour of the snapshots taken at events.
+const EVENT_SNAPSHOT: RGBColor = RGBColor(0xb2, 0x18, 0x2b);
 
 fn draw_snapshot(chart: &mut Chart<'_, '_>, snap: &Snapshot) -> Result<(), PlotError> {
+    let colour = if snap.label.is_empty() {
+        SNAPSHOT
+    } else {
+        EVENT_SNAPSHOT
+    };
     let mut ring = angular_order(snap.centre, &snap.positions);
     if ring.len() >= 3 {
         chart
@@ -1016,7 +1100,7 @@ fn draw_snapshot(chart: &mut Chart<'_, '_>, snap: &Snapshot) -> Result<(), PlotE
         chart
             .draw_series(std::iter::once(PathElement::new(
                 ring.clone(),
-                SNAPSHOT.mix(0.85).stroke_width(2),
+                colour.mix(0.85).stroke_width(2),
             )))
             .map_err(draw_err)?;
     }
@@ -1024,17 +1108,32 @@ fn draw_snapshot(chart: &mut Chart<'_, '_>, snap: &Snapshot) -> Result<(), PlotE
         .draw_series(
             snap.positions
                 .iter()
-                .map(|&p| Circle::new(p, 3, SNAPSHOT.filled())),
+                .map(|&p| Circle::new(p, 3, colour.filled())),
         )
         .map_err(draw_err)?;
     chart
         .draw_series(std::iter::once(
             EmptyElement::at(snap.centre)
-                + PathElement::new(vec![(-5, 0), (5, 0)], SNAPSHOT.stroke_width(2))
-                + PathElement::new(vec![(0, -5), (0, 5)], SNAPSHOT.stroke_width(2)),
+                + PathElement::new(vec![(-5, 0), (5, 0)], colour.stroke_width(2))
+                + PathElement::new(vec![(0, -5), (0, 5)], colour.stroke_width(2)),
         ))
         .map_err(draw_err)?;
     Ok(())
+}
+
+/// The centre and the vehicles of a snapshot not more than 3 × the median distance from it
+/// (the vehicles flung far away left out).
+fn formation_core(snap: &Snapshot) -> Vec<(f64, f64)> {
+    let d = |p: &(f64, f64)| (p.0 - snap.centre.0).hypot(p.1 - snap.centre.1);
+    let mut dist: Vec<f64> = snap.positions.iter().map(d).collect();
+    dist.sort_by(|a, b| a.total_cmp(b));
+    let median = dist.get(dist.len() / 2).copied().unwrap_or(0.0);
+    snap.positions
+        .iter()
+        .copied()
+        .filter(|p| d(p) <= 3.0 * median)
+        .chain(std::iter::once(snap.centre))
+        .collect()
 }
 
 /// The points sorted by their angle about `centre` (atan2, from −π), ties by distance.
@@ -1197,8 +1296,14 @@ fn draw_mission_side(
     if plot.body_path.len() >= 2 {
         entries.push((LegendSymbol::DashedLine(BLACK), "virtual body".into()));
     }
-    if !plot.snapshots.is_empty() {
-        entries.push((LegendSymbol::Formation, "formation".into()));
+    if plot.snapshots.iter().any(|s| s.label.is_empty()) {
+        entries.push((LegendSymbol::Formation(SNAPSHOT), "formation".into()));
+    }
+    if plot.snapshots.iter().any(|s| !s.label.is_empty()) {
+        entries.push((
+            LegendSymbol::Formation(EVENT_SNAPSHOT),
+            "formation at an event".into(),
+        ));
     }
     if plot.optimum.is_some() {
         entries.push((LegendSymbol::Star, "optimum".into()));
@@ -1215,7 +1320,7 @@ enum LegendSymbol {
     Track(RGBColor),
     DashedLine(RGBColor),
     StartEnd,
-    Formation,
+    Formation(RGBColor),
     Star,
     Cross,
 }
@@ -1302,17 +1407,17 @@ fn draw_symbol(
             area.draw(&Circle::new((x + 27, y), 5, grey.filled()))
                 .map_err(draw_err)
         }
-        LegendSymbol::Formation => {
+        LegendSymbol::Formation(colour) => {
             let pts = vec![
                 (x + 4, y + 7),
                 (x + 17, y - 8),
                 (x + 30, y + 7),
                 (x + 4, y + 7),
             ];
-            area.draw(&PathElement::new(pts.clone(), SNAPSHOT.stroke_width(2)))
+            area.draw(&PathElement::new(pts.clone(), colour.stroke_width(2)))
                 .map_err(draw_err)?;
             for p in &pts[..3] {
-                area.draw(&Circle::new(*p, 3, SNAPSHOT.filled()))
+                area.draw(&Circle::new(*p, 3, colour.filled()))
                     .map_err(draw_err)?;
             }
             Ok(())
@@ -1332,8 +1437,9 @@ fn draw_symbol(
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum LabelSide {
-    /// Centred above the anchor, moving up when taken.
-    Above,
+    /// Centred above the anchor or below this y (px), moving away when taken, then around
+    /// the anchor.
+    AboveOrBelow(i32),
     /// Right of the anchor's vertical line, moving down when taken.
     Below,
     /// Any of the four diagonal positions, then further out.
@@ -1388,7 +1494,10 @@ impl LabelPlacer {
         let mut candidates: Vec<(i32, i32)> = Vec::new(); // top-left corners
         for step in 0..8 {
             match side {
-                LabelSide::Above => candidates.push((ax - w / 2, ay - h - step * (h + 2))),
+                LabelSide::AboveOrBelow(below) => candidates.extend([
+                    (ax - w / 2, ay - h - step * (h + 2)),
+                    (ax - w / 2, below + step * (h + 2)),
+                ]),
                 LabelSide::Below => candidates.push((ax + 3, ay + step * (h + 2))),
                 LabelSide::Around => {
                     let d = 8 + step * (h + 2);
@@ -1399,6 +1508,13 @@ impl LabelPlacer {
                         (ax - 8 - w, ay + d - 4),
                     ]);
                 }
+            }
+        }
+        // Slid sideways into the region where it is too wide for where it was.
+        let (left, right) = (self.region.0, self.region.2 - w);
+        for c in &mut candidates {
+            if right >= left {
+                c.0 = c.0.clamp(left, right);
             }
         }
         let mut best = candidates[0];
@@ -1541,14 +1657,6 @@ fn fmt_tick(v: f64, span: f64) -> String {
     s
 }
 
-fn fmt_time(t: f64) -> String {
-    if (t - t.round()).abs() < 1e-9 {
-        format!("{t:.0}")
-    } else {
-        format!("{t:.1}")
-    }
-}
-
 /// Douglas–Peucker simplification of a polyline, with the tolerance `tol_px` in pixels where a
 /// pixel is `px.0` × `px.1` length units; endpoints are kept. Consecutive duplicates go first.
 fn simplify_path(points: &[(f64, f64)], px: (f64, f64), tol_px: f64) -> Vec<(f64, f64)> {
@@ -1650,6 +1758,11 @@ mod tests {
             .iter()
             .map(|&k| Snapshot {
                 t: k as f64 * 0.5,
+                label: if k == n / 2 {
+                    "lost 2, redesign".into()
+                } else {
+                    String::new()
+                },
                 positions: tracks.iter().map(|t| t.points[k]).collect(),
                 centre: (30.0 - 60.0 * (1.0 - k as f64 / (n - 1) as f64), 20.0),
             })
@@ -1691,6 +1804,8 @@ mod tests {
             "y (m)",
             "vehicle 2 killed",
             "t = 0 s",
+            "formation at an event",
+            ": lost 2, redesign",
         ] {
             assert!(text.contains(label), "missing {label}");
         }
@@ -1749,7 +1864,7 @@ mod tests {
             "x label"
         );
         assert!(!svg.contains("x (m)"));
-        assert!(svg.contains("t = 0\n"));
+        assert!(svg.contains("t = 0 s"));
     }
 
     #[test]
@@ -2028,5 +2143,87 @@ mod tests {
         // A single flat point still plots.
         let one = vec![("a".to_string(), vec![(2.0, 3.0)])];
         assert!(render_timeseries_svg("t", "x", &one, "y", &[]).is_ok());
+    }
+
+    fn event(k: u64, kind: &str, vehicle: Option<u32>, detail: serde_json::Value) -> Event {
+        Event {
+            t: k as f64 * 10.0,
+            k,
+            kind: kind.into(),
+            vehicle,
+            detail,
+        }
+    }
+
+    #[test]
+    fn event_snapshots_group_coincident_events_and_keep_the_telling_ones() {
+        use serde_json::json;
+        let events = vec![
+            event(0, "join", Some(0), json!(null)),
+            event(100, "fault", Some(2), json!({"fault": "kill"})),
+            event(100, "lost", Some(2), json!({"cause": "scheduled kill"})),
+            event(101, "reconfigured", None, json!({"vehicles": [0, 1, 3]})),
+            event(150, "link_drop", Some(1), json!(null)),
+            event(400, "rejoin", Some(2), json!(null)),
+            event(401, "reconfigured", None, json!({"vehicles": [0, 1, 2, 3]})),
+        ];
+        let snaps = event_snapshots(&events, MAX_EVENT_SNAPSHOTS, 5);
+        assert_eq!(
+            snaps,
+            vec![
+                (100, "lost 2, redesign".to_string()),
+                (400, "rejoin 2, redesign".to_string())
+            ]
+        );
+        // Too many: the first of each kind, then by kind and time, shown in time order.
+        let mut many: Vec<Event> = (0..20)
+            .map(|i| event(1000 + 100 * i, "reconfigured", None, json!(null)))
+            .collect();
+        many.push(event(5000, "stall_began", None, json!({"why": "holding"})));
+        many.push(event(3000, "near_collision", None, json!({"pair": [1, 4]})));
+        many.push(event(4000, "lost", Some(3), json!(null)));
+        let snaps = event_snapshots(&many, 4, 5);
+        assert_eq!(snaps.len(), 4);
+        let labels: Vec<&str> = snaps.iter().map(|s| s.1.as_str()).collect();
+        assert_eq!(
+            labels,
+            vec![
+                "redesign",
+                "near collision 1–4",
+                "lost 3",
+                "stall (holding)"
+            ]
+        );
+        assert!(snaps.windows(2).all(|w| w[0].0 < w[1].0));
+        assert!(event_snapshots(&[], 6, 5).is_empty());
+    }
+
+    #[test]
+    fn long_missions_label_snapshots_in_hours() {
+        let mut plot = example(&gaussian, 50);
+        for (i, s) in plot.snapshots.iter_mut().enumerate() {
+            s.t = i as f64 * 64_800.0; // 0, 18 h, 36 h
+        }
+        let svg = render_mission_svg(&plot).unwrap();
+        assert!(svg.contains("t = 0 h"), "first snapshot");
+        assert!(svg.contains("t = 18 h: lost 2, redesign"), "event snapshot");
+        assert!(svg.contains("t = 36 h"), "last snapshot");
+        assert!(!svg.contains("129600"));
+    }
+
+    #[test]
+    fn read_events_skips_partial_lines_and_missing_files() {
+        let dir = TempDir::new("events");
+        let path = dir.0.join("events.jsonl");
+        assert!(read_events(&path).unwrap().is_empty());
+        std::fs::write(
+            &path,
+            "{\"t\":1,\"k\":10,\"kind\":\"lost\",\"vehicle\":2}\n{\"t\":2,\"k\":2",
+        )
+        .unwrap();
+        let ev = read_events(&path).unwrap();
+        assert_eq!(ev.len(), 1);
+        assert_eq!(ev[0].kind, "lost");
+        assert_eq!(ev[0].vehicle, Some(2));
     }
 }
