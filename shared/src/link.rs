@@ -364,7 +364,7 @@ mod tests {
         assert_eq!(m.contact(1, 134.0), Contact::Surfaced);
         assert_eq!(m.contact(1, 135.0), Contact::Submerged);
         let down = Mission::from_toml_str(
-            "[vehicles]\ncount = 4\n[[faults]]\nkind = \"link_down\"\nvehicle = 2\nat = 5.0\nuntil = 8.0",
+            "[mission]\nname = \"t\"\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 4\n[[faults]]\nkind = \"link_down\"\nvehicle = 2\nat = 5.0\nuntil = 8.0",
             "<test>",
         )
         .unwrap();
