@@ -353,7 +353,7 @@ fn time_series_plots_after_a_sim() {
         "Lyapunov function",
         "Speed of the virtual body",
         "Formation scale k",
-        "Vehicles in the formation",
+        "Vehicles: members of the design, alive, truly in formation",
         "mission time t (s)",
     ] {
         assert!(formation.contains(panel), "{panel}");

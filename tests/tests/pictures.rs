@@ -34,6 +34,8 @@ damping = 5.0
 [formation]
 alpha = 60.0
 radius = 1.2
+# Stiff on purpose; stable at its smallest scale (omega dt < 2).
+min_scale = 0.6
 
 [body]
 v_u = 10.0
@@ -106,37 +108,34 @@ fn sim_draws_event_snapshots_contact_timeline_and_readable_times() {
     }
     svg(&out, "timeseries_estimate.svg");
 
-    // The contact timeline is drawn from formation.csv, when the run has one: one row per
-    // vehicle, the states of this mission in the legend. Without it, no picture at all.
-    if out.join("formation.csv").exists() {
-        let contact = svg(&out, "contact.svg");
-        for id in 0..N {
-            assert_eq!(
-                contact.matches(&format!(">vehicle {id}</text>")).count(),
-                1,
-                "one row label for vehicle {id}"
-            );
-        }
-        for state in [
-            "surfaced (can talk)",
-            "submerged (cannot talk)",
-            "link down (fault)",
-            "dead / lost",
-            "report delivered",
-        ] {
-            assert!(
-                contact.contains(state),
-                "contact.svg legend lacks {state:?}"
-            );
-        }
-        assert!(contact.contains("mission time t (s)"));
-        assert!(formation.contains("slot error ÷ spacing"));
-    } else {
-        assert!(
-            !out.join("contact.svg").exists(),
-            "no contact states, no picture"
+    // The contact timeline is drawn from formation.csv: one row per vehicle, the states of
+    // this mission in the legend.
+    assert!(
+        out.join("formation.csv").exists(),
+        "vbap sim writes formation.csv"
+    );
+    let contact = svg(&out, "contact.svg");
+    for id in 0..N {
+        assert_eq!(
+            contact.matches(&format!(">vehicle {id}</text>")).count(),
+            1,
+            "one row label for vehicle {id}"
         );
     }
+    for state in [
+        "surfaced (can talk)",
+        "submerged (cannot talk)",
+        "link down (fault)",
+        "dead / lost",
+        "report delivered",
+    ] {
+        assert!(
+            contact.contains(state),
+            "contact.svg legend lacks {state:?}"
+        );
+    }
+    assert!(contact.contains("mission time t (s)"));
+    assert!(formation.contains("slot error ÷ spacing"));
 
     // `vbap analyze` on a simulator's run: no message records, exit 2, says what is missing,
     // writes no empty plot.
