@@ -9,8 +9,12 @@ use shared::math::kalman::GradientFilter;
 use shared::math::lyapunov::{lyapunov_terms, LyapunovTerms};
 use shared::math::optimal::optimal_scale;
 use shared::math::potential::PairPotential;
+use shared::math::rejoin::{
+    blended_lyapunov_terms, choose_slot, fitted_slots, homing_weight, waiting_factor, Homing,
+};
 use shared::math::speed::formation_speed;
 use shared::math::{Mat3, Vec3};
+use std::collections::BTreeMap;
 
 /// One vehicle's report for a tick, as the coordinator received it.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -112,6 +116,9 @@ pub struct Command {
     pub reconfigured: bool,
     /// Vehicles in the formation at this tick, ordered by id.
     pub members: Vec<u32>,
+    /// The members still rejoining at this tick and the slot each flies to (inertial,
+    /// length unit), ordered by id (`shared::math::rejoin`).
+    pub rejoining: Vec<(u32, Vec3)>,
 }
 
 /// Errors of the planner.
@@ -133,6 +140,14 @@ pub struct Planner {
     noise: NoiseEstimator,
     last_r: Vec3,
     reconfigurations: usize,
+    /// Members that joined after the start and are not yet in their slot: vehicle → its
+    /// slot in the body frame at scale 1 (None: to be chosen).
+    #[serde(default)]
+    rejoining: BTreeMap<u32, Option<Vec3>>,
+    /// Velocity of the body centre in the last command, length unit/s: the feed-forward
+    /// of the rejoining vehicles' homing as the planner models it.
+    #[serde(default = "Vec3::zeros")]
+    last_velocity: Vec3,
 }
 
 impl Planner {
@@ -164,6 +179,8 @@ impl Planner {
             noise,
             last_r: start,
             reconfigurations: 0,
+            rejoining: BTreeMap::new(),
+            last_velocity: Vec3::zeros(),
         })
     }
 
@@ -187,6 +204,58 @@ impl Planner {
     pub fn reconfigurations(&self) -> usize {
         self.reconfigurations
     }
+    /// The members still rejoining, with their slot in the body frame at scale 1.
+    pub fn rejoining(&self) -> &BTreeMap<u32, Option<Vec3>> {
+        &self.rejoining
+    }
+
+    /// Brings the rejoining members up to date at this tick (`shared::math::rejoin`):
+    /// every vehicle that became a member after the start rejoins until its last known
+    /// position is within the capture radius of its slot. Its slot is chosen once (when it
+    /// joins, or again when the formation is redesigned): the nearest free slot of the
+    /// design, turned to where the other members are for a 2-D central design; then it is
+    /// fixed in the body frame. Returns the slots (inertial), by id.
+    fn update_rejoining(
+        rejoining: &mut BTreeMap<u32, Option<Vec3>>,
+        design: &FormationDesign,
+        body: &VirtualBody,
+        members: &[Report],
+    ) -> Vec<(u32, Vec3)> {
+        if rejoining.is_empty() {
+            return Vec::new();
+        }
+        let spacing = body.scale * design.neighbour_spacing();
+        let settled: Vec<Vec3> = members
+            .iter()
+            .filter(|q| !rejoining.contains_key(&q.id))
+            .map(|q| q.position)
+            .collect();
+        let mut occupants = settled.clone();
+        occupants.extend(rejoining.values().flatten().map(|p| body.to_inertial(p)));
+        let slots = fitted_slots(design, body, &settled);
+        let mut targets = Vec::new();
+        for q in members {
+            let Some(slot) = rejoining.get_mut(&q.id) else {
+                continue;
+            };
+            if slot.is_none() {
+                let Some(m) = choose_slot(&slots, &occupants, &q.position, spacing) else {
+                    continue;
+                };
+                occupants.push(slots[m]);
+                *slot = Some(body.rotation.inverse() * (slots[m] - body.r) / body.scale);
+            }
+            let Some(bar) = slot else { continue };
+            let target = body.to_inertial(bar);
+            if homing_weight((q.position - target).norm(), spacing) == 0.0 {
+                // Captured: an ordinary member from now on.
+                rejoining.remove(&q.id);
+                continue;
+            }
+            targets.push((q.id, target));
+        }
+        targets
+    }
 
     /// One tick `k`. `members` holds the last known report of every vehicle in the
     /// formation, ordered by id (the formation, the Lyapunov function and the swarm
@@ -205,6 +274,17 @@ impl Planner {
         let ids: Vec<u32> = members.iter().map(|r| r.id).collect();
         let mut reconfigured = false;
         if ids != self.members {
+            // A vehicle that becomes a member after the start comes back from wherever it
+            // is: it rejoins. Every slot is chosen again in the new design.
+            for id in &ids {
+                if !self.members.contains(id) {
+                    self.rejoining.insert(*id, None);
+                }
+            }
+            self.rejoining.retain(|id, _| ids.contains(id));
+            for slot in self.rejoining.values_mut() {
+                *slot = None;
+            }
             if !members.is_empty() {
                 self.design = design_regular(ids.len(), dim, p.radius, p.alpha, p.alpha).map_err(
                     |source| PlannerError::Design {
@@ -220,6 +300,21 @@ impl Planner {
 
         let r = self.body.r;
         let holding = members.len() < dim + 1;
+        let rejoining =
+            Self::update_rejoining(&mut self.rejoining, &self.design, &self.body, members);
+        // A rejoining vehicle samples far from the formation the estimator's error model
+        // (V.6) assumes: its readings wait until it is in its slot.
+        let kept: Vec<Report>;
+        let fresh = if rejoining.is_empty() {
+            fresh
+        } else {
+            kept = fresh
+                .iter()
+                .filter(|q| !self.rejoining.contains_key(&q.id))
+                .copied()
+                .collect();
+            &kept[..]
+        };
 
         // Gradient estimate: least squares (Lemma 5.1) on the fresh readings, into the
         // Kalman filter (Lemma 5.4) with a time-varying C (Remark 5.8): every reading at its
@@ -312,18 +407,51 @@ impl Planner {
 
         let positions: Vec<Vec3> = members.iter().map(|q| q.position).collect();
         let velocities: Vec<Vec3> = members.iter().map(|q| q.velocity).collect();
-        let terms = lyapunov_terms(
-            &positions,
-            &velocities,
-            &self.body,
-            &rates,
-            &self.design,
-            p.damping,
-        );
+        let mut waiting = 1.0;
+        let terms = if rejoining.is_empty() {
+            lyapunov_terms(
+                &positions,
+                &velocities,
+                &self.body,
+                &rates,
+                &self.design,
+                p.damping,
+            )
+        } else {
+            // The vehicles rejoining fly the blended law: V, its rates and the power are
+            // those of that loop, and the body waits for them.
+            let spacing = self.body.scale * self.design.neighbour_spacing();
+            let homings: Vec<Option<(Homing, Vec3)>> = members
+                .iter()
+                .map(|q| {
+                    rejoining.iter().find(|(id, _)| *id == q.id).map(|(_, t)| {
+                        let h = Homing::towards(
+                            &q.position,
+                            t,
+                            spacing,
+                            &self.last_velocity,
+                            p.damping,
+                            p.v0,
+                        );
+                        (h, *t)
+                    })
+                })
+                .collect();
+            waiting = waiting_factor(&homings);
+            blended_lyapunov_terms(
+                &positions,
+                &velocities,
+                &homings,
+                &self.body,
+                &rates,
+                &self.design,
+                p.damping,
+            )
+        };
         let sdot = if holding {
             0.0
         } else {
-            formation_speed(&terms, p.v0, p.v_u, p.delta)
+            waiting * formation_speed(&terms, p.v0, p.v_u, p.delta)
         };
 
         let command = Command {
@@ -341,7 +469,9 @@ impl Planner {
             estimate_failed,
             reconfigured,
             members: ids,
+            rejoining,
         };
+        self.last_velocity = command.velocity;
         let mut next = self.body.advance(&rates, sdot * dt);
         next.scale = next.scale.clamp(p.min_scale, p.max_scale);
         if dim == 2 {

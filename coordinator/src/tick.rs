@@ -49,7 +49,7 @@ pub fn plan_tick(
     let command = planner.step(k, &members, &fresh, dt)?;
     recorder.inputs(k, &members, &fresh)?;
     recorder.tick(k, truth, &command)?;
-    let snapshot = fleet.snapshot(&members);
+    let snapshot = fleet.snapshot(&members, &command.rejoining);
     Ok(TickOutcome {
         fates,
         command,

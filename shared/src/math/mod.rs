@@ -4,7 +4,7 @@
 //! z component is zero and stays zero. Equation numbers refer to `shared/paper.md`.
 //!
 //! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`],
-//! [`lyapunov`], [`speed`].
+//! [`lyapunov`], [`speed`]; bringing a vehicle back from anywhere: [`rejoin`].
 //! Gradient estimation (Section V): [`estimate`], [`optimal`], [`kalman`], [`convergence`],
 //! [`adapt`].
 
@@ -18,6 +18,7 @@ pub mod kalman;
 pub mod lyapunov;
 pub mod optimal;
 pub mod potential;
+pub mod rejoin;
 pub mod speed;
 
 /// A point or vector in the inertial frame (length unit of the mission).
