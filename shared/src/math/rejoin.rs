@@ -49,9 +49,13 @@ use super::Vec3;
 
 /// Capture radius as a fraction of the neighbour spacing `k d̄0`: within it of its slot a
 /// vehicle flies pure (II.1) (`σ = 0`); the blend spans `[CAPTURE, 2 CAPTURE]` spacings.
-/// At a quarter spacing a vehicle is twice as close to its own slot as to any other, and
-/// the other vehicles' and leaders' forces there are those of the formation's own basin.
-pub const CAPTURE: f64 = 0.25;
+/// Small, because the hand-over costs energy: at `σ = 0` `V` counts the vehicle's true
+/// offset from its slot, about `½ κ e²` per potential of stiffness `κ ≈ α/d0²`, i.e. a
+/// few percent of a pair's plateau at a tenth of the spacing (so well under `V_U`, which
+/// the mission keeps below the plateaus); large enough that a vehicle lagging its slot as
+/// the body moves (`K ṙ/ω²`, a few percent of the spacing in a well-tuned mission) is
+/// still captured.
+pub const CAPTURE: f64 = 0.1;
 
 /// A slot is free for a rejoining vehicle when no member or slot already given to another
 /// lies within this fraction of the spacing of it ([`choose_slot`]).
@@ -410,7 +414,7 @@ mod tests {
 
     #[test]
     fn weight_is_zero_inside_one_outside_and_smooth() {
-        let s = 2.0;
+        let s = 0.5 / CAPTURE;
         assert_eq!(homing_weight(0.0, s), 0.0);
         assert_eq!(homing_weight(0.5, s), 0.0);
         assert_eq!(homing_weight(1.0, s), 1.0);
@@ -566,7 +570,8 @@ mod tests {
         } = scene();
         let spacing = body.scale * design.neighbour_spacing();
         let slots = body.slot_positions(&design);
-        x[3] = slots[3] + body.rotation * Vec3::new(0.35 * spacing, 0.1 * spacing, 0.0);
+        x[3] = slots[3]
+            + body.rotation * Vec3::new(1.4 * CAPTURE * spacing, 0.4 * CAPTURE * spacing, 0.0);
         let damping = 1.5;
         let h = Homing::towards(&x[3], &slots[3], spacing, &Vec3::zeros(), damping, 0.4);
         assert!(h.sigma > 0.0 && h.sigma < 1.0, "σ = {}", h.sigma);
