@@ -261,23 +261,29 @@ impl Planner {
     /// formation, ordered by id (the formation, the Lyapunov function and the swarm
     /// snapshot use them); `fresh` the reports delivered since the last tick, in delivery
     /// order, each with its own position and time (the estimator uses them: Remark 5.8).
-    /// With ideal links both are this tick's reports. `dt` is the tick length, s.
+    /// With ideal links both are this tick's reports. `joined` lists the vehicles admitted
+    /// back at this tick (members from now on, at their restore state, even when they were
+    /// lost at this very tick): each rejoins (`shared::math::rejoin`). `dt` is the tick
+    /// length, s.
     pub fn step(
         &mut self,
         k: u64,
         members: &[Report],
         fresh: &[Report],
+        joined: &[u32],
         dt: f64,
     ) -> Result<Command, PlannerError> {
         let p = &self.params;
         let dim = p.dim;
         let ids: Vec<u32> = members.iter().map(|r| r.id).collect();
         let mut reconfigured = false;
-        if ids != self.members {
-            // A vehicle that becomes a member after the start comes back from wherever it
-            // is: it rejoins. Every slot is chosen again in the new design.
+        let rejoined = joined.iter().any(|id| ids.contains(id));
+        if ids != self.members || rejoined {
+            // A vehicle that becomes a member after the start, or is admitted back (also
+            // when lost at this very tick), comes back from wherever it is: it rejoins.
+            // Every slot is chosen again.
             for id in &ids {
-                if !self.members.contains(id) {
+                if !self.members.contains(id) || joined.contains(id) {
                     self.rejoining.insert(*id, None);
                 }
             }
