@@ -10,7 +10,8 @@ use shared::math::lyapunov::{lyapunov_terms, LyapunovTerms};
 use shared::math::optimal::optimal_scale;
 use shared::math::potential::PairPotential;
 use shared::math::rejoin::{
-    blended_lyapunov_terms, choose_slot, fitted_slots, homing_weight, waiting_factor, Homing,
+    blended_lyapunov_terms, choose_slot, clearance, fitted_slots, homing_weight, is_central,
+    waiting_factor, Homing,
 };
 use shared::math::speed::formation_speed;
 use shared::math::{Mat3, Vec3};
@@ -233,18 +234,28 @@ impl Planner {
         let mut occupants = settled.clone();
         occupants.extend(rejoining.values().flatten().map(|p| body.to_inertial(p)));
         let slots = fitted_slots(design, body, &settled);
+        // Slots are given out nearest first: the vehicles closest to a slot choose first
+        // (ties by id), so a vehicle already in a slot keeps it.
+        let mut unassigned: Vec<(f64, u32, Vec3)> = members
+            .iter()
+            .filter(|q| rejoining.get(&q.id).is_some_and(|s| s.is_none()))
+            .map(|q| (clearance(&q.position, &slots), q.id, q.position))
+            .collect();
+        unassigned.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for (_, id, x) in unassigned {
+            if let Some(m) = choose_slot(&slots, &occupants, &x, spacing) {
+                occupants.push(slots[m]);
+                rejoining.insert(
+                    id,
+                    Some(body.rotation.inverse() * (slots[m] - body.r) / body.scale),
+                );
+            }
+        }
         let mut targets = Vec::new();
         for q in members {
-            let Some(slot) = rejoining.get_mut(&q.id) else {
+            let Some(slot) = rejoining.get(&q.id) else {
                 continue;
             };
-            if slot.is_none() {
-                let Some(m) = choose_slot(&slots, &occupants, &q.position, spacing) else {
-                    continue;
-                };
-                occupants.push(slots[m]);
-                *slot = Some(body.rotation.inverse() * (slots[m] - body.r) / body.scale);
-            }
             let Some(bar) = slot else { continue };
             let target = body.to_inertial(bar);
             if homing_weight((q.position - target).norm(), spacing) == 0.0 {
@@ -302,6 +313,15 @@ impl Planner {
             self.members = ids.clone();
             self.reconfigurations += 1;
             reconfigured = true;
+            if !self.rejoining.is_empty() && !is_central(&self.design) {
+                // A design with a leader group per slot holds each vehicle only near its
+                // own slot: when a vehicle comes back, the others (arranged for the old
+                // design) are given slots of the new one too; those already in one are
+                // captured at once and fly (II.1) as before.
+                for id in &ids {
+                    self.rejoining.insert(*id, None);
+                }
+            }
         }
 
         let r = self.body.r;

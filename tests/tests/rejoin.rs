@@ -322,3 +322,61 @@ fn the_glider_missions_example_fault_rejoins_and_converges() {
     assert!(o.max_v_after <= 1.0, "{o:?}");
     assert_body_moves(&run, 0.25, 20.0, "glider");
 }
+
+/// 3-D, five vehicles (a design with a leader group per slot): vehicle 2 is lost at 5 s
+/// (the four left form the central tetrahedron) and back at 60 s, far behind. On its
+/// return the others, arranged as a tetrahedron, are given slots of the five-vehicle
+/// design too (each nearest first); before, the returning vehicle stayed 17 lengths out
+/// and the body halted with V ≈ 5 V_U. Every vehicle ends on the design sphere (all five
+/// slots lie at `k·radius` from the centre) and the body keeps moving.
+#[test]
+fn in_3d_a_design_with_per_slot_leaders_takes_everyone_back_into_a_slot() {
+    let tmp = TempDir::new("rejoin_3d");
+    let shipped = read(&workspace().join("deploy/missions/quadratic3d.toml"));
+    let mut text = shipped
+        .replace("count = 4 ", "count = 5 ")
+        .replace("duration = 150.0 ", "duration = 250.0 ")
+        .replace(
+            "name = \"quadratic3d\"",
+            &format!("name = \"{}\"", unique_name("rj3")),
+        );
+    text.push_str(
+        "\n[restart]\nvehicles = \"on-failure\"\n\n[[faults]]\nkind = \"kill\"\nvehicle = 2\nat = 5.0\nuntil = 60.0\n",
+    );
+    let file = write_mission(&tmp, "q.toml", &text);
+    let out = tmp.join("sim");
+    vbap_quiet("sim", &file, &out);
+    let s = summary(&out);
+    assert_eq!(s["vehicles_rejoined"], 1, "{s}");
+    assert_eq!(s["converged"], true, "{s}");
+    let mission: toml::Value = toml::from_str(&read(&out.join("mission.toml"))).unwrap();
+    let v_u = mission["body"]["v_u"].as_float().unwrap();
+    let v0 = mission["body"]["v0"].as_float().unwrap();
+    let radius = mission["formation"]["radius"].as_float().unwrap();
+    let body = rows(&out.join("body.csv"));
+    let last = body.last().unwrap();
+    let k = last["k"];
+    let vehicles: Vec<BTreeMap<String, f64>> = rows(&out.join("vehicles.csv"))
+        .into_iter()
+        .filter(|r| r["k"] == k)
+        .collect();
+    assert_eq!(vehicles.len(), 5);
+    for r in &vehicles {
+        let d = ((r["x"] - last["rx"]).powi(2)
+            + (r["y"] - last["ry"]).powi(2)
+            + (r["z"] - last["rz"]).powi(2))
+        .sqrt();
+        let want = last["scale"] * radius;
+        assert!(
+            (d - want).abs() <= 0.05 * want,
+            "vehicle {} at {d} from the centre, slots at {want}",
+            r["id"]
+        );
+    }
+    let run = Run {
+        body,
+        vehicles: BTreeMap::new(),
+        summary: s,
+    };
+    assert_body_moves(&run, v0, v_u, "3-D");
+}
