@@ -324,6 +324,19 @@ impl Planner {
             }
         }
 
+        // A member out of every leader's reach (thrown out by a near-collision, or adrift
+        // with stale guidance) feels no force of (II.1) at all: it is brought back the way
+        // a returning vehicle is.
+        let leaders = self.body.leader_positions(&self.design);
+        let reach = self.body.scaled_leader(&self.design).d1;
+        for q in members {
+            if !self.rejoining.contains_key(&q.id)
+                && leaders.iter().all(|b| (q.position - b).norm() >= reach)
+            {
+                self.rejoining.insert(q.id, None);
+            }
+        }
+
         let r = self.body.r;
         let holding = members.len() < dim + 1;
         let rejoining =
