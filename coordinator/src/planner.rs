@@ -10,8 +10,8 @@ use shared::math::lyapunov::{lyapunov_terms, LyapunovTerms};
 use shared::math::optimal::optimal_scale;
 use shared::math::potential::PairPotential;
 use shared::math::rejoin::{
-    blended_lyapunov_terms, choose_slot, clearance, fitted_slots, homing_weight, is_central,
-    waiting_factor, Homing,
+    blended_lyapunov_terms, choose_slot, clearance, fit_turn, homing_weight, is_central,
+    turned_slots, waiting_factor, Homing,
 };
 use shared::math::speed::formation_speed;
 use shared::math::{Mat3, Vec3};
@@ -141,10 +141,14 @@ pub struct Planner {
     noise: NoiseEstimator,
     last_r: Vec3,
     reconfigurations: usize,
-    /// Members that joined after the start and are not yet in their slot: vehicle → its
-    /// slot in the body frame at scale 1 (None: to be chosen).
+    /// Members that joined after the start and are not yet in their slot: vehicle → the
+    /// index of its slot in the design (None: to be chosen).
     #[serde(default)]
-    rejoining: BTreeMap<u32, Option<Vec3>>,
+    rejoining: BTreeMap<u32, Option<usize>>,
+    /// Turn of the slots about the body's z axis (rad) that follows the settled members of
+    /// a 2-D central design (`shared::math::rejoin::fit_turn`).
+    #[serde(default)]
+    turn: f64,
     /// Velocity of the body centre in the last command, length unit/s: the feed-forward
     /// of the rejoining vehicles' homing as the planner models it.
     #[serde(default = "Vec3::zeros")]
@@ -181,6 +185,7 @@ impl Planner {
             last_r: start,
             reconfigurations: 0,
             rejoining: BTreeMap::new(),
+            turn: 0.0,
             last_velocity: Vec3::zeros(),
         })
     }
@@ -205,8 +210,8 @@ impl Planner {
     pub fn reconfigurations(&self) -> usize {
         self.reconfigurations
     }
-    /// The members still rejoining, with their slot in the body frame at scale 1.
-    pub fn rejoining(&self) -> &BTreeMap<u32, Option<Vec3>> {
+    /// The members still rejoining, with the index of their slot in the design.
+    pub fn rejoining(&self) -> &BTreeMap<u32, Option<usize>> {
         &self.rejoining
     }
 
@@ -214,10 +219,12 @@ impl Planner {
     /// every vehicle that became a member after the start rejoins until its last known
     /// position is within the capture radius of its slot. Its slot is chosen once (when it
     /// joins, or again when the formation is redesigned): the nearest free slot of the
-    /// design, turned to where the other members are for a 2-D central design; then it is
-    /// fixed in the body frame. Returns the slots (inertial), by id.
+    /// design; the slots move with the body and, for a 2-D central design, follow the
+    /// settled members as they turn about the centre (`turn`). Returns the slots
+    /// (inertial), by id.
     fn update_rejoining(
-        rejoining: &mut BTreeMap<u32, Option<Vec3>>,
+        rejoining: &mut BTreeMap<u32, Option<usize>>,
+        turn: &mut f64,
         design: &FormationDesign,
         body: &VirtualBody,
         members: &[Report],
@@ -231,9 +238,10 @@ impl Planner {
             .filter(|q| !rejoining.contains_key(&q.id))
             .map(|q| q.position)
             .collect();
-        let mut occupants = settled.clone();
-        occupants.extend(rejoining.values().flatten().map(|p| body.to_inertial(p)));
-        let slots = fitted_slots(design, body, &settled);
+        *turn = fit_turn(design, body, &settled, *turn);
+        let slots = turned_slots(design, body, *turn);
+        let mut occupants = settled;
+        occupants.extend(rejoining.values().flatten().filter_map(|m| slots.get(*m)));
         // Slots are given out nearest first: the vehicles closest to a slot choose first
         // (ties by id), so a vehicle already in a slot keeps it.
         let mut unassigned: Vec<(f64, u32, Vec3)> = members
@@ -245,10 +253,7 @@ impl Planner {
         for (_, id, x) in unassigned {
             if let Some(m) = choose_slot(&slots, &occupants, &x, spacing) {
                 occupants.push(slots[m]);
-                rejoining.insert(
-                    id,
-                    Some(body.rotation.inverse() * (slots[m] - body.r) / body.scale),
-                );
+                rejoining.insert(id, Some(m));
             }
         }
         let mut targets = Vec::new();
@@ -256,8 +261,9 @@ impl Planner {
             let Some(slot) = rejoining.get(&q.id) else {
                 continue;
             };
-            let Some(bar) = slot else { continue };
-            let target = body.to_inertial(bar);
+            let Some(target) = slot.and_then(|m| slots.get(m).copied()) else {
+                continue;
+            };
             if homing_weight((q.position - target).norm(), spacing) == 0.0 {
                 // Captured: an ordinary member from now on.
                 rejoining.remove(&q.id);
@@ -339,8 +345,13 @@ impl Planner {
 
         let r = self.body.r;
         let holding = members.len() < dim + 1;
-        let rejoining =
-            Self::update_rejoining(&mut self.rejoining, &self.design, &self.body, members);
+        let rejoining = Self::update_rejoining(
+            &mut self.rejoining,
+            &mut self.turn,
+            &self.design,
+            &self.body,
+            members,
+        );
         // A rejoining vehicle samples far from the formation the estimator's error model
         // (V.6) assumes: its readings wait until it is in its slot.
         let kept: Vec<Report>;

@@ -7,8 +7,9 @@
 //! find a neighbour almost on top of it, whose singular repulsion throws both out of reach.
 //!
 //! A *rejoining* vehicle `j` is given a target: a free slot `p*_j` of the formation
-//! (chosen once by [`choose_slot`] among [`fitted_slots`], fixed in the body frame, so it
-//! moves, turns and scales with the virtual body). It has a homing weight
+//! (chosen once by [`choose_slot`] among [`turned_slots`]; it moves, turns and scales with
+//! the virtual body, and for a 2-D central design also follows the others as they turn
+//! about the centre, [`fit_turn`]). It has a homing weight
 //! `σ_j = σ(|x_j − p*_j|)` ([`homing_weight`]: 1 far from the slot, 0 within [`CAPTURE`]
 //! of the spacing). The formation sees it as a mixture: weight `1 − σ_j` at its true
 //! position `x_j`, weight `σ_j` at its slot `p*_j` (a *ghost* holding the slot open). So
@@ -345,35 +346,56 @@ pub fn is_central(design: &FormationDesign) -> bool {
     design.leaders.len() == 1 && design.leaders[0] == Vec3::zeros()
 }
 
-/// The slots of `design` in the inertial frame at `body` (`k R p̄ + r`, (III.3)), length.
-/// For a 2-D central design, whose equilibrium is only defined up to a turn about the
-/// centre, the slots are first turned (about z, by `θ`) to where the vehicles at `members`
-/// (length) actually are: `θ = arg(Σ_i e^{i n (φ_i − φ̄_0)}) / n` with `φ_i` the members'
-/// bearings in the body frame, `φ̄_0` that of slot 0 and `n` the number of slots (the
-/// n-fold circular mean; exact when the members sit on `n`-gon vertices). With no member,
-/// or members whose n-fold mean vanishes (no preferred turn, e.g. a regular pentagon
-/// against a hexagon), `θ = 0`. Other designs fix every slot in the body frame.
-pub fn fitted_slots(design: &FormationDesign, body: &VirtualBody, members: &[Vec3]) -> Vec<Vec3> {
+/// The turn `θ` (rad, about z in the body frame) that best lays the slots of a 2-D central
+/// design, whose equilibrium is only defined up to a turn about the centre, on the vehicles
+/// at `members` (length): the n-fold circular mean `θ = arg(Σ_i e^{i n (φ_i − φ̄_0)}) / n`
+/// (`φ_i` the members' bearings in the body frame, `φ̄_0` that of slot 0, `n` the number
+/// of slots; exact when the members sit on `n`-gon vertices), taken on the branch nearest
+/// `previous` (θ is defined modulo 2π/n; following one branch keeps a slot from jumping to
+/// its neighbour's place as the group turns). When the members do not lie on an `n`-gon
+/// (`|Σ| < ½·count`, e.g. a regular pentagon against a hexagon), or with no member,
+/// `previous` is kept. 0 for every other design (their slots are fixed in the body frame).
+pub fn fit_turn(
+    design: &FormationDesign,
+    body: &VirtualBody,
+    members: &[Vec3],
+    previous: f64,
+) -> f64 {
     let n = design.n();
-    let mut turn = 0.0;
-    if design.dim == 2 && is_central(design) && n > 0 && !members.is_empty() {
-        let phi0 = design.slots[0].y.atan2(design.slots[0].x);
-        let inverse = body.rotation.inverse();
-        let (mut c, mut s) = (0.0, 0.0);
-        for x in members {
-            let q = inverse * (x - body.r);
-            if q.x == 0.0 && q.y == 0.0 {
-                continue;
-            }
-            let a = n as f64 * (q.y.atan2(q.x) - phi0);
-            c += a.cos();
-            s += a.sin();
-        }
-        if (c * c + s * s).sqrt() > 1e-6 * members.len() as f64 {
-            turn = s.atan2(c) / n as f64;
-        }
+    if !(design.dim == 2 && is_central(design) && n > 0) {
+        return 0.0;
     }
-    let rot = nalgebra::Rotation3::from_axis_angle(&Vec3::z_axis(), turn);
+    let phi0 = design.slots[0].y.atan2(design.slots[0].x);
+    let inverse = body.rotation.inverse();
+    let (mut c, mut s, mut count) = (0.0, 0.0, 0.0);
+    for x in members {
+        let q = inverse * (x - body.r);
+        if q.x == 0.0 && q.y == 0.0 {
+            continue;
+        }
+        let a = n as f64 * (q.y.atan2(q.x) - phi0);
+        c += a.cos();
+        s += a.sin();
+        count += 1.0;
+    }
+    if count == 0.0 || (c * c + s * s).sqrt() < 0.5 * count {
+        return previous;
+    }
+    let fit = s.atan2(c) / n as f64;
+    let period = std::f64::consts::TAU / n as f64;
+    let d = fit - previous;
+    previous + (d - period * (d / period).round())
+}
+
+/// The slots of `design` in the inertial frame at `body` (`k R p̄ + r`, (III.3)), length,
+/// turned first by `turn` (rad, about z in the body frame, [`fit_turn`]) for a 2-D central
+/// design.
+pub fn turned_slots(design: &FormationDesign, body: &VirtualBody, turn: f64) -> Vec<Vec3> {
+    let rot = if design.dim == 2 && is_central(design) {
+        nalgebra::Rotation3::from_axis_angle(&Vec3::z_axis(), turn)
+    } else {
+        nalgebra::Rotation3::identity()
+    };
     design
         .slots
         .iter()
@@ -686,19 +708,29 @@ mod tests {
     fn slots_are_turned_to_the_members_of_a_central_2d_design() {
         let design = design_regular(6, 2, 2.0, 1.0, 1.0).unwrap();
         let body = VirtualBody::at(Vec3::new(5.0, 1.0, 0.0));
-        let turn = nalgebra::Rotation3::from_axis_angle(&Vec3::z_axis(), 0.3);
-        // Five vehicles on five vertices of the hexagon turned by 0.3 rad.
-        let members: Vec<Vec3> = design.slots[..5]
-            .iter()
-            .map(|p| body.r + turn * p)
-            .collect();
-        let slots = fitted_slots(&design, &body, &members);
-        for (m, p) in slots.iter().zip(&design.slots) {
-            assert_relative_eq!(*m, body.r + turn * p, epsilon = 1e-12);
+        let period = std::f64::consts::TAU / 6.0;
+        for angle in [0.3, -0.4, 0.3 + 2.0 * period] {
+            let turn = nalgebra::Rotation3::from_axis_angle(&Vec3::z_axis(), angle);
+            // Five vehicles on five vertices of the hexagon turned by `angle`.
+            let members: Vec<Vec3> = design.slots[..5]
+                .iter()
+                .map(|p| body.r + turn * p)
+                .collect();
+            // Followed from a nearby turn: the branch of `angle` nearest it.
+            let theta = fit_turn(&design, &body, &members, angle - 0.1);
+            assert_relative_eq!(theta, angle, epsilon = 1e-12);
+            let slots = turned_slots(&design, &body, theta);
+            for (m, p) in slots.iter().zip(&design.slots) {
+                assert_relative_eq!(*m, body.r + turn * p, epsilon = 1e-12);
+            }
+            let spacing = design.neighbour_spacing();
+            let chosen = choose_slot(&slots, &members, &Vec3::new(-50.0, 0.0, 0.0), spacing);
+            assert_eq!(chosen, Some(5));
         }
-        let spacing = design.neighbour_spacing();
-        let chosen = choose_slot(&slots, &members, &Vec3::new(-50.0, 0.0, 0.0), spacing);
-        assert_eq!(chosen, Some(5));
+        // No n-gon to fit (a regular pentagon against a hexagon): the previous turn stays.
+        let pentagon = design_regular(5, 2, 2.0, 1.0, 1.0).unwrap();
+        let members: Vec<Vec3> = pentagon.slots.iter().map(|p| body.r + p).collect();
+        assert_eq!(fit_turn(&design, &body, &members, 0.2), 0.2);
         // Per-slot designs are not turned.
         let shape = design_for_shape(
             &[
@@ -712,8 +744,11 @@ mod tests {
         )
         .unwrap();
         assert!(!is_central(&shape));
-        let fixed = fitted_slots(&shape, &body, &members);
-        assert_eq!(fixed, body.slot_positions(&shape));
+        assert_eq!(fit_turn(&shape, &body, &members, 0.2), 0.0);
+        assert_eq!(
+            turned_slots(&shape, &body, 0.2),
+            body.slot_positions(&shape)
+        );
     }
 
     #[test]
