@@ -202,7 +202,9 @@ impl Fleet {
         Some(restore)
     }
 
-    /// Vehicles admitted at this tick (not members until their first report is delivered).
+    /// Vehicles admitted at this tick. Each is a member from this tick on, at its restore
+    /// state, until its own reports are delivered ([`Fleet::deliver`]): the planner guides
+    /// it back into a slot at once, wherever it is.
     pub fn admitted(&self) -> &[Report] {
         &self.admitted
     }
@@ -250,6 +252,14 @@ impl Fleet {
     /// the reports delivered now (in delivery order).
     pub fn deliver(&mut self, t: f64, dt: f64) -> (Vec<Report>, Vec<Report>) {
         self.last_release = t;
+        // Vehicles admitted now are members at their restore state (known exactly: it is
+        // the state the agent resumes from), as of this tick.
+        let k = (t / dt).round() as u64;
+        for r in &self.admitted {
+            if self.alive.contains(&r.id) && !self.latest.contains_key(&r.id) {
+                self.latest.insert(r.id, Report { tick: k, ..*r });
+            }
+        }
         let fresh: Vec<Report> = self
             .inbox
             .pop_due(t)
@@ -284,28 +294,39 @@ impl Fleet {
                 }
             })
             .collect();
-        let _ = dt;
         (members, fresh)
     }
 
-    /// The swarm snapshot of this tick: members (their last delivered state), vehicles
-    /// admitted now (their restore state) and lost vehicles (their last true state),
-    /// ordered by id.
-    pub fn snapshot(&self, members: &[Report]) -> Vec<SnapshotEntry> {
-        let entry = |r: &Report, alive: u32| SnapshotEntry {
-            id: r.id,
-            alive,
-            position: from_vec3(&r.position),
-            velocity: from_vec3(&r.velocity),
+    /// The swarm snapshot of this tick: members (their last delivered state; those admitted
+    /// now flagged [`SnapshotEntry::ADMITTED`], at their restore state; those in
+    /// `rejoining` flagged rejoining, with the slot they fly to) and lost vehicles (their
+    /// last true state), ordered by id.
+    pub fn snapshot(&self, members: &[Report], rejoining: &[(u32, Vec3)]) -> Vec<SnapshotEntry> {
+        let entry = |r: &Report, alive: u32| {
+            let target = rejoining
+                .iter()
+                .find(|(id, _)| *id == r.id)
+                .map(|(_, t)| *t);
+            SnapshotEntry {
+                id: r.id,
+                alive,
+                rejoining: u32::from(target.is_some()),
+                _pad: 0,
+                position: from_vec3(&r.position),
+                velocity: from_vec3(&r.velocity),
+                target: from_vec3(&target.unwrap_or_else(Vec3::zeros)),
+            }
         };
         let mut rows: Vec<SnapshotEntry> = members
             .iter()
-            .map(|r| entry(r, SnapshotEntry::MEMBER))
-            .chain(
-                self.admitted
-                    .iter()
-                    .map(|r| entry(r, SnapshotEntry::ADMITTED)),
-            )
+            .map(|r| {
+                let alive = if self.admitted.iter().any(|a| a.id == r.id) {
+                    SnapshotEntry::ADMITTED
+                } else {
+                    SnapshotEntry::MEMBER
+                };
+                entry(r, alive)
+            })
             .chain(
                 self.lost
                     .iter()

@@ -9,8 +9,13 @@ use shared::math::kalman::GradientFilter;
 use shared::math::lyapunov::{lyapunov_terms, LyapunovTerms};
 use shared::math::optimal::optimal_scale;
 use shared::math::potential::PairPotential;
+use shared::math::rejoin::{
+    blended_lyapunov_terms, choose_slot, clearance, fit_turn, homing_weight, is_central,
+    turned_slots, waiting_factor, Homing,
+};
 use shared::math::speed::formation_speed;
 use shared::math::{Mat3, Vec3};
+use std::collections::BTreeMap;
 
 /// One vehicle's report for a tick, as the coordinator received it.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -112,6 +117,9 @@ pub struct Command {
     pub reconfigured: bool,
     /// Vehicles in the formation at this tick, ordered by id.
     pub members: Vec<u32>,
+    /// The members still rejoining at this tick and the slot each flies to (inertial,
+    /// length unit), ordered by id (`shared::math::rejoin`).
+    pub rejoining: Vec<(u32, Vec3)>,
 }
 
 /// Errors of the planner.
@@ -133,6 +141,18 @@ pub struct Planner {
     noise: NoiseEstimator,
     last_r: Vec3,
     reconfigurations: usize,
+    /// Members that joined after the start and are not yet in their slot: vehicle → the
+    /// index of its slot in the design (None: to be chosen).
+    #[serde(default)]
+    rejoining: BTreeMap<u32, Option<usize>>,
+    /// Turn of the slots about the body's z axis (rad) that follows the settled members of
+    /// a 2-D central design (`shared::math::rejoin::fit_turn`).
+    #[serde(default)]
+    turn: f64,
+    /// Velocity of the body centre in the last command, length unit/s: the feed-forward
+    /// of the rejoining vehicles' homing as the planner models it.
+    #[serde(default = "Vec3::zeros")]
+    last_velocity: Vec3,
 }
 
 impl Planner {
@@ -164,6 +184,9 @@ impl Planner {
             noise,
             last_r: start,
             reconfigurations: 0,
+            rejoining: BTreeMap::new(),
+            turn: 0.0,
+            last_velocity: Vec3::zeros(),
         })
     }
 
@@ -187,24 +210,104 @@ impl Planner {
     pub fn reconfigurations(&self) -> usize {
         self.reconfigurations
     }
+    /// The members still rejoining, with the index of their slot in the design.
+    pub fn rejoining(&self) -> &BTreeMap<u32, Option<usize>> {
+        &self.rejoining
+    }
+
+    /// Brings the rejoining members up to date at this tick (`shared::math::rejoin`):
+    /// every vehicle that became a member after the start rejoins until its last known
+    /// position is within the capture radius of its slot. Its slot is chosen once (when it
+    /// joins, or again when the formation is redesigned): the nearest free slot of the
+    /// design; the slots move with the body and, for a 2-D central design, follow the
+    /// settled members as they turn about the centre (`turn`). Returns the slots
+    /// (inertial), by id.
+    fn update_rejoining(
+        rejoining: &mut BTreeMap<u32, Option<usize>>,
+        turn: &mut f64,
+        design: &FormationDesign,
+        body: &VirtualBody,
+        members: &[Report],
+    ) -> Vec<(u32, Vec3)> {
+        if rejoining.is_empty() {
+            return Vec::new();
+        }
+        let spacing = body.scale * design.neighbour_spacing();
+        let settled: Vec<Vec3> = members
+            .iter()
+            .filter(|q| !rejoining.contains_key(&q.id))
+            .map(|q| q.position)
+            .collect();
+        *turn = fit_turn(design, body, &settled, *turn);
+        let slots = turned_slots(design, body, *turn);
+        let mut occupants = settled;
+        occupants.extend(rejoining.values().flatten().filter_map(|m| slots.get(*m)));
+        // Slots are given out nearest first: the vehicles closest to a slot choose first
+        // (ties by id), so a vehicle already in a slot keeps it.
+        let mut unassigned: Vec<(f64, u32, Vec3)> = members
+            .iter()
+            .filter(|q| rejoining.get(&q.id).is_some_and(|s| s.is_none()))
+            .map(|q| (clearance(&q.position, &slots), q.id, q.position))
+            .collect();
+        unassigned.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for (_, id, x) in unassigned {
+            if let Some(m) = choose_slot(&slots, &occupants, &x, spacing) {
+                occupants.push(slots[m]);
+                rejoining.insert(id, Some(m));
+            }
+        }
+        let mut targets = Vec::new();
+        for q in members {
+            let Some(slot) = rejoining.get(&q.id) else {
+                continue;
+            };
+            let Some(target) = slot.and_then(|m| slots.get(m).copied()) else {
+                continue;
+            };
+            if homing_weight((q.position - target).norm(), spacing) == 0.0 {
+                // Captured: an ordinary member from now on.
+                rejoining.remove(&q.id);
+                continue;
+            }
+            targets.push((q.id, target));
+        }
+        targets
+    }
 
     /// One tick `k`. `members` holds the last known report of every vehicle in the
     /// formation, ordered by id (the formation, the Lyapunov function and the swarm
     /// snapshot use them); `fresh` the reports delivered since the last tick, in delivery
     /// order, each with its own position and time (the estimator uses them: Remark 5.8).
-    /// With ideal links both are this tick's reports. `dt` is the tick length, s.
+    /// With ideal links both are this tick's reports. `joined` lists the vehicles admitted
+    /// back at this tick (members from now on, at their restore state, even when they were
+    /// lost at this very tick): each rejoins (`shared::math::rejoin`). `dt` is the tick
+    /// length, s.
     pub fn step(
         &mut self,
         k: u64,
         members: &[Report],
         fresh: &[Report],
+        joined: &[u32],
         dt: f64,
     ) -> Result<Command, PlannerError> {
         let p = &self.params;
         let dim = p.dim;
         let ids: Vec<u32> = members.iter().map(|r| r.id).collect();
         let mut reconfigured = false;
-        if ids != self.members {
+        let rejoined = joined.iter().any(|id| ids.contains(id));
+        if ids != self.members || rejoined {
+            // A vehicle that becomes a member after the start, or is admitted back (also
+            // when lost at this very tick), comes back from wherever it is: it rejoins.
+            // Every slot is chosen again.
+            for id in &ids {
+                if !self.members.contains(id) || joined.contains(id) {
+                    self.rejoining.insert(*id, None);
+                }
+            }
+            self.rejoining.retain(|id, _| ids.contains(id));
+            for slot in self.rejoining.values_mut() {
+                *slot = None;
+            }
             if !members.is_empty() {
                 self.design = design_regular(ids.len(), dim, p.radius, p.alpha, p.alpha).map_err(
                     |source| PlannerError::Design {
@@ -216,10 +319,52 @@ impl Planner {
             self.members = ids.clone();
             self.reconfigurations += 1;
             reconfigured = true;
+            if !self.rejoining.is_empty() && !is_central(&self.design) {
+                // A design with a leader group per slot holds each vehicle only near its
+                // own slot: when a vehicle comes back, the others (arranged for the old
+                // design) are given slots of the new one too; those already in one are
+                // captured at once and fly (II.1) as before.
+                for id in &ids {
+                    self.rejoining.insert(*id, None);
+                }
+            }
+        }
+
+        // A member out of every leader's reach (thrown out by a near-collision, or adrift
+        // with stale guidance) feels no force of (II.1) at all: it is brought back the way
+        // a returning vehicle is.
+        let leaders = self.body.leader_positions(&self.design);
+        let reach = self.body.scaled_leader(&self.design).d1;
+        for q in members {
+            if !self.rejoining.contains_key(&q.id)
+                && leaders.iter().all(|b| (q.position - b).norm() >= reach)
+            {
+                self.rejoining.insert(q.id, None);
+            }
         }
 
         let r = self.body.r;
         let holding = members.len() < dim + 1;
+        let rejoining = Self::update_rejoining(
+            &mut self.rejoining,
+            &mut self.turn,
+            &self.design,
+            &self.body,
+            members,
+        );
+        // A rejoining vehicle samples far from the formation the estimator's error model
+        // (V.6) assumes: its readings wait until it is in its slot.
+        let kept: Vec<Report>;
+        let fresh = if rejoining.is_empty() {
+            fresh
+        } else {
+            kept = fresh
+                .iter()
+                .filter(|q| !self.rejoining.contains_key(&q.id))
+                .copied()
+                .collect();
+            &kept[..]
+        };
 
         // Gradient estimate: least squares (Lemma 5.1) on the fresh readings, into the
         // Kalman filter (Lemma 5.4) with a time-varying C (Remark 5.8): every reading at its
@@ -312,18 +457,51 @@ impl Planner {
 
         let positions: Vec<Vec3> = members.iter().map(|q| q.position).collect();
         let velocities: Vec<Vec3> = members.iter().map(|q| q.velocity).collect();
-        let terms = lyapunov_terms(
-            &positions,
-            &velocities,
-            &self.body,
-            &rates,
-            &self.design,
-            p.damping,
-        );
+        let mut waiting = 1.0;
+        let terms = if rejoining.is_empty() {
+            lyapunov_terms(
+                &positions,
+                &velocities,
+                &self.body,
+                &rates,
+                &self.design,
+                p.damping,
+            )
+        } else {
+            // The vehicles rejoining fly the blended law: V, its rates and the power are
+            // those of that loop, and the body waits for them.
+            let spacing = self.body.scale * self.design.neighbour_spacing();
+            let homings: Vec<Option<(Homing, Vec3)>> = members
+                .iter()
+                .map(|q| {
+                    rejoining.iter().find(|(id, _)| *id == q.id).map(|(_, t)| {
+                        let h = Homing::towards(
+                            &q.position,
+                            t,
+                            spacing,
+                            &self.last_velocity,
+                            p.damping,
+                            p.v0,
+                        );
+                        (h, *t)
+                    })
+                })
+                .collect();
+            waiting = waiting_factor(&homings);
+            blended_lyapunov_terms(
+                &positions,
+                &velocities,
+                &homings,
+                &self.body,
+                &rates,
+                &self.design,
+                p.damping,
+            )
+        };
         let sdot = if holding {
             0.0
         } else {
-            formation_speed(&terms, p.v0, p.v_u, p.delta)
+            waiting * formation_speed(&terms, p.v0, p.v_u, p.delta)
         };
 
         let command = Command {
@@ -341,7 +519,9 @@ impl Planner {
             estimate_failed,
             reconfigured,
             members: ids,
+            rejoining,
         };
+        self.last_velocity = command.velocity;
         let mut next = self.body.advance(&rates, sdot * dt);
         next.scale = next.scale.clamp(p.min_scale, p.max_scale);
         if dim == 2 {

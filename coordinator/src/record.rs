@@ -184,8 +184,15 @@ impl Recorder {
     }
 
     /// Records the arguments of planner step `k` (`planner_inputs.csv`), so `vbap replay`
-    /// can re-run the planner offline.
-    pub fn inputs(&mut self, k: u64, members: &[Report], fresh: &[Report]) -> io::Result<()> {
+    /// can re-run the planner offline: `joined` (vehicles admitted back at this tick, each
+    /// a member) as rows of role `joined` carrying the member's report.
+    pub fn inputs(
+        &mut self,
+        k: u64,
+        members: &[Report],
+        fresh: &[Report],
+        joined: &[u32],
+    ) -> io::Result<()> {
         let same = members == fresh;
         let mut row = |role: &str, q: &Report| {
             self.tracks.input(&InputRow {
@@ -209,6 +216,9 @@ impl Recorder {
             for q in fresh {
                 row("fresh", q)?;
             }
+        }
+        for q in members.iter().filter(|q| joined.contains(&q.id)) {
+            row("joined", q)?;
         }
         Ok(())
     }

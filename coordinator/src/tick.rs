@@ -45,12 +45,13 @@ pub fn plan_tick(
     let fates = fleet.receive(k, dt, truth);
     recorder.uplink(k, &fates)?;
     fleet.track_body(k, planner.body().r);
+    let joined: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
     let (members, fresh) = fleet.deliver(t, dt);
-    let command = planner.step(k, &members, &fresh, dt)?;
-    recorder.inputs(k, &members, &fresh)?;
+    let command = planner.step(k, &members, &fresh, &joined, dt)?;
+    recorder.inputs(k, &members, &fresh, &joined)?;
     recorder.tick(k, truth, &command)?;
     recorder.truth(k, truth, &command, planner.design(), fleet)?;
-    let snapshot = fleet.snapshot(&members);
+    let snapshot = fleet.snapshot(&members, &command.rejoining);
     Ok(TickOutcome {
         fates,
         command,

@@ -3,8 +3,9 @@
 //!
 //! The coordinator records the arguments of every [`Planner::step`] in
 //! `planner_inputs.csv` (see [`Recorder::inputs`]): role `both` (the report is a member's
-//! latest and was delivered this tick), `member` (last known report, not fresh) or `fresh`
-//! (delivered this tick, not the member's latest). A tick without any report has no row.
+//! latest and was delivered this tick), `member` (last known report, not fresh), `fresh`
+//! (delivered this tick, not the member's latest) or `joined` (that member was admitted
+//! back at this tick). A tick without any report has no row.
 //! Replay rebuilds the planner from the resolved `mission.toml` exactly as the coordinator
 //! does, steps it once per tick on the recorded arguments and writes the body rows with
 //! the same [`Recorder`] the coordinator uses, into `RUN_DIR/replay/` (or `--out DIR`).
@@ -172,12 +173,13 @@ pub fn replay(run_dir: &Path, out: Option<&Path>) -> Result<ReplayOutcome> {
     let mut inputs = InputsReader::open(&run.planner_inputs())?;
     let mut members = Vec::new();
     let mut fresh = Vec::new();
+    let mut joined = Vec::new();
     for k in 0..ticks {
-        inputs.tick(k, &mut members, &mut fresh)?;
+        inputs.tick(k, &mut members, &mut fresh, &mut joined)?;
         let command = planner
-            .step(k, &members, &fresh, dt)
+            .step(k, &members, &fresh, &joined, dt)
             .with_context(|| format!("replaying tick {k}"))?;
-        recorder.inputs(k, &members, &fresh)?;
+        recorder.inputs(k, &members, &fresh, &joined)?;
         // No truth is needed for body.csv: the true gradient comes from the mission's field.
         recorder.tick(k, &[], &command)?;
     }
@@ -234,6 +236,7 @@ enum Role {
     Both,
     Member,
     Fresh,
+    Joined,
 }
 
 impl InputsReader {
@@ -302,9 +305,10 @@ impl InputsReader {
             "both" => Role::Both,
             "member" => Role::Member,
             "fresh" => Role::Fresh,
+            "joined" => Role::Joined,
             other => {
                 return Err(self.bad(format!(
-                    "role {other:?}: expected \"both\", \"member\" or \"fresh\""
+                    "role {other:?}: expected \"both\", \"member\", \"fresh\" or \"joined\""
                 )))
             }
         };
@@ -322,10 +326,17 @@ impl InputsReader {
         Ok(())
     }
 
-    /// Fills `members` and `fresh` with the planner arguments of tick `k`.
-    fn tick(&mut self, k: u64, members: &mut Vec<Report>, fresh: &mut Vec<Report>) -> Result<()> {
+    /// Fills `members`, `fresh` and `joined` with the planner arguments of tick `k`.
+    fn tick(
+        &mut self,
+        k: u64,
+        members: &mut Vec<Report>,
+        fresh: &mut Vec<Report>,
+        joined: &mut Vec<u32>,
+    ) -> Result<()> {
         members.clear();
         fresh.clear();
+        joined.clear();
         while let Some((row_k, role, report)) = self.pending {
             if row_k < k {
                 return Err(self.bad(format!("tick {row_k} after tick {k}: rows out of order")));
@@ -340,6 +351,7 @@ impl InputsReader {
                 }
                 Role::Member => members.push(report),
                 Role::Fresh => fresh.push(report),
+                Role::Joined => joined.push(report.id),
             }
             self.advance()?;
         }

@@ -105,15 +105,15 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
             command, snapshot, ..
         } = plan_tick(k, dt, &truth, &mut fleet, &mut planner, &mut recorder)?;
         for (&id, veh) in vehicles.iter_mut() {
-            let guidance = Guidance {
-                tick: k,
-                leaders: command.leaders.clone(),
-                neighbours: Vec::new(),
-                inter: command.inter,
-                leader: command.leader,
-                damping: command.damping,
-                velocity: command.velocity,
-            }
+            let guidance = Guidance::of_command(
+                k,
+                command.leaders.clone(),
+                command.inter,
+                command.leader,
+                command.damping,
+                command.velocity,
+                mission.body.v0,
+            )
             .with_neighbours(id, &snapshot);
             veh.on_command(fleet.model(), guidance, k, dt);
         }

@@ -113,16 +113,22 @@ pub mod coordinator_to_agent {
         Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, serde::Serialize, serde::Deserialize,
     )]
     #[repr(C)]
-    #[type_name("vbap.SnapshotEntry.v2")]
+    #[type_name("vbap.SnapshotEntry.v3")]
     pub struct SnapshotEntry {
         /// Vehicle id.
         pub id: u32,
         /// [`SnapshotEntry::LOST`], [`SnapshotEntry::MEMBER`] or [`SnapshotEntry::ADMITTED`].
         pub alive: u32,
+        /// 1 while the vehicle rejoins (flies to `target`, `shared::math::rejoin`), else 0.
+        pub rejoining: u32,
+        pub _pad: u32,
         /// Position, length unit.
         pub position: [f64; 3],
         /// Velocity, length unit/s.
         pub velocity: [f64; 3],
+        /// The slot a rejoining vehicle flies to, at this tick, length unit (zeros when not
+        /// rejoining).
+        pub target: [f64; 3],
     }
 
     impl SnapshotEntry {
@@ -139,7 +145,7 @@ pub mod coordinator_to_agent {
     /// Agents read it in place (zero copy).
     #[derive(Debug, Clone, Copy, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.BodyCommand.v3")]
+    #[type_name("vbap.BodyCommand.v4")]
     pub struct BodyCommand {
         pub header: Header,
         /// Virtual body parameter s.
@@ -212,6 +218,7 @@ pub mod coordinator_to_agent {
                     e.position
                         .iter()
                         .chain(e.velocity.iter())
+                        .chain(e.target.iter())
                         .all(|v| v.is_finite())
                 })
         }

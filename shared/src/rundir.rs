@@ -17,8 +17,9 @@ use crate::math::Vec3;
 /// Header of `vehicles.csv`.
 pub const VEHICLES_HEADER: &str = "t,k,id,x,y,z,vx,vy,vz,measurement";
 /// Header of `planner_inputs.csv`: `role` is `both` (a member's report that is also
-/// fresh), `member` (last known report, not fresh) or `fresh` (delivered this tick, not
-/// the member's latest).
+/// fresh), `member` (last known report, not fresh), `fresh` (delivered this tick, not
+/// the member's latest) or `joined` (the member was admitted back at this tick; its
+/// report repeated).
 pub const INPUTS_HEADER: &str = "k,role,id,tick,x,y,z,vx,vy,vz,measurement";
 /// Header of `body.csv`.
 ///

@@ -116,6 +116,73 @@ until = 9.0
     assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
 }
 
+/// A vehicle restarted 30 s after its kill comes back out of the leaders' reach (the body
+/// has moved ~15 lengths on); it is guided home to a free slot while the body waits, over
+/// delayed and lossy links (the agents dead-reckon their slots and their neighbours'), and
+/// the multi-process run equals the simulator byte for byte.
+#[test]
+fn a_vehicle_rejoining_from_out_of_reach_in_lockstep_equals_the_simulator() {
+    let tmp = TempDir::new("rejoinfar");
+    let name = unique_name("rejoinfar");
+    let text = format!(
+        r#"
+[mission]
+name = "{name}"
+seed = 11
+duration = 130.0
+dt = 0.1
+goal = "max"
+tolerance = 1.0
+
+[field]
+kind = "gaussian"
+center = [30.0, 15.0]
+amplitude = 10.0
+width = 12.0
+noise_std = 0.1
+
+[vehicles]
+count = 6
+damping = 5.0
+
+[formation]
+alpha = 60.0
+radius = 2.0
+min_scale = 0.7
+
+[body]
+v0 = 0.5
+v_u = 10.0
+grad_saturation = 0.05
+
+[links]
+delay = 0.3
+jitter = 0.1
+loss = 0.05
+
+[restart]
+vehicles = "on-failure"
+
+[[faults]]
+kind = "kill"
+vehicle = 2
+at = 5.0
+until = 35.0
+"#
+    );
+    let file = write_mission(&tmp, "m.toml", &text);
+    vbap_quiet("sim", &file, &tmp.join("sim"));
+    vbap_quiet("run", &file, &tmp.join("run"));
+    assert_same_tracks(&tmp.join("sim"), &tmp.join("run"));
+    let s = summary(&tmp.join("run"));
+    assert_eq!(s["vehicles_rejoined"], 1, "{s}");
+    assert_eq!(s["converged"], true, "{s}");
+    let log = read(&tmp.join("run/logs/vehicle_agent_2.jsonl"));
+    assert!(log.contains("admitted back into the formation"));
+    assert!(leftover_files(&name).is_empty());
+    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+}
+
 fn pid_of(needle: &str) -> Option<u32> {
     processes_mentioning(needle).into_iter().next()
 }

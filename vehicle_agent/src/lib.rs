@@ -17,6 +17,7 @@ use shared::math::body::VirtualBody;
 use shared::math::control::{control_law, integrate};
 use shared::math::formation::FormationDesign;
 use shared::math::potential::PairPotential;
+use shared::math::rejoin::{blended_control_law, homing_weight, Homing, Neighbour};
 use shared::math::Vec3;
 use shared::rng::{keyed, Stream};
 
@@ -33,6 +34,14 @@ pub struct AgentInputs<'a> {
     pub leader: PairPotential,
     /// Damping gain, K = damping·I in (II.1), 1/s.
     pub damping: f64,
+    /// Homing weight σ_j of each neighbour (same order; 0 for a vehicle not rejoining;
+    /// empty: all 0), `shared::math::rejoin`.
+    pub neighbour_sigmas: &'a [f64],
+    /// The slot of each neighbour that rejoins (its ghost, same order; ignored where
+    /// σ_j = 0), length unit.
+    pub neighbour_slots: &'a [Vec3],
+    /// This vehicle's own homing while it rejoins (None: it flies (II.1)).
+    pub homing: Option<Homing>,
 }
 
 /// One vehicle: its own state and dynamics.
@@ -49,18 +58,43 @@ pub struct Agent {
 }
 
 impl Agent {
-    /// One control step of length `dt` (s): u_i from (II.1), then ẍ_i = u_i integrated
-    /// (semi-implicit Euler). Returns u_i.
+    /// One control step of length `dt` (s): u_i from (II.1) — blended with the homing law
+    /// of `shared::math::rejoin` while this vehicle or a neighbour rejoins — then
+    /// ẍ_i = u_i integrated (semi-implicit Euler). Returns u_i.
     pub fn step(&mut self, inputs: &AgentInputs<'_>, dt: f64) -> Vec3 {
-        let u = control_law(
-            &self.position,
-            &self.velocity,
-            inputs.neighbours,
-            inputs.leaders,
-            &inputs.inter,
-            &inputs.leader,
-            inputs.damping,
-        );
+        let rejoin = inputs.homing.is_some() || inputs.neighbour_sigmas.iter().any(|s| *s > 0.0);
+        let u = if rejoin {
+            let weighted: Vec<Neighbour> = inputs
+                .neighbours
+                .iter()
+                .enumerate()
+                .map(|(j, p)| Neighbour {
+                    position: *p,
+                    sigma: inputs.neighbour_sigmas.get(j).copied().unwrap_or(0.0),
+                    slot: inputs.neighbour_slots.get(j).copied().unwrap_or(*p),
+                })
+                .collect();
+            blended_control_law(
+                &self.position,
+                &self.velocity,
+                inputs.homing.as_ref(),
+                &weighted,
+                inputs.leaders,
+                &inputs.inter,
+                &inputs.leader,
+                inputs.damping,
+            )
+        } else {
+            control_law(
+                &self.position,
+                &self.velocity,
+                inputs.neighbours,
+                inputs.leaders,
+                &inputs.inter,
+                &inputs.leader,
+                inputs.damping,
+            )
+        };
         let (x, v) = integrate(&self.position, &self.velocity, &u, dt);
         self.position = x;
         self.velocity = v;
@@ -90,6 +124,9 @@ impl Agent {
             },
             leader: *leader,
             damping,
+            neighbour_sigmas: &[],
+            neighbour_slots: &[],
+            homing: None,
         };
         self.step(&inputs, dt)
     }
@@ -171,23 +208,87 @@ pub struct Guidance {
     /// Velocity of the virtual body, length unit/s: while no newer command is visible, the
     /// vehicle dead-reckons the leaders and its neighbours with it.
     pub velocity: Vec3,
+    /// Homing weight σ_j of each neighbour (same order as `neighbours`; 0 unless it
+    /// rejoins), `shared::math::rejoin`.
+    pub neighbour_sigmas: Vec<f64>,
+    /// Slot of each neighbour that rejoins (same order; its own position otherwise).
+    pub neighbour_slots: Vec<Vec3>,
+    /// The slot this vehicle flies to while it rejoins, length unit (None: not rejoining).
+    pub target: Option<Vec3>,
+    /// Approach speed of the homing law relative to the body, length unit/s: the body's
+    /// nominal speed `body.v0`, which every vehicle flies anyway.
+    pub rejoin_speed: f64,
 }
 
 impl Guidance {
     /// This guidance for vehicle `id` of a body command: as neighbours every member or
-    /// admitted vehicle of the command's snapshot but itself.
+    /// admitted vehicle of the command's snapshot but itself, each with its homing weight
+    /// σ_j (from its position and slot, for the spacing `inter.d0`); its own slot when it
+    /// rejoins.
     pub fn with_neighbours(
         mut self,
         id: u32,
         snapshot: &[shared::msg::coordinator_to_agent::SnapshotEntry],
     ) -> Self {
         use shared::msg::coordinator_to_agent::SnapshotEntry;
-        self.neighbours = snapshot
+        use shared::msg::to_vec3;
+        let spacing = self.inter.d0;
+        let others = snapshot
             .iter()
-            .filter(|e| e.id != id && e.alive != SnapshotEntry::LOST)
-            .map(|e| shared::msg::to_vec3(&e.position))
+            .filter(|e| e.id != id && e.alive != SnapshotEntry::LOST);
+        self.neighbours = others.clone().map(|e| to_vec3(&e.position)).collect();
+        self.neighbour_sigmas = others
+            .clone()
+            .map(|e| {
+                if e.rejoining != 0 {
+                    homing_weight((to_vec3(&e.position) - to_vec3(&e.target)).norm(), spacing)
+                } else {
+                    0.0
+                }
+            })
             .collect();
+        self.neighbour_slots = others
+            .map(|e| {
+                if e.rejoining != 0 {
+                    to_vec3(&e.target)
+                } else {
+                    to_vec3(&e.position)
+                }
+            })
+            .collect();
+        self.target = snapshot
+            .iter()
+            .find(|e| e.id == id && e.alive != SnapshotEntry::LOST && e.rejoining != 0)
+            .map(|e| to_vec3(&e.target));
         self
+    }
+
+    /// The guidance of a body command for the step from tick `tick` (its leaders,
+    /// potentials, damping and body velocity; neighbours from [`Guidance::with_neighbours`]),
+    /// for a vehicle homing at `rejoin_speed` (length unit/s) when it rejoins.
+    #[allow(clippy::too_many_arguments)]
+    pub fn of_command(
+        tick: u64,
+        leaders: Vec<Vec3>,
+        inter: PairPotential,
+        leader: PairPotential,
+        damping: f64,
+        velocity: Vec3,
+        rejoin_speed: f64,
+    ) -> Self {
+        Self {
+            tick,
+            leaders,
+            neighbours: Vec::new(),
+            inter,
+            leader,
+            damping,
+            velocity,
+            neighbour_sigmas: Vec::new(),
+            neighbour_slots: Vec::new(),
+            target: None,
+            rejoin_speed,
+        }
     }
 
     /// The guidance a vehicle starts with before it hears anything: the leaders of the
@@ -207,6 +308,10 @@ impl Guidance {
             leader: body.scaled_leader(design),
             damping: mission.vehicles.damping,
             velocity: Vec3::zeros(),
+            neighbour_sigmas: Vec::new(),
+            neighbour_slots: Vec::new(),
+            target: None,
+            rejoin_speed: mission.body.v0,
         }
     }
 }
@@ -351,17 +456,33 @@ impl Vehicle {
         }
         let g = &self.current;
         let age = k.saturating_sub(g.tick) as f64 * dt;
+        // Out of contact: dead-reckon the virtual body (leaders, neighbours, own slot) from
+        // the last command.
+        let shift = g.velocity * age;
+        let moved = |p: &Vec3| if age > 0.0 { p + shift } else { *p };
+        let homing = g.target.map(|t| {
+            Homing::towards(
+                &self.agent.position,
+                &moved(&t),
+                g.inter.d0,
+                &g.velocity,
+                g.damping,
+                g.rejoin_speed,
+            )
+        });
         if age > 0.0 {
-            // Out of contact: dead-reckon the virtual body from the last command.
-            let shift = g.velocity * age;
-            let leaders: Vec<Vec3> = g.leaders.iter().map(|l| l + shift).collect();
-            let neighbours: Vec<Vec3> = g.neighbours.iter().map(|p| p + shift).collect();
+            let leaders: Vec<Vec3> = g.leaders.iter().map(moved).collect();
+            let neighbours: Vec<Vec3> = g.neighbours.iter().map(moved).collect();
+            let slots: Vec<Vec3> = g.neighbour_slots.iter().map(moved).collect();
             let inputs = AgentInputs {
                 leaders: &leaders,
                 neighbours: &neighbours,
                 inter: g.inter,
                 leader: g.leader,
                 damping: g.damping,
+                neighbour_sigmas: &g.neighbour_sigmas,
+                neighbour_slots: &slots,
+                homing,
             };
             self.agent.step(&inputs, dt);
         } else {
@@ -371,6 +492,9 @@ impl Vehicle {
                 inter: g.inter,
                 leader: g.leader,
                 damping: g.damping,
+                neighbour_sigmas: &g.neighbour_sigmas,
+                neighbour_slots: &g.neighbour_slots,
+                homing,
             };
             self.agent.step(&inputs, dt);
         }

@@ -252,15 +252,15 @@ pub fn run(
                 d0: p[1],
                 d1: p[2],
             };
-            let guidance = Guidance {
-                tick: h.tick,
-                leaders: body.leaders[..n_l].iter().map(to_vec3).collect(),
-                neighbours: Vec::new(),
-                inter: pot(&body.inter),
-                leader: pot(&body.leader),
-                damping: body.damping,
-                velocity: to_vec3(&body.velocity),
-            }
+            let guidance = Guidance::of_command(
+                h.tick,
+                body.leaders[..n_l].iter().map(to_vec3).collect(),
+                pot(&body.inter),
+                pot(&body.leader),
+                body.damping,
+                to_vec3(&body.velocity),
+                mission.body.v0,
+            )
             .with_neighbours(id, snapshot);
             let own = snapshot.iter().find(|e| e.id == id).copied();
             commands.push((h.tick, guidance, own));

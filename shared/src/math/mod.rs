@@ -4,7 +4,8 @@
 //! z component is zero and stays zero. Equation numbers refer to `shared/paper.md`.
 //!
 //! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`],
-//! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design.
+//! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design;
+//! bringing a vehicle back from anywhere: [`rejoin`].
 //! Gradient estimation (Section V): [`estimate`], [`optimal`], [`kalman`], [`convergence`],
 //! [`adapt`].
 
@@ -19,6 +20,7 @@ pub mod kalman;
 pub mod lyapunov;
 pub mod optimal;
 pub mod potential;
+pub mod rejoin;
 pub mod speed;
 
 /// A point or vector in the inertial frame (length unit of the mission).
