@@ -192,7 +192,9 @@ pub fn tick(
         let alive = fleet.is_alive(id);
         let contact = if !alive {
             "dead"
-        } else if !members.contains(&id) {
+        } else if !members.contains(&id) || command.rejoining.iter().any(|(v, _)| *v == id) {
+            // Admitted back and not yet a member, or a member still flying home to its
+            // slot (`shared::math::rejoin`).
             "rejoining"
         } else {
             fleet.model().contact(id, t).as_str()
