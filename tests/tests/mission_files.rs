@@ -25,22 +25,6 @@ fn os(s: &str) -> &std::ffi::OsStr {
     std::ffi::OsStr::new(s)
 }
 
-/// Uncomments the trailing example of a mission file: from its first line `# [` on, every
-/// line `# x` becomes `x` (`## x` stays a comment).
-fn uncomment_example(text: &str) -> String {
-    let mut on = false;
-    let mut out = String::new();
-    for line in text.lines() {
-        on |= line.starts_with("# [");
-        match line.strip_prefix("# ") {
-            Some(code) if on => out.push_str(code),
-            _ => out.push_str(line),
-        }
-        out.push('\n');
-    }
-    out
-}
-
 #[test]
 fn the_commented_fault_examples_of_the_shipped_missions_validate() {
     let tmp = TempDir::new("example");

@@ -277,27 +277,7 @@ fn a_vehicle_back_after_any_absence_rejoins_its_slot_and_the_mission_converges()
 fn the_glider_missions_example_fault_rejoins_and_converges() {
     let tmp = TempDir::new("rejoin_glider");
     let shipped = read(&workspace().join("deploy/missions/glider.toml"));
-    let mut text = String::new();
-    let mut in_example = false;
-    for line in shipped.lines() {
-        if line.starts_with("# [[faults]]") {
-            in_example = true;
-        }
-        let uncomment = in_example
-            && [
-                "# [[faults]]",
-                "# kind",
-                "# vehicle",
-                "# at",
-                "# until",
-                "# [restart]",
-                "# vehicles",
-            ]
-            .iter()
-            .any(|p| line.starts_with(p));
-        text.push_str(if uncomment { &line[2..] } else { line });
-        text.push('\n');
-    }
+    let mut text = uncomment_example(&shipped);
     text = text.replace(
         "name = \"glider\"",
         &format!("name = \"{}\"", unique_name("rjg")),
