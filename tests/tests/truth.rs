@@ -43,7 +43,12 @@ const IN_FORMATION: f64 = 0.25;
 #[test]
 fn a_broken_formation_gets_a_verdict_that_says_so_from_the_true_states() {
     let tmp = TempDir::new("broken");
-    let out = vbap_quiet("sim", &mission_file("lossy_kill.toml"), &tmp.join("sim"));
+    // The shipped mission under stress, cut short while its formation is still torn by the
+    // lossy links and the kill (its survivors are all guided back in formation later on).
+    let text =
+        read(&mission_file("lossy_kill.toml")).replace("duration = 300.0", "duration = 120.0");
+    let file = write_mission(&tmp, "lossy_kill.toml", &text);
+    let out = vbap_quiet("sim", &file, &tmp.join("sim"));
     let dir = tmp.join("sim");
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -79,9 +84,10 @@ fn a_broken_formation_gets_a_verdict_that_says_so_from_the_true_states() {
         );
     }
 
-    // From the true states themselves: at the last tick, every vehicle named out of
-    // formation is farther from the ring of slots (radius R·k around the body centre) than
-    // the threshold — a lower bound of its distance from any slot.
+    // From the true states themselves: at the last tick, a vehicle farther from the ring of
+    // slots (radius R·k around the body centre) than the threshold is farther than that from
+    // any slot (the ring distance is a lower bound), so it must be named out of formation;
+    // and there is at least one.
     let (bh, body) = csv(&dir.join("body.csv"));
     let last = body.last().unwrap();
     let k_last = &last[col(&bh, "k")];
@@ -106,12 +112,6 @@ fn a_broken_formation_gets_a_verdict_that_says_so_from_the_true_states() {
             ((num(&r[col(&vh, "x")]) - rx).powi(2) + (num(&r[col(&vh, "y")]) - ry).powi(2)).sqrt();
         if (d - radius).abs() > IN_FORMATION * spacing {
             far.push(id);
-        }
-        if out_ids.contains(&id) {
-            assert!(
-                (d - radius).abs() > IN_FORMATION * spacing,
-                "vehicle {id} is named out of formation but sits {d} from the centre (ring {radius})"
-            );
         }
     }
     assert!(!far.is_empty(), "the true states show a broken formation");
