@@ -364,6 +364,22 @@ pub fn msg_records(run_dir: &Path, process: &str) -> Vec<OwnedRecord> {
     }
 }
 
+/// Uncomments the trailing example of a mission file: from its first line `# [` on, every
+/// line `# x` becomes `x` (`## x` stays a comment).
+pub fn uncomment_example(text: &str) -> String {
+    let mut on = false;
+    let mut out = String::new();
+    for line in text.lines() {
+        on |= line.starts_with("# [");
+        match line.strip_prefix("# ") {
+            Some(code) if on => out.push_str(code),
+            _ => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    out
+}
+
 #[cfg(test)]
 mod unit {
     use super::*;
@@ -402,20 +418,4 @@ mod unit {
         }
         assert_eq!(csv[1].injected_ms(), Some(1550.0));
     }
-}
-
-/// Uncomments the trailing example of a mission file: from its first line `# [` on, every
-/// line `# x` becomes `x` (`## x` stays a comment).
-pub fn uncomment_example(text: &str) -> String {
-    let mut on = false;
-    let mut out = String::new();
-    for line in text.lines() {
-        on |= line.starts_with("# [");
-        match line.strip_prefix("# ") {
-            Some(code) if on => out.push_str(code),
-            _ => out.push_str(line),
-        }
-        out.push('\n');
-    }
-    out
 }
