@@ -454,6 +454,13 @@ fn a_coordinator_started_alone_finds_dead_agents_by_itself() {
     for mut a in agents.into_iter().filter(|a| a.0.is_some()) {
         assert!(a.wait().success(), "the other agents end with the mission");
     }
+    // With no supervisor, nobody cleans the domain at the end (the supervisor does: its
+    // dead nodes, then the domain's remaining files); the test does it as the supervisor
+    // would, then nothing of the mission is left.
+    let domain = shared::topics::Domain::new(&name).expect("the mission's domain");
+    domain.cleanup_dead_nodes();
+    domain.remove_files();
+    assert!(leftover_files(&name).is_empty(), "{:?}", leftover_files(&name));
 }
 
 /// A stopped agent (SIGSTOP) is silent, not dead: it is waited for (its ticks are late)
