@@ -460,7 +460,11 @@ fn a_coordinator_started_alone_finds_dead_agents_by_itself() {
     let domain = shared::topics::Domain::new(&name).expect("the mission's domain");
     domain.cleanup_dead_nodes();
     domain.remove_files();
-    assert!(leftover_files(&name).is_empty(), "{:?}", leftover_files(&name));
+    assert!(
+        leftover_files(&name).is_empty(),
+        "{:?}",
+        leftover_files(&name)
+    );
 }
 
 /// A stopped agent (SIGSTOP) is silent, not dead: it is waited for (its ticks are late)
