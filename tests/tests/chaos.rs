@@ -1,8 +1,9 @@
 //! `vbap chaos`: a small campaign of real SIGKILLs and SIGSTOPs on the paper's mission
 //! (4 vehicles, lockstep and pace 10, restart policy on-failure, a few seconds a run). The
-//! table must list every action with its target and time, nothing may be left behind, and
-//! the exit code must be the table's own judgement. Detection itself is not asserted here:
-//! it is what the campaign measures.
+//! table must list every action with its target and time, nothing may be left behind, the
+//! exit code must be the table's own judgement, and every judged kill must be detected and
+//! recovered from (at pace 10 too, with and without restarts). Detection latency is printed,
+//! never asserted (this machine is noisy).
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -54,7 +55,7 @@ fn a_small_campaign_lists_every_action_leaves_nothing_and_exits_as_its_table_say
             "--paces",
             "lockstep,10",
             "--policies",
-            "on-failure",
+            "never,on-failure",
             "--window",
             "2",
             "--max-stop",
@@ -74,10 +75,13 @@ fn a_small_campaign_lists_every_action_leaves_nothing_and_exits_as_its_table_say
     let json: Value = serde_json::from_str(&read(&out.join("chaos.json"))).expect("chaos.json");
     let runs = json["runs"].as_array().expect("runs");
     // The calibration run, then one run per (pace, policy).
-    assert_eq!(runs.len(), 3);
+    assert_eq!(runs.len(), 5);
     assert_eq!(runs[0]["calibration"], true);
-    assert_eq!(runs[1]["pace"], "lockstep");
-    assert_eq!(runs[2]["pace"], "10");
+    let combos: BTreeSet<(String, String)> = runs[1..]
+        .iter()
+        .map(|r| (r["pace"].to_string(), r["policy"].to_string()))
+        .collect();
+    assert_eq!(combos.len(), 4, "every (pace, policy) once: {combos:?}");
     for r in runs {
         assert!(
             r["exit_code"].is_i64(),
@@ -124,14 +128,19 @@ fn a_small_campaign_lists_every_action_leaves_nothing_and_exits_as_its_table_say
             if a["action"] == "kill" {
                 sent_kills += 1;
                 // on-failure: the supervisor restarts a killed agent; the campaign saw
-                // the new process (that is what a real SIGKILL leads to).
-                if a["judged"] == true {
-                    assert!(
-                        a["restarted_ms"].as_f64().is_some_and(|ms| ms > 0.0),
-                        "{what}"
-                    );
+                // the new process (that is what a real SIGKILL leads to) and its rejoin.
+                // never: nothing is restarted, the formation is redesigned without it.
+                if r["policy"] == "on-failure" {
+                    if a["judged"] == true {
+                        assert!(
+                            a["restarted_ms"].as_f64().is_some_and(|ms| ms > 0.0),
+                            "{what}"
+                        );
+                    }
+                    assert!(a["rejoined"].is_boolean(), "{what}");
+                } else {
+                    assert!(a["restarted_ms"].is_null(), "{what}");
                 }
-                assert!(a["rejoined"].is_boolean(), "{what}");
                 // A detection has a latency (SIGKILL to the coordinator's next command),
                 // positive: the verdict cannot precede the kill.
                 if a["detected"] == true {
@@ -188,6 +197,12 @@ fn a_small_campaign_lists_every_action_leaves_nothing_and_exits_as_its_table_say
     if undetected > 0 {
         assert_eq!(code, 1, "an undetected kill must fail the campaign");
     }
+    // Faults are always noticed and always recovered from: the campaign passes.
+    assert_eq!(undetected, 0, "every judged kill is detected:\n{stdout}");
+    assert!(
+        pass,
+        "every action recovered, every run complete:\n{stdout}"
+    );
     // The terminal table names every sent action's target.
     let targets: BTreeSet<&str> = all
         .iter()
