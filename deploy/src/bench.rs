@@ -419,7 +419,7 @@ struct Report {
     hop_iceoryx2_warm: Option<HopFloor>,
     hop_udp_warm: Option<HopFloor>,
     /// The floors with both sides busy polling (no event, no sleep): the payload path
-    /// alone, which a blocking system never sees (DESIGN: nothing busy-polls).
+    /// alone, which a blocking system never sees (a rule of this system: nothing busy-polls, docs/ARCHITECTURE.md §2).
     hop_iceoryx2_poll: HopFloor,
     hop_udp_poll: HopFloor,
     hop_system: Vec<SystemHop>,

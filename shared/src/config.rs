@@ -1,4 +1,4 @@
-//! The mission file (TOML), parsed and validated (DESIGN §8).
+//! The mission file (TOML), parsed and validated (docs/ARCHITECTURE.md §9).
 //!
 //! A mission file must give `[mission] name` and the `[field]` keys that shape its kind of
 //! field (see [`FieldKind::required_keys`]): they have no meaningful default, so an empty or
@@ -118,7 +118,7 @@ impl ConfigError {
     }
 }
 
-/// How mission time is paced against wall time (DESIGN §3).
+/// How mission time is paced against wall time (docs/ARCHITECTURE.md §3).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum Pace {
     /// As fast as possible, each tick released when every live participant has reported.
@@ -505,7 +505,7 @@ pub enum SurfacingPhase {
     Together,
 }
 
-/// `[links]`: the vehicle ↔ coordinator link model, both directions (DESIGN §6).
+/// `[links]`: the vehicle ↔ coordinator link model, both directions (docs/ARCHITECTURE.md §6).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LinksSection {
@@ -562,7 +562,7 @@ pub enum RestartPolicy {
     Always,
 }
 
-/// `[restart]`: what the supervisor does when a process of the set dies (DESIGN §7).
+/// `[restart]`: what the supervisor does when a process of the set dies (docs/ARCHITECTURE.md §7).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RestartSection {
@@ -619,7 +619,7 @@ impl FaultKind {
     }
 }
 
-/// One scheduled fault (`[[faults]]`, DESIGN §7).
+/// One scheduled fault (`[[faults]]`, docs/ARCHITECTURE.md §7).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FaultConfig {

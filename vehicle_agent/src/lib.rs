@@ -105,7 +105,7 @@ impl Agent {
         u
     }
 
-    /// Holds station when nothing is heard from the coordinator (DESIGN §2): damping and
+    /// Holds station when nothing is heard from the coordinator (docs/ARCHITECTURE.md §6): damping and
     /// the last known virtual leaders only, no neighbours.
     pub fn hold_station(
         &mut self,
@@ -370,7 +370,7 @@ impl Vehicle {
     }
 
     /// Nothing heard from the coordinator: hold station around the last visible leaders
-    /// (damping and leader forces only, DESIGN §2).
+    /// (damping and leader forces only, docs/ARCHITECTURE.md §6).
     pub fn hold_station(&mut self, dt: f64) {
         let g = &self.current;
         self.agent

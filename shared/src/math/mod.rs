@@ -1,7 +1,7 @@
 //! The mathematics of Ögren, Fiorelli and Leonard (IEEE TAC 2004), pure functions only.
 //!
 //! Positions are always [`Vec3`] (metres or the mission's length unit); in 2-D missions the
-//! z component is zero and stays zero. Equation numbers refer to `shared/paper.md`.
+//! z component is zero and stays zero. Equation numbers are those of the paper (Ögren, Fiorelli and Leonard, IEEE TAC 2004).
 //!
 //! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`],
 //! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design;
