@@ -2,7 +2,7 @@
 //!
 //! - [`sim`]: the in-process reference simulator (`vbap sim`).
 //! - [`supervise`]: the multi-process run (`vbap run`), tokio.
-//! - [`analyze`]: timing analysis from the tracing logs (`vbap analyze`).
+//! - [`analyze`]: timing analysis from the message records (`vbap analyze`).
 //! - [`progress`]: the progress bar of `vbap run`.
 //! - [`replay`], [`batch`], [`bench`], [`report_plots`]: study a run, many runs, the speed.
 //! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).

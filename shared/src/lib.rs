@@ -3,9 +3,11 @@
 //! - [`math`]: the paper's mathematics, pure (no IPC, clock, logging or files).
 //! - [`field`]: the sensed environments, with ground truth, and the keyed sensor noise.
 //! - [`config`]: the mission file (TOML), parsed and validated.
+//! - [`faults`], [`link`]: the scheduled faults and the emulated link model.
 //! - [`rng`]: random streams keyed by (seed, stream, id, tick).
 //! - [`msg`], [`topics`]: zero-copy payloads and every service name and limit.
 //! - [`telemetry`]: the one tracing setup of every process.
+//! - [`process`]: ending with the supervisor, exit codes.
 //! - [`msglog`]: the per-message records, `logs/<process>.msgs.csv` (writer and parser).
 //! - [`rundir`]: the run-directory files (CSV, JSON lines, summary).
 //! - [`plot`]: the mission plot.
