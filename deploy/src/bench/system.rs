@@ -8,7 +8,7 @@
 //!   complete when the last state of tick k has arrived, at T_k = max `recv_ns` over the
 //!   states of tick k; rate = (K − k₀) / (T_K − T_k₀) with k₀ a tenth of the way in (the
 //!   first ticks warm caches and page in shared memory) and K the last tick. Without
-//!   message records (`RUST_LOG` without `vbap::msg=debug`): ticks / (last `agent up` →
+//!   message records (`VBAP_MSG_RECORDS=off`): ticks / (last `agent up` →
 //!   `coordinator done`).
 //! - **hop latency**: `vbap analyze`'s transport percentiles of the `state` hop
 //!   ([`crate::analyze::analyze`]).
