@@ -388,7 +388,7 @@ impl Recorder {
             },
         );
         // Converged: the body within tolerance AND every live vehicle in formation.
-        let converged = verdict == "converged";
+        let converged = truth::is_converged(&verdict);
         let time_to_converge_s = if converged {
             Some(
                 self.stats

@@ -493,6 +493,8 @@ pub struct BodyOutcome {
 /// The verdict and its reasons. In order:
 /// - `interrupted`: fewer ticks recorded than planned (Ctrl-C, SIGTERM, a stop);
 /// - `converged`: body within tolerance of the optimum and every live vehicle in formation;
+/// - `converged, near collisions`: the same, but two vehicles came closer than
+///   [`NEAR_COLLISION`] spacing at some tick (a collision, at sea): still converged;
 /// - `converged, formation broken`: body within tolerance, some live vehicle out of formation;
 /// - `stalled`: not converged and the body stalled at the end (ṡ ≈ 0, see the module docs);
 /// - `diverged`: not converged and the body ended farther from the optimum than it started;
@@ -620,6 +622,8 @@ pub fn verdict(stats: &TruthStats, body: &BodyOutcome) -> (String, Vec<String>) 
         } else {
             "formation kept"
         }
+    } else if within && !broken && f.near_collision_ticks > 0 {
+        "converged, near collisions"
     } else if within && !broken {
         "converged"
     } else if within {
@@ -634,6 +638,12 @@ pub fn verdict(stats: &TruthStats, body: &BodyOutcome) -> (String, Vec<String>) 
         "not converged"
     };
     (verdict.to_string(), reasons)
+}
+
+/// True for the verdicts that mean converged: the body within tolerance of the optimum AND
+/// every live vehicle in formation at the end ([`verdict`]).
+pub fn is_converged(verdict: &str) -> bool {
+    verdict == "converged" || verdict == "converged, near collisions"
 }
 
 /// A figure for a sentence: 4 significant digits.

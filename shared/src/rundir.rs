@@ -549,8 +549,10 @@ pub struct Summary {
     /// Body commands the agents rejected (from their logs).
     pub agent_rejected: u64,
     /// The outcome in a word or three, judged from the true states: "converged",
-    /// "converged, formation broken", "stalled", "diverged", "not converged, formation
-    /// broken", "not converged", "interrupted" (see `coordinator::record::verdict`).
+    /// "converged, near collisions", "converged, formation broken", "stalled", "diverged",
+    /// "not converged, formation broken", "not converged", "interrupted", and "formation
+    /// kept" / "formation broken" for a field without an optimum (see
+    /// `coordinator::truth::verdict`).
     #[serde(default)]
     pub verdict: String,
     /// Why: sentences naming vehicles, times and figures.
