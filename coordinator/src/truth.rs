@@ -646,8 +646,8 @@ pub fn is_converged(verdict: &str) -> bool {
     verdict == "converged" || verdict == "converged, near collisions"
 }
 
-/// A figure for a sentence: 4 significant digits.
-fn fmt(x: f64) -> String {
+/// A figure for a sentence: 4 significant digits (exponent form below 1e-3 and from 1e6).
+pub fn fmt(x: f64) -> String {
     if x == 0.0 || !x.is_finite() {
         return format!("{x}");
     }

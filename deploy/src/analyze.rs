@@ -50,6 +50,16 @@ use shared::telemetry::MSG_TARGET;
 use crate::report_plots::{self, Axis, Figure, Panel, Series, PALETTE};
 use shared::plot::style::TimeUnit;
 
+/// Seconds since the Unix epoch of an RFC 3339 UTC timestamp as the tracing logs write it
+/// (`2026-12-01T17:24:09.458255Z`); None when it is not one.
+pub fn parse_utc(ts: &str) -> Option<f64> {
+    if !ts.ends_with('Z') {
+        return None;
+    }
+    let t = time::OffsetDateTime::parse(ts, &time::format_description::well_known::Rfc3339).ok()?;
+    Some(t.unix_timestamp() as f64 + f64::from(t.nanosecond()) * 1e-9)
+}
+
 /// File name of the latency plot.
 pub const LATENCY_SVG: &str = "latency.svg";
 /// File name of the loop plot.
@@ -1098,6 +1108,19 @@ fn short(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn utc_timestamps_parse() {
+        assert_eq!(parse_utc("1970-01-01T00:00:00Z"), Some(0.0));
+        let t = parse_utc("2026-12-01T17:24:09.458255Z").unwrap();
+        // 2026-12-01 is day 20788 since the epoch.
+        assert!((t - (20_788.0 * 86_400.0 + 17.0 * 3600.0 + 24.0 * 60.0 + 9.458255)).abs() < 1e-6);
+        assert_eq!(parse_utc("2000-03-01T00:00:01.5Z"), Some(951_868_801.5));
+        assert_eq!(parse_utc("2024-02-29T23:59:59Z"), Some(1_709_251_199.0));
+        assert_eq!(parse_utc("2024-02-29 23:59:59"), None);
+        assert_eq!(parse_utc("not a time"), None);
+        assert_eq!(parse_utc("2026-13-01T00:00:00Z"), None);
+    }
 
     /// The state hop of the records both test logs hold: 3 received, 1 lost by the link, 1
     /// held 50 ms, 1 delivered at once; plus the overflow drop of the agent's log.

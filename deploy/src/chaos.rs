@@ -250,31 +250,6 @@ fn epoch_s(t: SystemTime) -> f64 {
         .unwrap_or(0.0)
 }
 
-/// Seconds since the Unix epoch of an RFC 3339 UTC timestamp as the logs write it
-/// (`2026-12-01T17:24:09.458255Z`); None when it is not one.
-pub fn parse_utc(ts: &str) -> Option<f64> {
-    let ts = ts.strip_suffix('Z')?;
-    let (date, time) = ts.split_once('T')?;
-    let mut d = date.splitn(3, '-').map(|p| p.parse::<i64>().ok());
-    let (y, m, day) = (d.next()??, d.next()??, d.next()??);
-    let mut t = time.splitn(3, ':');
-    let h: i64 = t.next()?.parse().ok()?;
-    let min: i64 = t.next()?.parse().ok()?;
-    let sec: f64 = t.next()?.parse().ok()?;
-    if !(1..=12).contains(&m) || !(1..=31).contains(&day) || h > 23 || min > 59 {
-        return None;
-    }
-    // Days from the civil date (proleptic Gregorian), H. Hinnant's algorithm.
-    let y = if m <= 2 { y - 1 } else { y };
-    let era = y.div_euclid(400);
-    let yoe = y - era * 400;
-    let mp = (m + 9) % 12;
-    let doy = (153 * mp + 2) / 5 + day - 1;
-    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    let days = era * 146_097 + doe - 719_468;
-    Some((days * 86_400 + h * 3600 + min * 60) as f64 + sec)
-}
-
 /// One action of the campaign and how it went.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Action {
@@ -700,7 +675,7 @@ fn lockstep_rate(r: &RunReport) -> Option<f64> {
     let at = |msg: &str| {
         log.iter()
             .find(|l| l.pointer("/fields/message").and_then(Value::as_str) == Some(msg))
-            .and_then(|l| parse_utc(l.get("timestamp")?.as_str()?))
+            .and_then(|l| crate::analyze::parse_utc(l.get("timestamp")?.as_str()?))
     };
     let span = match (at("coordinator up"), at("coordinator done")) {
         (Some(a), Some(b)) if b > a => b - a,
@@ -1248,7 +1223,7 @@ fn evaluate(
         .collect();
     let log: Vec<(f64, Value)> = json_lines(&run_dir.join("logs").join("coordinator.jsonl"))
         .into_iter()
-        .filter_map(|l| Some((parse_utc(l.get("timestamp")?.as_str()?)?, l)))
+        .filter_map(|l| Some((crate::analyze::parse_utc(l.get("timestamp")?.as_str()?)?, l)))
         .collect();
     let lost_ticks: BTreeSet<u64> = events
         .iter()
@@ -1713,17 +1688,6 @@ pub fn table(c: &Campaign) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn utc_timestamps_parse() {
-        assert_eq!(parse_utc("1970-01-01T00:00:00Z"), Some(0.0));
-        let t = parse_utc("2026-12-01T17:24:09.458255Z").unwrap();
-        // 2026-12-01 is day 20788 since the epoch.
-        assert!((t - (20_788.0 * 86_400.0 + 17.0 * 3600.0 + 24.0 * 60.0 + 9.458255)).abs() < 1e-6);
-        assert_eq!(parse_utc("2000-03-01T00:00:00Z"), Some(951_868_800.0));
-        assert_eq!(parse_utc("not a time"), None);
-        assert_eq!(parse_utc("2026-13-01T00:00:00Z"), None);
-    }
 
     #[test]
     fn slots_from_command_lines() {

@@ -347,21 +347,7 @@ fn duration(s: f64) -> String {
     } else if s >= 2.0 * 3600.0 {
         format!("{s:.0} s ({:.1} h)", s / 3600.0)
     } else {
-        format!("{} s", sig(s))
-    }
-}
-
-/// 4 significant digits.
-fn sig(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() {
-        return format!("{x}");
-    }
-    let mag = x.abs().log10().floor() as i32;
-    if (-3..6).contains(&mag) {
-        let decimals = (3 - mag).max(0) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.3e}")
+        format!("{} s", coordinator::truth::fmt(s))
     }
 }
 
@@ -397,7 +383,7 @@ pub fn human_summary(s: &Summary) -> String {
             "{} in {} ticks, wall {} s",
             duration(s.final_time_s),
             s.ticks,
-            sig(s.wall_time_s)
+            coordinator::truth::fmt(s.wall_time_s)
         ),
     );
     if let Some(d) = s.final_distance_to_optimum {
@@ -406,7 +392,7 @@ pub fn human_summary(s: &Summary) -> String {
             "body to optimum",
             format!(
                 "{}{}",
-                sig(d),
+                coordinator::truth::fmt(d),
                 s.time_to_converge_s
                     .map_or(String::new(), |t| format!(", converged at {}", duration(t)))
             ),
@@ -418,9 +404,9 @@ pub fn human_summary(s: &Summary) -> String {
             "V / V_U (true)",
             format!(
                 "max {}, above 1 in {:.1}% of ticks; the coordinator saw max {}",
-                sig(f.max_v_true_over_vu),
+                coordinator::truth::fmt(f.max_v_true_over_vu),
                 100.0 * f.share_ticks_v_true_above_vu,
-                sig(f.max_v_seen_over_vu)
+                coordinator::truth::fmt(f.max_v_seen_over_vu)
             ),
         );
         if let (Some(r), Some(t), Some([a, b])) =
@@ -431,7 +417,7 @@ pub fn human_summary(s: &Summary) -> String {
                 "closest pair",
                 format!(
                     "{} spacing (vehicles {a} and {b} at t = {}), {} near-collision ticks",
-                    sig(r),
+                    coordinator::truth::fmt(r),
                     duration(t),
                     f.near_collision_ticks
                 ),
@@ -443,7 +429,11 @@ pub fn human_summary(s: &Summary) -> String {
             row(
                 &mut o,
                 "worst slot error",
-                format!("{} spacing (vehicle {v} at t = {})", sig(e), duration(t)),
+                format!(
+                    "{} spacing (vehicle {v} at t = {})",
+                    coordinator::truth::fmt(e),
+                    duration(t)
+                ),
             );
         }
         row(
@@ -462,7 +452,7 @@ pub fn human_summary(s: &Summary) -> String {
             .longest_contact_gap_s
             .iter()
             .enumerate()
-            .filter_map(|(i, g)| g.map(|g| format!("{i}: {}", sig(g))))
+            .filter_map(|(i, g)| g.map(|g| format!("{i}: {}", coordinator::truth::fmt(g))))
             .collect();
         if !gaps.is_empty() {
             row(&mut o, "longest silence (s)", gaps.join(", "));
@@ -485,8 +475,8 @@ pub fn human_summary(s: &Summary) -> String {
             "in set M (Thm 5.1)",
             format!(
                 "{inside} (|∇T| = {} against the bound {})",
-                sig(s.final_grad_norm),
-                sig(b)
+                coordinator::truth::fmt(s.final_grad_norm),
+                coordinator::truth::fmt(b)
             ),
         );
     }

@@ -503,7 +503,7 @@ impl Marks {
                 };
                 let Some(t) = serde_json::from_str::<serde_json::Value>(&line)
                     .ok()
-                    .and_then(|v| v["timestamp"].as_str().and_then(parse_utc))
+                    .and_then(|v| v["timestamp"].as_str().and_then(crate::analyze::parse_utc))
                 else {
                     continue;
                 };
@@ -544,42 +544,9 @@ impl Marks {
 /// The `target` of message records as it appears in a JSON log line.
 const MSG_TARGET_FIELD: &str = "\"target\":\"vbap::msg\"";
 
-/// Seconds since the Unix epoch of an RFC 3339 UTC timestamp as tracing writes them,
-/// `2026-01-31T12:44:50.983114Z`.
-fn parse_utc(ts: &str) -> Option<f64> {
-    let ts = ts.strip_suffix('Z')?;
-    let (date, clock) = ts.split_once('T')?;
-    let mut d = date.splitn(3, '-').map(|p| p.parse::<i64>().ok());
-    let (y, m, day) = (d.next()??, d.next()??, d.next()??);
-    let mut c = clock.splitn(3, ':');
-    let h: i64 = c.next()?.parse().ok()?;
-    let min: i64 = c.next()?.parse().ok()?;
-    let sec: f64 = c.next()?.parse().ok()?;
-    if !(1..=12).contains(&m) || !(1..=31).contains(&day) {
-        return None;
-    }
-    // Days from 1970-01-01 to y-m-d in the proleptic Gregorian calendar.
-    let y = if m <= 2 { y - 1 } else { y };
-    let era = y.div_euclid(400);
-    let yoe = y - era * 400;
-    let mp = (m + 9) % 12;
-    let doy = (153 * mp + 2) / 5 + day - 1;
-    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    let days = era * 146_097 + doe - 719_468;
-    Some((days * 86_400 + h * 3600 + min * 60) as f64 + sec)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn utc_timestamps() {
-        assert_eq!(parse_utc("1970-01-01T00:00:00Z"), Some(0.0));
-        assert_eq!(parse_utc("2000-03-01T00:00:01.5Z"), Some(951_868_801.5));
-        assert_eq!(parse_utc("2024-02-29T23:59:59Z"), Some(1_709_251_199.0));
-        assert_eq!(parse_utc("2024-02-29 23:59:59"), None);
-    }
 
     #[test]
     fn tick_rate_from_either_format() {
