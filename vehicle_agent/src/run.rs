@@ -266,6 +266,14 @@ pub fn run(
             commands.push((h.tick, guidance, own));
         }
         if finished {
+            // Commands read in the same drain as the end (a slow agent finds both in its
+            // buffer) still had their link fates: draw them (up to the newest, in order),
+            // so the downlink counts equal the simulator's, which draws every command's.
+            if !joining {
+                if let Some((tick, guidance, _)) = commands.pop() {
+                    vehicle.receive(&model, guidance, tick, dt);
+                }
+            }
             log_fates(&mut vehicle, &mut msgs);
             info!(
                 vehicle = id,
