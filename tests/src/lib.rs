@@ -364,6 +364,67 @@ pub fn msg_records(run_dir: &Path, process: &str) -> Vec<OwnedRecord> {
     }
 }
 
+/// Asserts that the mission `name` left nothing behind: no file of its iceoryx2 domain and
+/// no process whose command line mentions the test's directory `tmp`.
+pub fn assert_nothing_left(name: &str, tmp: &TempDir) {
+    let files = leftover_files(name);
+    assert!(files.is_empty(), "files of {name} left behind: {files:?}");
+    let pids = processes_mentioning(&tmp.path.to_string_lossy());
+    assert!(pids.is_empty(), "processes left behind: {pids:?}");
+}
+
+/// Waits (at most 60 s) until the run writing `out` has recorded more than `rows` ticks in
+/// `body.csv`.
+pub fn wait_for_ticks(out: &Path, rows: usize) {
+    let body = out.join("body.csv");
+    wait_until(
+        || line_count(&body) > rows,
+        Duration::from_secs(60),
+        "the run to get going",
+    );
+}
+
+/// The rejoin missions of the end-to-end tests: six vehicles on a Gaussian hill 33 units
+/// away, dt 0.1 s, agents restarted on failure; `extra` is appended (links, faults).
+pub fn rejoin_mission(name: &str, duration: f64, extra: &str) -> String {
+    format!(
+        r#"
+[mission]
+name = "{name}"
+seed = 11
+duration = {duration}
+dt = 0.1
+goal = "max"
+tolerance = 1.0
+
+[field]
+kind = "gaussian"
+center = [30.0, 15.0]
+amplitude = 10.0
+width = 12.0
+noise_std = 0.1
+
+[vehicles]
+count = 6
+damping = 5.0
+
+[formation]
+alpha = 60.0
+radius = 2.0
+min_scale = 0.7
+
+[body]
+v0 = 0.5
+v_u = 10.0
+grad_saturation = 0.05
+
+[restart]
+vehicles = "on-failure"
+{extra}
+"#
+    )
+}
+
 /// Uncomments the trailing example of a mission file: from its first line `# [` on, every
 /// line `# x` becomes `x` (`## x` stays a comment).
 pub fn uncomment_example(text: &str) -> String {

@@ -112,8 +112,7 @@ until = 9.0
     // The restarted agent was a new process (its pid differs) and rejoined.
     let log = read(&tmp.join("run/logs/vehicle_agent_2.jsonl"));
     assert!(log.contains("admitted back into the formation"));
-    assert!(leftover_files(&name).is_empty());
-    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+    assert_nothing_left(&name, &tmp);
 }
 
 /// A vehicle restarted 30 s after its kill comes back out of the leaders' reach (the body
@@ -124,51 +123,10 @@ until = 9.0
 fn a_vehicle_rejoining_from_out_of_reach_in_lockstep_equals_the_simulator() {
     let tmp = TempDir::new("rejoinfar");
     let name = unique_name("rejoinfar");
-    let text = format!(
-        r#"
-[mission]
-name = "{name}"
-seed = 11
-duration = 130.0
-dt = 0.1
-goal = "max"
-tolerance = 1.0
-
-[field]
-kind = "gaussian"
-center = [30.0, 15.0]
-amplitude = 10.0
-width = 12.0
-noise_std = 0.1
-
-[vehicles]
-count = 6
-damping = 5.0
-
-[formation]
-alpha = 60.0
-radius = 2.0
-min_scale = 0.7
-
-[body]
-v0 = 0.5
-v_u = 10.0
-grad_saturation = 0.05
-
-[links]
-delay = 0.3
-jitter = 0.1
-loss = 0.05
-
-[restart]
-vehicles = "on-failure"
-
-[[faults]]
-kind = "kill"
-vehicle = 2
-at = 5.0
-until = 35.0
-"#
+    let text = rejoin_mission(
+        &name,
+        130.0,
+        "[links]\ndelay = 0.3\njitter = 0.1\nloss = 0.05\n\n[[faults]]\nkind = \"kill\"\nvehicle = 2\nat = 5.0\nuntil = 35.0\n",
     );
     let file = write_mission(&tmp, "m.toml", &text);
     vbap_quiet("sim", &file, &tmp.join("sim"));
@@ -179,8 +137,7 @@ until = 35.0
     assert_eq!(s["converged"], true, "{s}");
     let log = read(&tmp.join("run/logs/vehicle_agent_2.jsonl"));
     assert!(log.contains("admitted back into the formation"));
-    assert!(leftover_files(&name).is_empty());
-    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+    assert_nothing_left(&name, &tmp);
 }
 
 fn pid_of(needle: &str) -> Option<u32> {
@@ -299,8 +256,7 @@ fn random_agent_kills_are_survived_and_the_restarted_agents_rejoin() {
             "no redesign without the lost vehicle at its tick: {e}"
         );
     }
-    assert!(leftover_files(&name).is_empty());
-    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+    assert_nothing_left(&name, &tmp);
 }
 
 /// The coordinator's message records of the state hop: (injected delays ms, dropped count,
@@ -456,6 +412,5 @@ fn stopped_and_resumed_processes_carry_on() {
         let log = read(&out.join(format!("logs/{process}.jsonl")));
         assert!(!log.contains("stopped by signal"), "{process}: {log}");
     }
-    assert!(leftover_files(&name).is_empty());
-    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+    assert_nothing_left(&name, &tmp);
 }

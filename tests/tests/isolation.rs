@@ -175,11 +175,7 @@ fn a_sigkilled_supervisor_leaves_no_files_no_processes_and_no_half_rows() {
     let file = write_mission(&tmp, "m.toml", &mission(&name, 300.0, "1.0", ""));
     let out = tmp.join("run");
     let mut run = spawn_run(&file, &out);
-    wait_until(
-        || line_count(&out.join("body.csv")) > 20,
-        Duration::from_secs(60),
-        "the run to get going",
-    );
+    wait_for_ticks(&out, 20);
     // One agent dies by SIGKILL first: its resources are left to the others to clean.
     let needle = format!("{} --id 2 --", out.join("mission.toml").display());
     let agent = processes_mentioning(&needle);

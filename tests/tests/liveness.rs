@@ -140,11 +140,7 @@ fn agent_kills_are_detected_at_pace_10_and_60() {
         let file = write_mission(&tmp, "m.toml", &mission(&name, 6, duration, 0.05, pace, ""));
         let out = tmp.join("run");
         let mut run = spawn_run(&file, &out);
-        wait_until(
-            || line_count(&out.join("body.csv")) > 40,
-            Duration::from_secs(60),
-            "the run to get going",
-        );
+        wait_for_ticks(&out, 40);
         let lost = kill_one_then_two(&out, false);
         assert!(run.wait().success(), "pace {pace}: the mission completes");
         let s = summary(&out);
@@ -169,8 +165,7 @@ fn agent_kills_are_detected_at_pace_10_and_60() {
         }
         let latencies = s["detection_latency_ms"].as_array().unwrap();
         assert_eq!(latencies.len(), 3, "a latency per kill: {s}");
-        assert!(leftover_files(&name).is_empty());
-        assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+        assert_nothing_left(&name, &tmp);
     }
 }
 
@@ -190,11 +185,7 @@ fn lockstep_kills_with_restarts_never_wait_for_the_timeout() {
     );
     let out = tmp.join("run");
     let mut run = spawn_run(&file, &out);
-    wait_until(
-        || line_count(&out.join("body.csv")) > 500,
-        Duration::from_secs(60),
-        "the run to get going",
-    );
+    wait_for_ticks(&out, 500);
     let lost = kill_one_then_two(&out, true);
     wait_until(
         || kinds(&out, "rejoin") >= 3,
@@ -220,8 +211,7 @@ fn lockstep_kills_with_restarts_never_wait_for_the_timeout() {
     );
     let log = read(&out.join("logs/coordinator.jsonl"));
     assert!(!log.contains("lockstep timeout"), "a tick waited 10 s");
-    assert!(leftover_files(&name).is_empty());
-    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+    assert_nothing_left(&name, &tmp);
 }
 
 /// The coordinator's gaps between two answers of the field server, ms (its message
@@ -253,11 +243,7 @@ fn a_field_server_kill_costs_no_coordinator_restart() {
     vbap_quiet("sim", &file, &tmp.join("sim"));
     let out = tmp.join("run");
     let mut run = spawn_run(&file, &out);
-    wait_until(
-        || line_count(&out.join("body.csv")) > 1500,
-        Duration::from_secs(60),
-        "the run to get going",
-    );
+    wait_for_ticks(&out, 1500);
     sigkill_all(&[role(&out, "field_server")]);
     assert!(run.wait().success(), "the mission completes");
     assert_same_tracks(&tmp.join("sim"), &out);
@@ -279,8 +265,7 @@ fn a_field_server_kill_costs_no_coordinator_restart() {
         largest_field_gap_ms(&out),
         summary(&out)["wall_time_s"]
     );
-    assert!(leftover_files(&name).is_empty());
-    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+    assert_nothing_left(&name, &tmp);
 }
 
 /// Every planner input row `(vehicle, report tick)` of fresh reports: each state is used
@@ -312,11 +297,7 @@ fn a_coordinator_kill_at_pace_10_keeps_the_mission_clock() {
     vbap_quiet("run", &file, &tmp.join("clean"));
     let out = tmp.join("run");
     let mut run = spawn_run(&file, &out);
-    wait_until(
-        || line_count(&out.join("body.csv")) > 300,
-        Duration::from_secs(60),
-        "the run to get going",
-    );
+    wait_for_ticks(&out, 300);
     sigkill_all(&[role(&out, "coordinator")]);
     assert!(run.wait().success(), "the mission completes");
     let log = read(&out.join("logs/coordinator.jsonl"));
@@ -335,8 +316,7 @@ fn a_coordinator_kill_at_pace_10_keeps_the_mission_clock() {
     let fresh = fresh_reports(&out);
     let unique: BTreeSet<(u32, u64)> = fresh.iter().copied().collect();
     assert_eq!(unique.len(), fresh.len(), "a state was used twice");
-    assert!(leftover_files(&name).is_empty());
-    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+    assert_nothing_left(&name, &tmp);
 }
 
 /// Policy `always`: the processes that end normally at the mission's end are not
@@ -367,8 +347,7 @@ fn policy_always_restarts_nothing_at_mission_end() {
         1,
         "field server restarted"
     );
-    assert!(leftover_files(&name).is_empty());
-    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+    assert_nothing_left(&name, &tmp);
 }
 
 /// Starts `bin` with `args` and waits for its `ready` line.
@@ -431,11 +410,7 @@ fn a_coordinator_started_alone_finds_dead_agents_by_itself() {
             )
         })
         .collect();
-    wait_until(
-        || line_count(&out.join("body.csv")) > 40,
-        Duration::from_secs(60),
-        "the mission to get going",
-    );
+    wait_for_ticks(&out, 40);
     agents[1].signal("KILL");
     agents[1].wait();
     assert!(coordinator.wait().success(), "the coordinator completes");
@@ -478,11 +453,7 @@ fn a_stopped_agent_is_lost_as_silent_after_the_limit_and_readmitted_when_continu
     let file = write_mission(&tmp, "m.toml", &mission(&name, 3, 3000.0, 0.05, "10.0", ""));
     let out = tmp.join("run");
     let mut run = spawn_run(&file, &out);
-    wait_until(
-        || line_count(&out.join("body.csv")) > 40,
-        Duration::from_secs(60),
-        "the run to get going",
-    );
+    wait_for_ticks(&out, 40);
     signal_all("-STOP", &[agent(&out, 1)]);
     wait_until(
         || kinds(&out, "lost") >= 1,
@@ -510,6 +481,5 @@ fn a_stopped_agent_is_lost_as_silent_after_the_limit_and_readmitted_when_continu
     let rejoin: Vec<_> = ev.iter().filter(|e| e["kind"] == "rejoin").collect();
     assert_eq!(rejoin[0]["vehicle"], 1);
     assert!(rejoin[0]["k"].as_u64() > lost[0]["k"].as_u64());
-    assert!(leftover_files(&name).is_empty());
-    assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
+    assert_nothing_left(&name, &tmp);
 }

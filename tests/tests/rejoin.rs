@@ -164,45 +164,6 @@ fn assert_body_moves(run: &Run, v0: f64, v_u: f64, what: &str) {
     assert!(v <= 0.05 * v_u, "{what}: final V = {v}");
 }
 
-fn mission(name: &str, fault: &str) -> String {
-    format!(
-        r#"
-[mission]
-name = "{name}"
-seed = 11
-duration = 800.0
-dt = 0.1
-goal = "max"
-tolerance = 1.0
-
-[field]
-kind = "gaussian"
-center = [30.0, 15.0]
-amplitude = 10.0
-width = 12.0
-noise_std = 0.1
-
-[vehicles]
-count = 6
-damping = 5.0
-
-[formation]
-alpha = 60.0
-radius = 2.0
-min_scale = 0.7
-
-[body]
-v0 = 0.5
-v_u = 10.0
-grad_saturation = 0.05
-
-[restart]
-vehicles = "on-failure"
-{fault}
-"#
-    )
-}
-
 /// Vehicle 2 of six is killed at 5 s and restarted 10 s, 30 s, 120 s and 600 s later.
 /// Before, every one of these left it stranded at its last state out of the leaders'
 /// reach and the body halted (V ≈ 3.3 V_U, ṡ ≈ 1e-25 to the end). Now it flies home to a
@@ -216,7 +177,7 @@ fn a_vehicle_back_after_any_absence_rejoins_its_slot_and_the_mission_converges()
     let base = tmp.join("none");
     vbap_quiet(
         "sim",
-        &write_mission(&tmp, "none.toml", &mission("rj_none", "")),
+        &write_mission(&tmp, "none.toml", &rejoin_mission("rj_none", 800.0, "")),
         &base,
     );
     let base = Run::read(&base);
@@ -231,7 +192,7 @@ fn a_vehicle_back_after_any_absence_rejoins_its_slot_and_the_mission_converges()
         let file = write_mission(
             &tmp,
             &format!("{tag}.toml"),
-            &mission(&format!("rj_{absence}"), &fault),
+            &rejoin_mission(&format!("rj_{absence}"), 800.0, &fault),
         );
         let out = tmp.join(&tag);
         vbap_quiet("sim", &file, &out);
