@@ -94,13 +94,7 @@ pub fn lyapunov_terms(
     let k = body.scale;
     let inter = body.scaled_inter(design);
     let leader = body.scaled_leader(design);
-    // R b̄_l and db_l/ds.
-    let rotated: Vec<Vec3> = design.leaders.iter().map(|b| body.rotation * b).collect();
-    let leaders: Vec<Vec3> = rotated.iter().map(|rb| k * rb + body.r).collect();
-    let db_ds: Vec<Vec3> = rotated
-        .iter()
-        .map(|rb| rates.dk_ds * rb + k * rates.omega_ds.cross(rb) + rates.dr_ds)
-        .collect();
+    let (leaders, db_ds) = leader_motion(body, rates, design);
 
     let mut kinetic = 0.0;
     for v in velocities {
@@ -132,6 +126,24 @@ pub fn lyapunov_terms(
         dv_ds,
         dv_dx_xdot: -damping * kinetic,
     }
+}
+
+/// The virtual leaders `b_l(s) = k R b̄_l + r` (III.3) of `design` moved by `body`, and
+/// their rates along the body's motion, `db_l/ds = k' R b̄_l + k ω × (R b̄_l) + dr/ds`
+/// (length unit, length unit per unit `s`).
+pub fn leader_motion(
+    body: &VirtualBody,
+    rates: &BodyRates,
+    design: &FormationDesign,
+) -> (Vec<Vec3>, Vec<Vec3>) {
+    let k = body.scale;
+    let rotated: Vec<Vec3> = design.leaders.iter().map(|b| body.rotation * b).collect();
+    let leaders = rotated.iter().map(|rb| k * rb + body.r).collect();
+    let db_ds = rotated
+        .iter()
+        .map(|rb| rates.dk_ds * rb + k * rates.omega_ds.cross(rb) + rates.dr_ds)
+        .collect();
+    (leaders, db_ds)
 }
 
 #[cfg(test)]

@@ -255,12 +255,7 @@ pub fn blended_lyapunov_terms(
     let k = body.scale;
     let inter = body.scaled_inter(design);
     let leader = body.scaled_leader(design);
-    let rotated: Vec<Vec3> = design.leaders.iter().map(|b| body.rotation * b).collect();
-    let leaders: Vec<Vec3> = rotated.iter().map(|rb| k * rb + body.r).collect();
-    let db_ds: Vec<Vec3> = rotated
-        .iter()
-        .map(|rb| rates.dk_ds * rb + k * rates.omega_ds.cross(rb) + rates.dr_ds)
-        .collect();
+    let (leaders, db_ds) = super::lyapunov::leader_motion(body, rates, design);
     // Rate of a body-fixed point p per unit s.
     let moving = |p: &Vec3| {
         let rel = p - body.r;
