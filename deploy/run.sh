@@ -5,7 +5,7 @@ set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/.." && pwd)"
 cargo build --release --quiet --manifest-path "$root/Cargo.toml" \
-  -p deploy -p field_server -p vehicle_agent -p coordinator
+  -p vbap-cli -p field_server -p vehicle_agent -p coordinator
 target="${CARGO_TARGET_DIR:-$root/target}"
 mission="$here/missions/glider.toml"
 if [[ $# -gt 0 && "$1" != --* ]]; then

@@ -20,7 +20,7 @@
 use std::io;
 
 use serde::{Deserialize, Serialize};
-use shared::rundir::{FileOffsets, MessageCounts, RunDir};
+use vbap_mission::rundir::{FileOffsets, MessageCounts, RunDir};
 
 use crate::fleet::Fleet;
 use crate::planner::{Planner, Report};
@@ -127,7 +127,7 @@ impl Checkpoint {
         };
         let [reports, track] = journals(dir);
         let held: Vec<(f64, u64, Report)> = read_journal(&reports, cp.journal.reports_bytes)?;
-        let kept: Vec<(u64, shared::math::Vec3)> = read_journal(&track, cp.journal.track_bytes)?;
+        let kept: Vec<(u64, vbap_math::Vec3)> = read_journal(&track, cp.journal.track_bytes)?;
         cp.fleet
             .restore_journaled(cp.journal.reports_next, held, kept, cp.journal.track_from);
         Ok(Some(cp))
@@ -294,8 +294,8 @@ mod tests {
     use super::*;
     use crate::planner::PlannerParams;
     use crate::run::BodyRecord;
-    use shared::config::Mission;
-    use shared::math::Vec3;
+    use vbap_math::Vec3;
+    use vbap_mission::config::Mission;
 
     #[test]
     fn a_torn_slot_is_told_from_a_whole_one() {

@@ -4,11 +4,11 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use shared::config::Mission;
-use shared::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
-use shared::math::Vec3;
-use shared::msg::coordinator_to_agent::SnapshotEntry;
-use shared::msg::from_vec3;
+use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+use vbap_ipc::msg::from_vec3;
+use vbap_math::Vec3;
+use vbap_mission::config::Mission;
+use vbap_mission::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
 
 use crate::planner::Report;
 
@@ -60,7 +60,7 @@ impl Fleet {
     /// the operators planned), so a link that delays the first reports does not make the
     /// formation look smaller than it is.
     pub fn new(mission: &Mission, ids: &[u32]) -> Self {
-        let planned = shared::math::formation::design_regular(
+        let planned = vbap_math::formation::design_regular(
             mission.vehicles.count,
             mission.mission.dim,
             mission.formation.radius,

@@ -3,10 +3,10 @@
 use std::path::PathBuf;
 
 use clap::Parser;
-use shared::process::{
+use vbap_ipc::process::{
     announce_ready, die_with_parent, finish, load_mission_or_exit, EXIT_INVALID,
 };
-use shared::rundir::RunDir;
+use vbap_mission::rundir::RunDir;
 
 /// The coordinator of a vbap mission (normally started by `vbap run`).
 #[derive(Parser, Debug)]
@@ -34,9 +34,9 @@ fn main() {
         eprintln!("coordinator: --run-dir {}: {e}", args.run_dir.display());
         std::process::exit(EXIT_INVALID);
     });
-    let log = shared::telemetry::init("coordinator", args.log.as_deref());
-    let msgs = shared::process::message_log(args.log.as_deref());
+    let log = vbap_ipc::telemetry::init("coordinator", args.log.as_deref());
+    let msgs = vbap_ipc::process::message_log(args.log.as_deref());
     let result = coordinator::run::run(&mission, &dir, msgs, announce_ready);
-    shared::process::leave_domain(&mission.mission.name, args.parent);
+    vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
     finish("coordinator", result.err().map(|e| format!("{e:#}")), log);
 }

@@ -1,21 +1,21 @@
 //! The coordinator's pure step.
 
-use shared::config::{Goal, Mission};
-use shared::math::adapt::{dk_ds, NoiseEstimator};
-use shared::math::body::{BodyRates, VirtualBody};
-use shared::math::estimate::least_squares;
-use shared::math::formation::{design_regular, FormationDesign, FormationError};
-use shared::math::kalman::GradientFilter;
-use shared::math::lyapunov::{lyapunov_terms, LyapunovTerms};
-use shared::math::optimal::optimal_scale;
-use shared::math::potential::PairPotential;
-use shared::math::rejoin::{
+use std::collections::BTreeMap;
+use vbap_math::adapt::{dk_ds, NoiseEstimator};
+use vbap_math::body::{BodyRates, VirtualBody};
+use vbap_math::estimate::least_squares;
+use vbap_math::formation::{design_regular, FormationDesign, FormationError};
+use vbap_math::kalman::GradientFilter;
+use vbap_math::lyapunov::{lyapunov_terms, LyapunovTerms};
+use vbap_math::optimal::optimal_scale;
+use vbap_math::potential::PairPotential;
+use vbap_math::rejoin::{
     blended_lyapunov_terms, choose_slot, clearance, fit_turn, homing_weight, is_central,
     turned_slots, waiting_factor, Homing,
 };
-use shared::math::speed::formation_speed;
-use shared::math::{Mat3, Vec3};
-use std::collections::BTreeMap;
+use vbap_math::speed::formation_speed;
+use vbap_math::{Mat3, Vec3};
+use vbap_mission::config::{Goal, Mission};
 
 /// One vehicle's report for a tick, as the coordinator received it.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -118,7 +118,7 @@ pub struct Command {
     /// Vehicles in the formation at this tick, ordered by id.
     pub members: Vec<u32>,
     /// The members still rejoining at this tick and the slot each flies to (inertial,
-    /// length unit), ordered by id (`shared::math::rejoin`).
+    /// length unit), ordered by id (`vbap_math::rejoin`).
     pub rejoining: Vec<(u32, Vec3)>,
 }
 
@@ -146,7 +146,7 @@ pub struct Planner {
     #[serde(default)]
     rejoining: BTreeMap<u32, Option<usize>>,
     /// Turn of the slots about the body's z axis (rad) that follows the settled members of
-    /// a 2-D central design (`shared::math::rejoin::fit_turn`).
+    /// a 2-D central design (`vbap_math::rejoin::fit_turn`).
     #[serde(default)]
     turn: f64,
     /// Velocity of the body centre in the last command, length unit/s: the feed-forward
@@ -215,7 +215,7 @@ impl Planner {
         &self.rejoining
     }
 
-    /// Brings the rejoining members up to date at this tick (`shared::math::rejoin`):
+    /// Brings the rejoining members up to date at this tick (`vbap_math::rejoin`):
     /// every vehicle that became a member after the start rejoins until its last known
     /// position is within the capture radius of its slot. Its slot is chosen once (when it
     /// joins, or again when the formation is redesigned): the nearest free slot of the
@@ -280,7 +280,7 @@ impl Planner {
     /// order, each with its own position and time (the estimator uses them: Remark 5.8).
     /// With ideal links both are this tick's reports. `joined` lists the vehicles admitted
     /// back at this tick (members from now on, at their restore state, even when they were
-    /// lost at this very tick): each rejoins (`shared::math::rejoin`). `dt` is the tick
+    /// lost at this very tick): each rejoins (`vbap_math::rejoin`). `dt` is the tick
     /// length, s.
     pub fn step(
         &mut self,

@@ -6,15 +6,15 @@
 
 use std::io;
 
-use shared::config::Mission;
-use shared::field::Field;
-use shared::math::convergence::{default_delta_m, theorem_5_1_bound};
-use shared::math::formation::FormationDesign;
-use shared::math::Vec3;
-use shared::plot::{MissionPlot, Snapshot, Track};
-use shared::rundir::{
+use vbap_math::convergence::{default_delta_m, theorem_5_1_bound};
+use vbap_math::formation::FormationDesign;
+use vbap_math::Vec3;
+use vbap_mission::config::Mission;
+use vbap_mission::field::Field;
+use vbap_mission::rundir::{
     BodyRow, Event, EventLog, InputRow, RunDir, Summary, TrackWriter, TruthWriter, VehicleRow,
 };
+use vbap_report::plot::{MissionPlot, Snapshot, Track};
 
 use crate::fleet::Fleet;
 use crate::planner::{Command, Planner, Report};
@@ -114,7 +114,7 @@ impl Recorder {
             .mission
             .faults
             .iter()
-            .filter(|f| shared::faults::tick_at(f.at, dt) == k)
+            .filter(|f| vbap_mission::faults::tick_at(f.at, dt) == k)
             .cloned()
             .collect();
         for f in starting {
@@ -167,10 +167,10 @@ impl Recorder {
     }
 
     /// Writes a `link_drop` event for every uplink report the link model dropped.
-    pub fn uplink(&mut self, k: u64, fates: &[(u32, shared::link::Fate)]) -> io::Result<()> {
+    pub fn uplink(&mut self, k: u64, fates: &[(u32, vbap_mission::link::Fate)]) -> io::Result<()> {
         let t = k as f64 * self.mission.mission.dt;
         for (v, fate) in fates {
-            if let shared::link::Fate::Drop(reason) = fate {
+            if let vbap_mission::link::Fate::Drop(reason) = fate {
                 self.events.push(&Event {
                     t,
                     k,
@@ -355,10 +355,10 @@ impl Recorder {
     }
 
     /// Lengths of the appended files once flushed (what a checkpoint covers).
-    pub fn offsets(&self) -> shared::rundir::FileOffsets {
+    pub fn offsets(&self) -> vbap_mission::rundir::FileOffsets {
         let (vehicles, body, inputs) = self.tracks.lengths();
         let (formation, truth) = self.truth_files.lengths();
-        shared::rundir::FileOffsets {
+        vbap_mission::rundir::FileOffsets {
             vehicles,
             body,
             inputs,
@@ -438,7 +438,7 @@ impl Recorder {
 
     /// Writes `plot.svg`: tracks on the field's contours, the body path, formation
     /// snapshots (evenly spaced, and at the telling events of `events.jsonl`) and the optimum.
-    pub fn write_plot(&self) -> Result<(), shared::plot::PlotError> {
+    pub fn write_plot(&self) -> Result<(), vbap_report::plot::PlotError> {
         let m = &self.mission;
         let t = self.stats.last_t;
         let field = &self.field;
@@ -449,13 +449,14 @@ impl Recorder {
         };
         let sample = move |x: f64, y: f64| field.value(&Vec3::new(x, y, z), t);
         let optimum = field.optimum(t, m.mission.goal).map(|o| (o.x, o.y));
-        let io_err =
-            |path: std::path::PathBuf| move |source| shared::plot::PlotError::Io { path, source };
-        let events =
-            shared::plot::read_events(&self.dir.events()).map_err(io_err(self.dir.events()))?;
-        let at_events = shared::plot::event_snapshots(
+        let io_err = |path: std::path::PathBuf| {
+            move |source| vbap_report::plot::PlotError::Io { path, source }
+        };
+        let events = vbap_report::plot::read_events(&self.dir.events())
+            .map_err(io_err(self.dir.events()))?;
+        let at_events = vbap_report::plot::event_snapshots(
             &events,
-            shared::plot::MAX_EVENT_SNAPSHOTS,
+            vbap_report::plot::MAX_EVENT_SNAPSHOTS,
             (m.ticks() / EVENT_SNAPSHOT_GAP).max(1),
         );
         let (tracks, body_path, snapshots) =
@@ -472,7 +473,7 @@ impl Recorder {
             optimum,
             events: Vec::new(),
         };
-        shared::plot::write_mission_svg(&plot, &self.dir.plot())
+        vbap_report::plot::write_mission_svg(&plot, &self.dir.plot())
     }
 }
 

@@ -7,19 +7,19 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use iceoryx2::prelude::*;
-use shared::config::{Mission, Pace, RestartPolicy};
-use shared::faults::FaultPlan;
-use shared::link::Fate;
-use shared::msg::agent_to_coordinator::VehicleState;
-use shared::msg::coordinator_to_agent::BodyCommand;
-use shared::msg::coordinator_to_field::{SampleBatch, SensorRead};
-use shared::msg::field_to_coordinator::ReadingBatch;
-use shared::msg::supervisor_to_coordinator::ProcessExit;
-use shared::msg::{from_vec3, to_vec3, wall_ns, Header, MAX_LEADERS, MAX_VEHICLES};
-use shared::msglog::MsgLog;
-use shared::rundir::{MessageCounts, RunDir};
-use shared::topics::{self, wait_for_wake_ids, Domain, Limits, Wake};
 use tracing::{debug, info, warn};
+use vbap_ipc::msg::agent_to_coordinator::VehicleState;
+use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
+use vbap_ipc::msg::coordinator_to_field::{SampleBatch, SensorRead};
+use vbap_ipc::msg::field_to_coordinator::ReadingBatch;
+use vbap_ipc::msg::supervisor_to_coordinator::ProcessExit;
+use vbap_ipc::msg::{from_vec3, to_vec3, wall_ns, Header, MAX_LEADERS, MAX_VEHICLES};
+use vbap_ipc::msglog::MsgLog;
+use vbap_ipc::topics::{self, wait_for_wake_ids, Domain, Limits, Wake};
+use vbap_mission::config::{Mission, Pace, RestartPolicy};
+use vbap_mission::faults::FaultPlan;
+use vbap_mission::link::Fate;
+use vbap_mission::rundir::{MessageCounts, RunDir};
 
 use crate::checkpoint::{Checkpoint, CheckpointRef, CheckpointWriter, JournalMarks, PeerMark};
 use crate::fleet::Fleet;
@@ -815,7 +815,7 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
                 continue;
             }
             let pid = inbox.peers[v as usize].pid;
-            let killed = shared::process::sigkill(pid);
+            let killed = vbap_ipc::process::sigkill(pid);
             let name = topics::agent_node_name(v);
             let started = Instant::now();
             while domain.node_states().get(&name).copied().unwrap_or(false)
@@ -1239,7 +1239,7 @@ pub struct BodyRecord {
     pub damping: f64,
     pub velocity: [f64; 3],
     pub leaders: Vec<[f64; 3]>,
-    pub snapshot: Vec<shared::msg::coordinator_to_agent::SnapshotEntry>,
+    pub snapshot: Vec<vbap_ipc::msg::coordinator_to_agent::SnapshotEntry>,
 }
 
 /// Fills the reusable command buffer from `record` and publishes it (zero copy into the

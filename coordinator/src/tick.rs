@@ -3,8 +3,8 @@
 //! and the run directory records it all. Sharing this one function is what keeps the two
 //! byte-identical.
 
-use shared::link::Fate;
-use shared::msg::coordinator_to_agent::SnapshotEntry;
+use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+use vbap_mission::link::Fate;
 
 use crate::fleet::Fleet;
 use crate::planner::{Command, Planner, PlannerError, Report};

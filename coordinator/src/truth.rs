@@ -19,11 +19,11 @@
 
 use std::collections::BTreeSet;
 
-use shared::config::Mission;
-use shared::math::fit::{fit_slots, nearest_neighbours, potential_energy_sparse, spacing};
-pub use shared::math::fit::{IN_FORMATION, NEAR_COLLISION};
-use shared::math::formation::FormationDesign;
-use shared::rundir::{Event, FormationRow, FormationSummary, TruthRow};
+use vbap_math::fit::{fit_slots, nearest_neighbours, potential_energy_sparse, spacing};
+pub use vbap_math::fit::{IN_FORMATION, NEAR_COLLISION};
+use vbap_math::formation::FormationDesign;
+use vbap_mission::config::Mission;
+use vbap_mission::rundir::{Event, FormationRow, FormationSummary, TruthRow};
 
 use crate::fleet::Fleet;
 use crate::planner::{Command, Report};
@@ -91,7 +91,7 @@ impl TruthStats {
     /// The state at the start of `mission`.
     pub fn new(mission: &Mission) -> Self {
         let dt = mission.mission.dt;
-        let d0 = shared::math::formation::design_regular(
+        let d0 = vbap_math::formation::design_regular(
             mission.vehicles.count,
             mission.mission.dim,
             mission.formation.radius,
@@ -194,7 +194,7 @@ pub fn tick(
             "dead"
         } else if !members.contains(&id) || command.rejoining.iter().any(|(v, _)| *v == id) {
             // Admitted back and not yet a member, or a member still flying home to its
-            // slot (`shared::math::rejoin`).
+            // slot (`vbap_math::rejoin`).
             "rejoining"
         } else {
             fleet.model().contact(id, t).as_str()

@@ -7,10 +7,10 @@
 
 pub mod run;
 
-use shared::config::Mission;
-use shared::faults::{FaultPlan, SensorState};
-use shared::field::{measure, Field};
-use shared::math::Vec3;
+use vbap_math::Vec3;
+use vbap_mission::config::Mission;
+use vbap_mission::faults::{FaultPlan, SensorState};
+use vbap_mission::field::{measure, Field};
 
 /// The environment of a mission.
 #[derive(Clone, Debug)]

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Parser;
-use shared::process::{announce_ready, die_with_parent, finish, load_mission_or_exit};
+use vbap_ipc::process::{announce_ready, die_with_parent, finish, load_mission_or_exit};
 
 /// The field server of a vbap mission (normally started by `vbap run`).
 #[derive(Parser, Debug)]
@@ -24,9 +24,9 @@ fn main() {
     let args = Args::parse();
     die_with_parent(args.parent);
     let mission = load_mission_or_exit("field_server", &args.mission);
-    let log = shared::telemetry::init("field_server", args.log.as_deref());
-    let msgs = shared::process::message_log(args.log.as_deref());
+    let log = vbap_ipc::telemetry::init("field_server", args.log.as_deref());
+    let msgs = vbap_ipc::process::message_log(args.log.as_deref());
     let result = field_server::run::run(&mission, msgs, announce_ready);
-    shared::process::leave_domain(&mission.mission.name, args.parent);
+    vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
     finish("field_server", result.err().map(|e| format!("{e:#}")), log);
 }

@@ -10,13 +10,13 @@ use std::time::Duration;
 
 use anyhow::Result;
 use iceoryx2::prelude::*;
-use shared::config::Mission;
-use shared::msg::coordinator_to_field::SampleBatch;
-use shared::msg::field_to_coordinator::{Reading, ReadingBatch};
-use shared::msg::{to_vec3, wall_ns, Header};
-use shared::msglog::MsgLog;
-use shared::topics::{self, wait_for_wake, Domain, Limits, Wake};
 use tracing::{info, warn};
+use vbap_ipc::msg::coordinator_to_field::SampleBatch;
+use vbap_ipc::msg::field_to_coordinator::{Reading, ReadingBatch};
+use vbap_ipc::msg::{to_vec3, wall_ns, Header};
+use vbap_ipc::msglog::MsgLog;
+use vbap_ipc::topics::{self, wait_for_wake, Domain, Limits, Wake};
+use vbap_mission::config::Mission;
 
 use crate::Sensors;
 
@@ -133,7 +133,7 @@ pub fn run(mission: &Mission, mut msgs: MsgLog, on_ready: impl FnOnce()) -> Resu
             .map_err(|e| anyhow::anyhow!("receiving the body: {e:?}"))?
         {
             if sample.header.sender == Header::COORDINATOR
-                && sample.header.flags & shared::msg::coordinator_to_agent::BodyCommand::FINISHED
+                && sample.header.flags & vbap_ipc::msg::coordinator_to_agent::BodyCommand::FINISHED
                     != 0
             {
                 finished = true;

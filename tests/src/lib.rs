@@ -8,8 +8,8 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-pub use shared::msglog::MsgEvent;
-use shared::msglog::{self, MsgRecord, MSG_SUFFIX};
+pub use vbap_ipc::msglog::MsgEvent;
+use vbap_ipc::msglog::{self, MsgRecord, MSG_SUFFIX};
 
 /// The workspace root.
 pub fn workspace() -> PathBuf {
@@ -31,7 +31,7 @@ pub fn bin_dir() -> &'static Path {
                 "--release",
                 "--quiet",
                 "-p",
-                "deploy",
+                "vbap-cli",
                 "-p",
                 "field_server",
                 "-p",
@@ -166,7 +166,7 @@ pub fn leftover_files(name: &str) -> Vec<PathBuf> {
             }
         }
     }
-    let prefix = shared::topics::domain_prefix(name);
+    let prefix = vbap_ipc::topics::domain_prefix(name);
     let mut out = Vec::new();
     walk(Path::new("/dev/shm"), &prefix, &mut out);
     walk(Path::new("/tmp/iceoryx2"), &prefix, &mut out);
@@ -315,7 +315,7 @@ impl OwnedRecord {
     /// A JSON record of target `vbap::msg` (earlier versions); None for any other line.
     fn from_json(line: &str) -> Option<Self> {
         let v: serde_json::Value = serde_json::from_str(line).ok()?;
-        if v["target"].as_str() != Some(shared::telemetry::MSG_TARGET) {
+        if v["target"].as_str() != Some(vbap_ipc::telemetry::MSG_TARGET) {
             return None;
         }
         let f = &v["fields"];
@@ -461,7 +461,7 @@ mod unit {
         )
         .unwrap();
         let json = msg_records(&tmp.path, "coordinator");
-        let mut log = shared::msglog::MsgLog::open(&logs.join("coordinator.msgs.csv")).unwrap();
+        let mut log = vbap_ipc::msglog::MsgLog::open(&logs.join("coordinator.msgs.csv")).unwrap();
         log.recv("state", 2, u32::MAX - 1, 4, 5, 10, 30);
         log.held("state", 2, u32::MAX - 1, 4, 1.55);
         log.drop("state", 2, u32::MAX - 1, 5, "loss");

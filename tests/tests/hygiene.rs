@@ -3,11 +3,11 @@
 
 use std::time::Duration;
 
-use shared::msg::agent_to_coordinator::VehicleState;
-use shared::msg::coordinator_to_agent::BodyCommand;
-use shared::msg::Header;
-use shared::topics::{Domain, Limits};
 use tests::*;
+use vbap_ipc::msg::agent_to_coordinator::VehicleState;
+use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
+use vbap_ipc::msg::Header;
+use vbap_ipc::topics::{Domain, Limits};
 
 fn log_count(path: &std::path::Path, what: &str) -> usize {
     std::fs::read_to_string(path)

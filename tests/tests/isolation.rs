@@ -180,7 +180,7 @@ fn a_sigkilled_supervisor_leaves_no_files_no_processes_and_no_half_rows() {
     let needle = format!("{} --id 2 --", out.join("mission.toml").display());
     let agent = processes_mentioning(&needle);
     assert_eq!(agent.len(), 1, "{agent:?}");
-    assert!(shared::process::sigkill(agent[0]));
+    assert!(vbap_ipc::process::sigkill(agent[0]));
     wait_until(
         || read(&out.join("events.jsonl")).contains("\"lost\""),
         Duration::from_secs(30),

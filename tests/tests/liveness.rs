@@ -432,7 +432,7 @@ fn a_coordinator_started_alone_finds_dead_agents_by_itself() {
     // With no supervisor, nobody cleans the domain at the end (the supervisor does: its
     // dead nodes, then the domain's remaining files); the test does it as the supervisor
     // would, then nothing of the mission is left.
-    let domain = shared::topics::Domain::new(&name).expect("the mission's domain");
+    let domain = vbap_ipc::topics::Domain::new(&name).expect("the mission's domain");
     domain.cleanup_dead_nodes();
     domain.remove_files();
     assert!(

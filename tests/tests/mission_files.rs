@@ -175,7 +175,7 @@ fn numbers_near_zero_are_written_short_and_read_back_exactly() {
                 );
                 if let Ok(x) = cell.parse::<f64>() {
                     exponents += usize::from(cell.contains('e'));
-                    assert_eq!(shared::rundir::Num(x).to_string(), cell, "{f}");
+                    assert_eq!(vbap_mission::rundir::Num(x).to_string(), cell, "{f}");
                 }
             }
         }

@@ -17,7 +17,7 @@ use std::path::Path;
 use tests::*;
 
 /// A vehicle is "in its slot" within this fraction of the spacing (the capture radius of
-/// the homing law, `shared::math::rejoin::CAPTURE`).
+/// the homing law, `vbap_math::rejoin::CAPTURE`).
 const IN_SLOT: f64 = 0.1;
 /// At the end of the mission every vehicle, the rejoined one too, is within this fraction
 /// of the spacing of a slot.

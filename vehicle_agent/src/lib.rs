@@ -11,15 +11,15 @@ pub mod run;
 use std::collections::BTreeMap;
 
 use rand::Rng;
-use shared::config::Mission;
-use shared::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
-use shared::math::body::VirtualBody;
-use shared::math::control::{control_law, integrate};
-use shared::math::formation::FormationDesign;
-use shared::math::potential::PairPotential;
-use shared::math::rejoin::{blended_control_law, homing_weight, Homing, Neighbour};
-use shared::math::Vec3;
-use shared::rng::{keyed, Stream};
+use vbap_math::body::VirtualBody;
+use vbap_math::control::{control_law, integrate};
+use vbap_math::formation::FormationDesign;
+use vbap_math::potential::PairPotential;
+use vbap_math::rejoin::{blended_control_law, homing_weight, Homing, Neighbour};
+use vbap_math::rng::{keyed, Stream};
+use vbap_math::Vec3;
+use vbap_mission::config::Mission;
+use vbap_mission::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
 
 /// What an agent needs from the coordinator for one step.
 #[derive(Clone, Copy, Debug)]
@@ -35,7 +35,7 @@ pub struct AgentInputs<'a> {
     /// Damping gain, K = damping·I in (II.1), 1/s.
     pub damping: f64,
     /// Homing weight σ_j of each neighbour (same order; 0 for a vehicle not rejoining;
-    /// empty: all 0), `shared::math::rejoin`.
+    /// empty: all 0), `vbap_math::rejoin`.
     pub neighbour_sigmas: &'a [f64],
     /// The slot of each neighbour that rejoins (its ghost, same order; ignored where
     /// σ_j = 0), length unit.
@@ -59,7 +59,7 @@ pub struct Agent {
 
 impl Agent {
     /// One control step of length `dt` (s): u_i from (II.1) — blended with the homing law
-    /// of `shared::math::rejoin` while this vehicle or a neighbour rejoins — then
+    /// of `vbap_math::rejoin` while this vehicle or a neighbour rejoins — then
     /// ẍ_i = u_i integrated (semi-implicit Euler). Returns u_i.
     pub fn step(&mut self, inputs: &AgentInputs<'_>, dt: f64) -> Vec3 {
         let rejoin = inputs.homing.is_some() || inputs.neighbour_sigmas.iter().any(|s| *s > 0.0);
@@ -136,8 +136,8 @@ impl Agent {
 /// Platonic solid of the mission's radius around one central leader.
 pub fn initial_design(
     mission: &Mission,
-) -> Result<FormationDesign, shared::math::formation::FormationError> {
-    shared::math::formation::design_regular(
+) -> Result<FormationDesign, vbap_math::formation::FormationError> {
+    vbap_math::formation::design_regular(
         mission.vehicles.count,
         mission.mission.dim,
         mission.formation.radius,
@@ -209,7 +209,7 @@ pub struct Guidance {
     /// vehicle dead-reckons the leaders and its neighbours with it.
     pub velocity: Vec3,
     /// Homing weight σ_j of each neighbour (same order as `neighbours`; 0 unless it
-    /// rejoins), `shared::math::rejoin`.
+    /// rejoins), `vbap_math::rejoin`.
     pub neighbour_sigmas: Vec<f64>,
     /// Slot of each neighbour that rejoins (same order; its own position otherwise).
     pub neighbour_slots: Vec<Vec3>,
@@ -228,10 +228,10 @@ impl Guidance {
     pub fn with_neighbours(
         mut self,
         id: u32,
-        snapshot: &[shared::msg::coordinator_to_agent::SnapshotEntry],
+        snapshot: &[vbap_ipc::msg::coordinator_to_agent::SnapshotEntry],
     ) -> Self {
-        use shared::msg::coordinator_to_agent::SnapshotEntry;
-        use shared::msg::to_vec3;
+        use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+        use vbap_ipc::msg::to_vec3;
         let spacing = self.inter.d0;
         let others = snapshot
             .iter()

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Parser;
-use shared::process::{
+use vbap_ipc::process::{
     announce_ready, die_with_parent, finish, load_mission_or_exit, EXIT_INVALID,
 };
 
@@ -40,9 +40,9 @@ fn main() {
         std::process::exit(EXIT_INVALID);
     }
     let process = format!("vehicle_agent_{}", args.id);
-    let log = shared::telemetry::init(&process, args.log.as_deref());
-    let msgs = shared::process::message_log(args.log.as_deref());
+    let log = vbap_ipc::telemetry::init(&process, args.log.as_deref());
+    let msgs = vbap_ipc::process::message_log(args.log.as_deref());
     let result = vehicle_agent::run::run(&mission, args.id, args.rejoin, msgs, announce_ready);
-    shared::process::leave_domain(&mission.mission.name, args.parent);
+    vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
     finish(&process, result.err().map(|e| format!("{e:#}")), log);
 }

@@ -9,7 +9,7 @@
 //! One wake-up per tick: the command arrives, the vehicle steps, publishes its new state
 //! and waits again. Its sensor reading is taken by the field server where and when that
 //! state says, in the coordinator's batched read of the tick (see
-//! `shared::msg::coordinator_to_field`).
+//! `vbap_ipc::msg::coordinator_to_field`).
 
 use std::cell::RefCell;
 use std::collections::VecDeque;
@@ -17,14 +17,14 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use iceoryx2::prelude::*;
-use shared::config::{Mission, Pace};
-use shared::link::{Fate, LinkModel};
-use shared::msg::agent_to_coordinator::VehicleState;
-use shared::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
-use shared::msg::{from_vec3, to_vec3, wall_ns, Header};
-use shared::msglog::MsgLog;
-use shared::topics::{self, wait_for_wake, Domain, Limits, Wake};
 use tracing::{info, warn};
+use vbap_ipc::msg::agent_to_coordinator::VehicleState;
+use vbap_ipc::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
+use vbap_ipc::msg::{from_vec3, to_vec3, wall_ns, Header};
+use vbap_ipc::msglog::MsgLog;
+use vbap_ipc::topics::{self, wait_for_wake, Domain, Limits, Wake};
+use vbap_mission::config::{Mission, Pace};
+use vbap_mission::link::{Fate, LinkModel};
 
 use crate::{initial_agent, initial_design, Agent, Guidance, Vehicle};
 
@@ -247,7 +247,7 @@ pub fn run(
             let n_l = body.n_leaders as usize;
             let n_v = body.n_vehicles as usize;
             let snapshot = &body.snapshot[..n_v];
-            let pot = |p: &[f64; 3]| shared::math::potential::PairPotential {
+            let pot = |p: &[f64; 3]| vbap_math::potential::PairPotential {
                 alpha: p[0],
                 d0: p[1],
                 d1: p[2],

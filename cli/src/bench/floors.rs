@@ -1,0 +1,823 @@
+//! The floors of `vbap bench`, measured between real processes: this executable started
+//! again in a hidden helper role (`vbap bench --role ...`) is the peer.
+//!
+//! - [`iceoryx2_ping_pong`]: the hop's payload ([`VehicleState`]) over iceoryx2 pub-sub with
+//!   an event per message and a blocking WaitSet on both sides, the wake-up mode of the
+//!   state → coordinator hop of `vbap run` (same service settings as the state service).
+//! - [`udp_ping_pong`]: the same payload bytes over UDP on 127.0.0.1, blocking `recv`.
+//! - [`wake_floor`]: one blocking iceoryx2 event round through N + 1 processes: the bench
+//!   (the "coordinator") notifies N agents, each on its own event service, and waits until
+//!   every one has answered on the coordinator's event service. No payload, no work: the
+//!   cheapest a lockstep tick through N + 1 processes can be with blocking wake-ups.
+//!
+//! One-way latencies are measured as `vbap analyze` measures a hop: the sender stamps the
+//! wall clock into `header.sent_ns` just before sending, the receiver reads the wall clock
+//! once it holds the message. Both directions of each round trip are recorded.
+
+use std::fs::OpenOptions;
+use std::io::{BufRead, BufReader, Write};
+use std::net::UdpSocket;
+use std::path::Path;
+use std::process::{Child, ChildStdout, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Context, Result};
+use iceoryx2::node::Node;
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::prelude::{
+    ipc, CallbackProgression, EventId, ServiceName, SignalHandlingMode, WaitSet, WaitSetBuilder,
+};
+use iceoryx2::service::port_factory::{event, publish_subscribe};
+use iceoryx2::waitset::WaitSetRunResult;
+use serde::Serialize;
+use vbap_ipc::msg::agent_to_coordinator::VehicleState;
+use vbap_ipc::msg::{wall_ns, Header};
+use vbap_ipc::topics::{Domain, Limits, Wake};
+use vbap_mission::rundir::Percentiles;
+
+use super::{unique_name, BenchArgs, Interrupted, StopFlag};
+use crate::cli::InvalidInput;
+use crate::supervise::clean_domain;
+
+/// Helper roles (hidden from `--help`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Role {
+    /// Answers iceoryx2 pings.
+    IoxPong,
+    /// Answers UDP pings.
+    UdpPong,
+    /// Answers iceoryx2 pings, busy polling (no event, no sleep).
+    IoxPongPoll,
+    /// Answers UDP pings, busy polling a non-blocking socket.
+    UdpPongPoll,
+    /// One agent of the wake-up floor.
+    WakeAgent,
+    /// Spins at the lowest priority, keeping a CPU out of idle (the warm floors).
+    Spin,
+}
+
+/// `header.flags` of the last ping: the peer exits.
+const STOP_FLAG: u32 = 1 << 31;
+/// Event id of the wake-up floor: a tick.
+const TICK: EventId = EventId::new(1);
+/// Event id of the wake-up floor: exit.
+const QUIT: EventId = EventId::new(2);
+/// How long a measurement waits for its peer before it gives up.
+const PEER_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Bytes of a [`VehicleState`] on the wire (UDP): the size of the struct itself.
+const WIRE: usize = std::mem::size_of::<VehicleState>();
+/// Bytes [`encode`] fills (every field of the layout it knows); the rest stays zero.
+const ENCODED: usize = 40 + 8 + 6 * 8;
+const _: () = assert!(ENCODED <= WIRE);
+
+/// One floor of the hop.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct HopFloor {
+    /// One-way latency, µs (both directions of every round trip).
+    pub one_way_us: Percentiles,
+    /// Round trip, µs (monotonic clock).
+    pub round_trip_us: Percentiles,
+    /// One-way samples.
+    pub samples: usize,
+}
+
+/// A helper process, killed and reaped when dropped.
+struct Helper {
+    child: Child,
+    stdout: Option<BufReader<ChildStdout>>,
+    name: String,
+}
+
+impl Helper {
+    fn spawn(work: &Path, name: &str, args: &[String]) -> Result<Self> {
+        Self::spawn_with(work, name, args, false)
+    }
+
+    /// [`Helper::spawn`], at the lowest CPU priority (`nice -n 19`) when `niced`.
+    fn spawn_with(work: &Path, name: &str, args: &[String], niced: bool) -> Result<Self> {
+        let exe = super::exe()?;
+        let log = OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(work.join("helpers.stderr.log"))
+            .context("opening helpers.stderr.log")?;
+        let mut command = if niced {
+            let mut c = Command::new("nice");
+            c.arg("-n").arg("19").arg(exe);
+            c
+        } else {
+            Command::new(exe)
+        };
+        let mut child = command
+            .arg("bench")
+            .args(args)
+            .arg("--parent")
+            .arg(std::process::id().to_string())
+            .env_remove("RUST_LOG")
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::from(log))
+            .spawn()
+            .with_context(|| format!("starting helper {name}"))?;
+        let stdout = child.stdout.take().map(BufReader::new);
+        Ok(Self {
+            child,
+            stdout,
+            name: name.to_string(),
+        })
+    }
+
+    /// Reads the helper's `ready ...` line; returns what follows `ready`.
+    fn ready(&mut self) -> Result<String> {
+        let mut line = String::new();
+        if let Some(out) = self.stdout.as_mut() {
+            out.read_line(&mut line)
+                .with_context(|| format!("reading helper {}'s stdout", self.name))?;
+        }
+        self.stdout = None;
+        match line.trim().strip_prefix("ready") {
+            Some(rest) => Ok(rest.trim().to_string()),
+            None => bail!(
+                "helper {} exited before it was ready (see helpers.stderr.log)",
+                self.name
+            ),
+        }
+    }
+
+    /// Waits up to `timeout` for the helper to exit on its own, then kills it.
+    fn reap(mut self, timeout: Duration) {
+        let deadline = Instant::now() + timeout;
+        while Instant::now() < deadline {
+            if !matches!(self.child.try_wait(), Ok(None)) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+}
+
+impl Drop for Helper {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+        }
+        let _ = self.child.wait();
+    }
+}
+
+fn service_name(domain: &Domain, path: &str) -> Result<ServiceName> {
+    let full = format!("{}/bench/{path}", domain.mission);
+    ServiceName::new(&full).map_err(|e| anyhow!("service name {full:?}: {e:?}"))
+}
+
+/// A pub-sub service of [`VehicleState`] with the settings of `<m>/vehicle/<id>/state`.
+fn state_like(
+    node: &Node<ipc::Service>,
+    domain: &Domain,
+    path: &str,
+) -> Result<publish_subscribe::PortFactory<ipc::Service, VehicleState, ()>> {
+    let name = service_name(domain, path)?;
+    node.service_builder(&name)
+        .publish_subscribe::<VehicleState>()
+        .max_publishers(1)
+        .max_subscribers(3)
+        .max_nodes(8)
+        .history_size(1)
+        .subscriber_max_buffer_size(Limits::STATE_BUFFER)
+        .enable_safe_overflow(true)
+        .open_or_create()
+        .map_err(|e| anyhow!("opening service {name}: {e:?}"))
+}
+
+/// An event service for `notifiers` notifiers and ids up to `id_max`.
+fn event_service(
+    node: &Node<ipc::Service>,
+    domain: &Domain,
+    path: &str,
+    notifiers: usize,
+    id_max: usize,
+) -> Result<event::PortFactory<ipc::Service>> {
+    let name = service_name(domain, path)?;
+    node.service_builder(&name)
+        .event()
+        .max_listeners(2)
+        .max_notifiers(notifiers)
+        .max_nodes(notifiers + 4)
+        .event_id_max_value(id_max)
+        .open_or_create()
+        .map_err(|e| anyhow!("opening service {name}: {e:?}"))
+}
+
+fn listener(factory: &event::PortFactory<ipc::Service>) -> Result<Listener<ipc::Service>> {
+    factory
+        .listener_builder()
+        .create()
+        .map_err(|e| anyhow!("creating a listener: {e:?}"))
+}
+
+fn notifier(
+    factory: &event::PortFactory<ipc::Service>,
+    id: EventId,
+) -> Result<Notifier<ipc::Service>> {
+    factory
+        .notifier_builder()
+        .default_event_id(id)
+        .create()
+        .map_err(|e| anyhow!("creating a notifier: {e:?}"))
+}
+
+fn waitset() -> Result<WaitSet<ipc::Service>> {
+    WaitSetBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .create::<ipc::Service>()
+        .map_err(|e| anyhow!("creating a waitset: {e:?}"))
+}
+
+/// Blocks until `listener` has events, the timeout passes or a signal arrives; calls
+/// `on_id` with every event id received. A wake-up of the WaitSet that finds no event (its
+/// events were drained by an earlier call) waits again.
+fn wait_ids(
+    waitset: &WaitSet<ipc::Service>,
+    listener: &Listener<ipc::Service>,
+    timeout: Duration,
+    mut on_id: impl FnMut(usize),
+) -> Result<Wake> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Ok(Wake::Timeout);
+        }
+        let result = waitset
+            .wait_and_process_once_with_timeout(|_| CallbackProgression::Continue, left)
+            .map_err(|e| anyhow!("waiting: {e:?}"))?;
+        if matches!(
+            result,
+            WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt
+        ) {
+            StopFlag::set();
+            return Ok(Wake::Stop);
+        }
+        let got = listener
+            .try_wait(|a| on_id(a.id.as_value()))
+            .map_err(|e| anyhow!("reading events: {e:?}"))?;
+        if got > 0 {
+            return Ok(Wake::Events);
+        }
+    }
+}
+
+/// The ping of round `i`.
+fn ping(i: u64, flags: u32) -> VehicleState {
+    VehicleState {
+        header: Header {
+            sender: 0,
+            flags,
+            tick: i,
+            t: i as f64 * 0.05,
+            seq: i + 1,
+            sent_ns: wall_ns(),
+        },
+        pid: std::process::id(),
+        position: [1.0 + i as f64, 2.0, 0.0],
+        velocity: [0.5, -0.25, 0.0],
+        ..VehicleState::default()
+    }
+}
+
+/// The answer to `ping`, received at `recv_ns`: carries the ping's one-way latency (ns)
+/// in `position[2]` (a ping's is always 0), and its own send stamp.
+fn pong(ping: &VehicleState, recv_ns: u64) -> VehicleState {
+    let mut reply = *ping;
+    reply.header.sender = 1;
+    reply.position[2] = recv_ns.saturating_sub(ping.header.sent_ns) as f64;
+    reply.header.sent_ns = wall_ns();
+    reply
+}
+
+/// Collects the samples of a ping-pong.
+#[derive(Default)]
+struct Samples {
+    one_way_us: Vec<f64>,
+    round_trip_us: Vec<f64>,
+}
+
+impl Samples {
+    fn push(&mut self, reply: &VehicleState, recv_ns: u64, rtt: Duration) {
+        self.one_way_us.push(reply.position[2] / 1e3);
+        self.one_way_us
+            .push(recv_ns.saturating_sub(reply.header.sent_ns) as f64 / 1e3);
+        self.round_trip_us.push(rtt.as_secs_f64() * 1e6);
+    }
+
+    fn floor(mut self) -> HopFloor {
+        HopFloor {
+            samples: self.one_way_us.len(),
+            one_way_us: Percentiles::of(&mut self.one_way_us),
+            round_trip_us: Percentiles::of(&mut self.round_trip_us),
+        }
+    }
+}
+
+/// Runs `body` in a fresh private domain, then removes the domain's files (after every
+/// node of `body` is dropped and every helper reaped).
+fn in_private_domain<T>(tag: &str, body: impl FnOnce(&Domain) -> Result<T>) -> Result<T> {
+    let domain = Domain::new(&unique_name(tag))?;
+    clean_domain(&domain)?;
+    let result = body(&domain);
+    let cleaned = clean_domain(&domain);
+    let value = result?;
+    cleaned.context("removing the bench's private iceoryx2 domain")?;
+    Ok(value)
+}
+
+/// The raw iceoryx2 floor of the hop: `samples` round trips after `warmup`. `poll`: both
+/// sides busy-poll their subscriber instead of sleeping in a WaitSet (no event at all: the
+/// payload path alone, each side burning a CPU).
+pub fn iceoryx2_ping_pong(
+    work: &Path,
+    warmup: usize,
+    samples: usize,
+    poll: bool,
+    stop: &StopFlag,
+) -> Result<HopFloor> {
+    in_private_domain("i", |domain| {
+        let node = domain.node("bench_ping")?;
+        let publisher = state_like(&node, domain, "ping")?
+            .publisher_builder()
+            .create()
+            .map_err(|e| anyhow!("ping publisher: {e:?}"))?;
+        let subscriber = state_like(&node, domain, "pong")?
+            .subscriber_builder()
+            .create()
+            .map_err(|e| anyhow!("pong subscriber: {e:?}"))?;
+        let wake_peer = notifier(&event_service(&node, domain, "ping_wake", 4, 8)?, TICK)?;
+        let wake = listener(&event_service(&node, domain, "pong_wake", 4, 8)?)?;
+        let ws = waitset()?;
+        let _guard = ws
+            .attach_notification(&wake)
+            .map_err(|e| anyhow!("attaching: {e:?}"))?;
+        let role = if poll { "iox-pong-poll" } else { "iox-pong" };
+        let mut helper = Helper::spawn(
+            work,
+            role,
+            &[
+                "--role".into(),
+                role.into(),
+                "--domain".into(),
+                domain.mission.clone(),
+            ],
+        )?;
+        helper.ready()?;
+        let mut out = Samples::default();
+        for i in 0..(warmup + samples) as u64 {
+            if i % 1000 == 0 {
+                stop.check()?;
+            }
+            let t0 = Instant::now();
+            publisher
+                .send_copy(ping(i, 0))
+                .map_err(|e| anyhow!("sending a ping: {e:?}"))?;
+            if !poll {
+                wake_peer
+                    .notify()
+                    .map_err(|e| anyhow!("waking the peer: {e:?}"))?;
+            }
+            let (reply, recv_ns) = loop {
+                if let Some(sample) = subscriber
+                    .receive()
+                    .map_err(|e| anyhow!("receiving a pong: {e:?}"))?
+                {
+                    let recv_ns = wall_ns();
+                    let reply: VehicleState = *sample;
+                    if reply.header.tick == i {
+                        break (reply, recv_ns);
+                    }
+                    continue;
+                }
+                if poll {
+                    anyhow::ensure!(
+                        t0.elapsed() < PEER_TIMEOUT,
+                        "iceoryx2 ping-pong (polling): no pong within {PEER_TIMEOUT:?}"
+                    );
+                    continue;
+                }
+                match wait_ids(&ws, &wake, PEER_TIMEOUT, |_| {})? {
+                    Wake::Stop => return Err(Interrupted.into()),
+                    Wake::Timeout => bail!("iceoryx2 ping-pong: no pong within {PEER_TIMEOUT:?}"),
+                    Wake::Events => {}
+                }
+            };
+            let rtt = t0.elapsed();
+            if i >= warmup as u64 {
+                out.push(&reply, recv_ns, rtt);
+            }
+        }
+        let _ = publisher.send_copy(ping(u64::MAX, STOP_FLAG));
+        let _ = wake_peer.notify();
+        helper.reap(Duration::from_secs(5));
+        Ok(out.floor())
+    })
+}
+
+fn iox_pong(domain: &Domain, poll: bool) -> Result<i32> {
+    let node = domain.node("bench_pong")?;
+    let subscriber = state_like(&node, domain, "ping")?
+        .subscriber_builder()
+        .create()
+        .map_err(|e| anyhow!("ping subscriber: {e:?}"))?;
+    let publisher = state_like(&node, domain, "pong")?
+        .publisher_builder()
+        .create()
+        .map_err(|e| anyhow!("pong publisher: {e:?}"))?;
+    let wake = listener(&event_service(&node, domain, "ping_wake", 4, 8)?)?;
+    let wake_peer = notifier(&event_service(&node, domain, "pong_wake", 4, 8)?, TICK)?;
+    let ws = waitset()?;
+    let _guard = ws
+        .attach_notification(&wake)
+        .map_err(|e| anyhow!("attaching: {e:?}"))?;
+    say_ready("");
+    let mut last = Instant::now();
+    loop {
+        if !poll && wait_ids(&ws, &wake, Duration::from_secs(3600), |_| {})? == Wake::Stop {
+            return Ok(0);
+        }
+        if poll && last.elapsed() > PEER_TIMEOUT {
+            bail!("iceoryx2 pong (polling): no ping within {PEER_TIMEOUT:?}");
+        }
+        while let Some(sample) = subscriber
+            .receive()
+            .map_err(|e| anyhow!("receiving a ping: {e:?}"))?
+        {
+            let recv_ns = wall_ns();
+            let p: VehicleState = *sample;
+            if p.header.flags & STOP_FLAG != 0 {
+                return Ok(0);
+            }
+            publisher
+                .send_copy(pong(&p, recv_ns))
+                .map_err(|e| anyhow!("sending a pong: {e:?}"))?;
+            last = Instant::now();
+            if !poll {
+                wake_peer
+                    .notify()
+                    .map_err(|e| anyhow!("waking the pinger: {e:?}"))?;
+            }
+        }
+    }
+}
+
+/// Writes the fields of `s` little-endian, in declaration order (no unsafe transmute).
+fn encode(s: &VehicleState) -> [u8; WIRE] {
+    let h = &s.header;
+    let mut out = [0u8; WIRE];
+    let fields: [&[u8]; 8] = [
+        &h.sender.to_le_bytes(),
+        &h.flags.to_le_bytes(),
+        &h.tick.to_le_bytes(),
+        &h.t.to_le_bytes(),
+        &h.seq.to_le_bytes(),
+        &h.sent_ns.to_le_bytes(),
+        &s.pid.to_le_bytes(),
+        &s._pad.to_le_bytes(),
+    ];
+    let mut at = 0;
+    for f in fields {
+        out[at..at + f.len()].copy_from_slice(f);
+        at += f.len();
+    }
+    for v in s.position.iter().chain(&s.velocity) {
+        out[at..at + 8].copy_from_slice(&v.to_le_bytes());
+        at += 8;
+    }
+    out
+}
+
+/// The inverse of [`encode`].
+fn decode(b: &[u8; WIRE]) -> VehicleState {
+    let u32_at = |at: usize| u32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"));
+    let u64_at = |at: usize| u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"));
+    let f64_at = |at: usize| f64::from_bits(u64_at(at));
+    // Padding bytes are not read back: they carry nothing.
+    VehicleState {
+        header: Header {
+            sender: u32_at(0),
+            flags: u32_at(4),
+            tick: u64_at(8),
+            t: f64_at(16),
+            seq: u64_at(24),
+            sent_ns: u64_at(32),
+        },
+        pid: u32_at(40),
+        position: [f64_at(48), f64_at(56), f64_at(64)],
+        velocity: [f64_at(72), f64_at(80), f64_at(88)],
+        ..VehicleState::default()
+    }
+}
+
+/// UDP loopback floor of the hop: `samples` round trips after `warmup`. `poll`: both sides
+/// busy-poll non-blocking sockets instead of sleeping in `recv`.
+pub fn udp_ping_pong(
+    work: &Path,
+    warmup: usize,
+    samples: usize,
+    poll: bool,
+    stop: &StopFlag,
+) -> Result<HopFloor> {
+    let role = if poll { "udp-pong-poll" } else { "udp-pong" };
+    let mut helper = Helper::spawn(work, role, &["--role".into(), role.into()])?;
+    let port: u16 = helper.ready()?.parse().context("the UDP helper's port")?;
+    let socket = UdpSocket::bind("127.0.0.1:0").context("binding a UDP socket on 127.0.0.1")?;
+    socket
+        .connect(("127.0.0.1", port))
+        .context("connecting to the UDP helper")?;
+    socket.set_read_timeout(Some(PEER_TIMEOUT))?;
+    socket.set_nonblocking(poll)?;
+    let mut out = Samples::default();
+    let mut buf = [0u8; WIRE];
+    for i in 0..(warmup + samples) as u64 {
+        if i % 1000 == 0 {
+            stop.check()?;
+        }
+        let t0 = Instant::now();
+        socket
+            .send(&encode(&ping(i, 0)))
+            .context("sending a UDP ping")?;
+        let (reply, recv_ns) = loop {
+            let n = match socket.recv(&mut buf) {
+                Ok(n) => n,
+                Err(e) if poll && e.kind() == std::io::ErrorKind::WouldBlock => {
+                    anyhow::ensure!(
+                        t0.elapsed() < PEER_TIMEOUT,
+                        "UDP ping-pong (polling): no pong within {PEER_TIMEOUT:?}"
+                    );
+                    continue;
+                }
+                Err(e) => {
+                    stop.check()?;
+                    return Err(anyhow!("UDP ping-pong: no pong: {e}"));
+                }
+            };
+            let recv_ns = wall_ns();
+            let reply = decode(&buf);
+            if n == WIRE && reply.header.tick == i {
+                break (reply, recv_ns);
+            }
+        };
+        let rtt = t0.elapsed();
+        if i >= warmup as u64 {
+            out.push(&reply, recv_ns, rtt);
+        }
+    }
+    let _ = socket.send(&encode(&ping(u64::MAX, STOP_FLAG)));
+    helper.reap(Duration::from_secs(5));
+    Ok(out.floor())
+}
+
+fn udp_pong(poll: bool) -> Result<i32> {
+    let socket = UdpSocket::bind("127.0.0.1:0").context("binding a UDP socket on 127.0.0.1")?;
+    socket.set_nonblocking(poll)?;
+    say_ready(&socket.local_addr()?.port().to_string());
+    let mut buf = [0u8; WIRE];
+    let mut last = Instant::now();
+    loop {
+        let (n, from) = match socket.recv_from(&mut buf) {
+            Ok(got) => got,
+            Err(e) if poll && e.kind() == std::io::ErrorKind::WouldBlock => {
+                if last.elapsed() > PEER_TIMEOUT {
+                    bail!("UDP pong (polling): no ping within {PEER_TIMEOUT:?}");
+                }
+                continue;
+            }
+            Err(e) => return Err(e).context("receiving a UDP ping"),
+        };
+        last = Instant::now();
+        let recv_ns = wall_ns();
+        if n != WIRE {
+            continue;
+        }
+        let p = decode(&buf);
+        if p.header.flags & STOP_FLAG != 0 {
+            return Ok(0);
+        }
+        socket
+            .send_to(&encode(&pong(&p, recv_ns)), from)
+            .context("sending a UDP pong")?;
+    }
+}
+
+/// The coordinator's event service of the wake-up floor (agents notify with id + 1).
+fn coordinator_wake(
+    node: &Node<ipc::Service>,
+    domain: &Domain,
+    agents: usize,
+) -> Result<event::PortFactory<ipc::Service>> {
+    event_service(node, domain, "wake/coordinator", agents + 2, agents + 2)
+}
+
+/// Agent `id`'s event service of the wake-up floor.
+fn agent_wake(
+    node: &Node<ipc::Service>,
+    domain: &Domain,
+    id: usize,
+) -> Result<event::PortFactory<ipc::Service>> {
+    event_service(node, domain, &format!("wake/agent/{id}"), 2, 8)
+}
+
+/// The wake-up floor through `agents` + 1 processes: rounds per second over `rounds`
+/// rounds (after a fifth as many warm-up rounds).
+pub fn wake_floor(work: &Path, agents: usize, rounds: usize, stop: &StopFlag) -> Result<f64> {
+    in_private_domain("w", |domain| {
+        let node = domain.node("bench_coordinator")?;
+        let wake = listener(&coordinator_wake(&node, domain, agents)?)?;
+        let notifiers = (0..agents)
+            .map(|id| notifier(&agent_wake(&node, domain, id)?, TICK))
+            .collect::<Result<Vec<_>>>()?;
+        let ws = waitset()?;
+        let _guard = ws
+            .attach_notification(&wake)
+            .map_err(|e| anyhow!("attaching: {e:?}"))?;
+        let mut helpers = (0..agents)
+            .map(|id| {
+                Helper::spawn(
+                    work,
+                    &format!("wake-agent-{id}"),
+                    &[
+                        "--role".into(),
+                        "wake-agent".into(),
+                        "--domain".into(),
+                        domain.mission.clone(),
+                        "--id".into(),
+                        id.to_string(),
+                        "--agents".into(),
+                        agents.to_string(),
+                    ],
+                )
+            })
+            .collect::<Result<Vec<_>>>()?;
+        for h in helpers.iter_mut() {
+            h.ready()?;
+            stop.check()?;
+        }
+        let warmup = (rounds / 5).max(10);
+        let mut seen = vec![usize::MAX; agents + 3];
+        let mut t0 = Instant::now();
+        for round in 0..warmup + rounds {
+            if round == warmup {
+                t0 = Instant::now();
+            }
+            for n in &notifiers {
+                n.notify().map_err(|e| anyhow!("waking an agent: {e:?}"))?;
+            }
+            let mut answered = 0;
+            while answered < agents {
+                let wake_result = wait_ids(&ws, &wake, PEER_TIMEOUT, |id| {
+                    if (1..=agents).contains(&id) && seen[id] != round {
+                        seen[id] = round;
+                        answered += 1;
+                    }
+                })?;
+                match wake_result {
+                    Wake::Stop => return Err(Interrupted.into()),
+                    Wake::Timeout => bail!(
+                        "wake-up floor, N = {agents}: {answered} of {agents} agents answered round {round} within {PEER_TIMEOUT:?}"
+                    ),
+                    Wake::Events => {}
+                }
+            }
+        }
+        let rate = rounds as f64 / t0.elapsed().as_secs_f64();
+        for n in &notifiers {
+            let _ = n.notify_with_custom_event_id(QUIT);
+        }
+        for h in helpers {
+            h.reap(Duration::from_secs(5));
+        }
+        Ok(rate)
+    })
+}
+
+fn wake_agent(domain: &Domain, id: usize, agents: usize) -> Result<i32> {
+    let node = domain.node(&format!("bench_agent_{id}"))?;
+    let wake = listener(&agent_wake(&node, domain, id)?)?;
+    let answer = notifier(
+        &coordinator_wake(&node, domain, agents)?,
+        EventId::new(id + 1),
+    )?;
+    let ws = waitset()?;
+    let _guard = ws
+        .attach_notification(&wake)
+        .map_err(|e| anyhow!("attaching: {e:?}"))?;
+    say_ready("");
+    loop {
+        let (mut tick, mut quit) = (false, false);
+        let woke = wait_ids(&ws, &wake, Duration::from_secs(3600), |e| {
+            if e == QUIT.as_value() {
+                quit = true;
+            } else {
+                tick = true;
+            }
+        })?;
+        if woke == Wake::Stop || quit {
+            return Ok(0);
+        }
+        if tick {
+            answer
+                .notify()
+                .map_err(|e| anyhow!("answering the coordinator: {e:?}"))?;
+        }
+    }
+}
+
+/// Burns CPU until killed (the parent kills it; it dies with the parent).
+fn spin() -> Result<i32> {
+    say_ready("");
+    // No `spin_loop` hint: PAUSE in a loop makes a KVM guest's vCPU exit to the host
+    // (pause-loop exiting), which is what the spinner must not do.
+    let mut x = 0u64;
+    loop {
+        x = std::hint::black_box(x.wrapping_add(1));
+    }
+}
+
+/// Keeps every CPU out of idle while alive: one `nice -n 19` spinner per CPU. An idle
+/// (halted) vCPU takes ~20 µs longer to wake on a KVM guest; the spinners, at the lowest
+/// priority, yield to every real process but keep the CPUs awake, as a loaded `vbap run`
+/// does. Dropping it kills and reaps the spinners.
+pub struct Warm {
+    _spinners: Vec<Helper>,
+}
+
+impl Warm {
+    /// Starts the spinners; `None` when they cannot be started (no `nice`).
+    pub fn start(work: &Path) -> Option<Self> {
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let mut spinners = Vec::with_capacity(cpus);
+        for i in 0..cpus {
+            let mut h = Helper::spawn_with(
+                work,
+                &format!("spin-{i}"),
+                &["--role".into(), "spin".into()],
+                true,
+            )
+            .ok()?;
+            h.ready().ok()?;
+            spinners.push(h);
+        }
+        Some(Self {
+            _spinners: spinners,
+        })
+    }
+}
+
+/// Tells the parent the ports exist: `ready [what]` on stdout, flushed.
+fn say_ready(what: &str) {
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "ready {what}");
+    let _ = out.flush();
+}
+
+/// Runs a helper role (a peer process of a floor).
+pub fn helper(role: Role, args: &BenchArgs) -> Result<i32> {
+    vbap_ipc::process::die_with_parent(args.parent);
+    let domain = || -> Result<Domain> {
+        let name = args
+            .domain
+            .as_deref()
+            .ok_or_else(|| InvalidInput(format!("--role {role:?} needs --domain")))?;
+        Ok(Domain::new(name)?)
+    };
+    let code = match role {
+        Role::IoxPong => iox_pong(&domain()?, false),
+        Role::UdpPong => udp_pong(false),
+        Role::IoxPongPoll => iox_pong(&domain()?, true),
+        Role::UdpPongPoll => udp_pong(true),
+        Role::Spin => spin(),
+        Role::WakeAgent => {
+            let (Some(id), Some(agents)) = (args.id, args.agents) else {
+                return Err(
+                    InvalidInput("--role wake-agent needs --id and --agents".into()).into(),
+                );
+            };
+            wake_agent(&domain()?, id, agents)
+        }
+    }?;
+    Ok(code)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wire_round_trip() {
+        let s = ping(7, 3);
+        assert_eq!(decode(&encode(&s)), s);
+        let mut odd = s;
+        odd.velocity[2] = -0.0;
+        odd.position = [f64::MAX, f64::MIN_POSITIVE, 1e-300];
+        assert_eq!(encode(&decode(&encode(&odd))), encode(&odd));
+    }
+}

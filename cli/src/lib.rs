@@ -1,0 +1,22 @@
+//! `vbap-cli`: the `vbap` command, front door and supervisor of the vbap process set.
+//!
+//! - [`sim`]: the in-process reference simulator (`vbap sim`).
+//! - [`supervise`]: the multi-process run (`vbap run`), tokio.
+//! - [`progress`]: the progress bar of `vbap run`.
+//! - [`replay`], [`batch`], [`bench`]: study a run, many runs, the speed.
+//! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).
+//! - [`cli`]: the command line.
+//! - [`lock`]: one supervisor per mission name on a host.
+//!
+//! Pictures and timing analyses are `vbap-report`'s; the steps of the processes are the
+//! libraries of `coordinator`, `vehicle_agent` and `field_server`.
+
+pub mod batch;
+pub mod bench;
+pub mod chaos;
+pub mod cli;
+pub mod lock;
+pub mod progress;
+pub mod replay;
+pub mod sim;
+pub mod supervise;

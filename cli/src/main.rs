@@ -1,0 +1,5 @@
+//! `vbap`: see `vbap --help`.
+
+fn main() {
+    std::process::exit(vbap_cli::cli::main());
+}

@@ -1,0 +1,654 @@
+//! `vbap run`: start the process set, supervise it, collect the run directory.
+//!
+//! Order of start: field server, coordinator, then the N agents, each awaited until it
+//! prints `ready` (its ports exist). Children ask the kernel to die with the supervisor
+//! (PR_SET_PDEATHSIG). SIGINT/SIGTERM to the supervisor: SIGTERM to every child, a grace
+//! period, SIGKILL for stragglers, then the mission's iceoryx2 resources are cleaned.
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context, Result};
+use tokio::io::{AsyncBufReadExt, BufReader};
+use tokio::process::{Child, Command};
+use tokio::sync::mpsc;
+use tracing::{info, warn};
+use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
+use vbap_ipc::msg::supervisor_to_coordinator::ProcessExit;
+use vbap_ipc::msg::{wall_ns, Header};
+use vbap_ipc::topics::{self, Domain, Limits};
+use vbap_mission::config::{Mission, RestartPolicy};
+use vbap_mission::rundir::{RunDir, Summary};
+
+use crate::progress::ProgressView;
+use vbap_report::analyze;
+
+/// Grace period between SIGTERM and SIGKILL.
+const GRACE: Duration = Duration::from_secs(5);
+/// How long a process may take to print `ready`.
+const READY_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// What a supervised process is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Role {
+    FieldServer,
+    Coordinator,
+    Agent(u32),
+}
+
+impl Role {
+    fn name(self) -> String {
+        match self {
+            Role::FieldServer => "field_server".into(),
+            Role::Coordinator => "coordinator".into(),
+            Role::Agent(id) => format!("vehicle_agent_{id}"),
+        }
+    }
+}
+
+/// One supervised process slot (a process and its restarts).
+struct Proc {
+    role: Role,
+    /// pid of the running process; None once it ended.
+    pid: Option<u32>,
+    /// Generation of the process in this slot (restarts increment it).
+    generation: u32,
+    /// Wall times of the restarts inside the policy window.
+    restarts: VecDeque<Instant>,
+}
+
+/// A process ended.
+struct Exit {
+    slot: usize,
+    generation: u32,
+    status: std::io::Result<std::process::ExitStatus>,
+}
+
+/// What the supervisor tells, or asks, the mission over iceoryx2. One thread owns those
+/// ports (they are not `Send`), so a process exit is reported the moment the child is
+/// reaped, whatever the supervisor's main loop is doing (a restart's backoff, say).
+enum Notice {
+    /// A child was reaped: tell the coordinator (`<m>/supervisor/exits`) and wake it.
+    Exit(ProcessExit),
+    /// Has the coordinator published the mission's final command (`FINISHED`)?
+    Finished(tokio::sync::oneshot::Sender<bool>),
+    /// The run is over: drop the ports and the node.
+    Stop,
+}
+
+/// The supervisor's iceoryx2 side: a node of the mission's domain, the exit publisher, a
+/// notifier of the coordinator's wake service, a subscriber of the body service.
+struct Notices {
+    tx: std::sync::mpsc::Sender<Notice>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Notices {
+    /// Starts the thread (after the domain was cleaned: its node is a live node of the
+    /// mission). Without its ports (an error, logged) the run goes on: the coordinator
+    /// finds deaths by itself, only later.
+    fn start(domain: &Domain, vehicles: usize) -> Self {
+        let (tx, rx) = std::sync::mpsc::channel::<Notice>();
+        let domain = domain.clone();
+        let thread = std::thread::spawn(move || {
+            let ports = (|| -> Result<_> {
+                let limits = Limits::for_fleet(vehicles);
+                let node = domain.supervisor_node()?;
+                let exits = domain
+                    .exits_service(&node, &limits)?
+                    .publisher_builder()
+                    .create()
+                    .map_err(|e| anyhow::anyhow!("publishing process exits: {e:?}"))?;
+                let wake = domain
+                    .coordinator_wake(&node, &limits)?
+                    .notifier_builder()
+                    .default_event_id(topics::EVENT_EXIT)
+                    .create()
+                    .map_err(|e| anyhow::anyhow!("notifying the coordinator: {e:?}"))?;
+                let body = domain
+                    .body_service(&node, &limits)?
+                    .subscriber_builder()
+                    .create()
+                    .map_err(|e| anyhow::anyhow!("subscribing to the body: {e:?}"))?;
+                Ok((exits, wake, body, node))
+            })();
+            if let Err(e) = &ports {
+                warn!(error = %e, "no process-exit reports to the coordinator");
+            }
+            let mut finished = false;
+            let mut seq = 0;
+            while let Ok(notice) = rx.recv() {
+                match (notice, &ports) {
+                    (Notice::Stop, _) => break,
+                    (Notice::Exit(mut e), Ok((exits, wake, _, _))) => {
+                        seq += 1;
+                        e.header.seq = seq;
+                        e.header.sent_ns = wall_ns();
+                        let _ = exits.send_copy(e);
+                        let _ = wake.notify();
+                    }
+                    (Notice::Finished(reply), Ok((_, _, body, _))) => {
+                        while let Ok(Some(sample)) = body.receive() {
+                            let h = sample.header;
+                            finished |= h.sender == Header::COORDINATOR
+                                && h.flags & BodyCommand::FINISHED != 0;
+                        }
+                        let _ = reply.send(finished);
+                    }
+                    (Notice::Finished(reply), Err(_)) => {
+                        let _ = reply.send(false);
+                    }
+                    (Notice::Exit(_), Err(_)) => {}
+                }
+            }
+        });
+        Self {
+            tx,
+            thread: Some(thread),
+        }
+    }
+
+    /// True when the coordinator has published the mission's final command.
+    async fn mission_finished(&self) -> bool {
+        let (reply, answer) = tokio::sync::oneshot::channel();
+        if self.tx.send(Notice::Finished(reply)).is_err() {
+            return false;
+        }
+        answer.await.unwrap_or(false)
+    }
+
+    /// Ends the thread (its node leaves the domain).
+    fn stop(&mut self) {
+        let _ = self.tx.send(Notice::Stop);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The report of the death of process `pid` in `role`, reaped at `died_ns`.
+fn exit_report(
+    role: Role,
+    pid: u32,
+    status: &std::io::Result<std::process::ExitStatus>,
+    died_ns: u64,
+) -> ProcessExit {
+    use std::os::unix::process::ExitStatusExt;
+    let (role, vehicle) = match role {
+        Role::FieldServer => (ProcessExit::FIELD_SERVER, 0),
+        Role::Coordinator => (ProcessExit::COORDINATOR, 0),
+        Role::Agent(id) => (ProcessExit::AGENT, id),
+    };
+    ProcessExit {
+        header: Header {
+            sender: Header::SUPERVISOR,
+            ..Header::default()
+        },
+        role,
+        vehicle,
+        pid,
+        signal: status.as_ref().ok().and_then(|s| s.signal()).unwrap_or(0) as u32,
+        died_ns,
+    }
+}
+
+/// The directory of the vbap binaries (the one holding this executable).
+pub fn bin_dir() -> Result<PathBuf> {
+    let exe = std::env::current_exe().context("locating the vbap executable")?;
+    Ok(exe
+        .parent()
+        .context("vbap executable has no parent directory")?
+        .to_path_buf())
+}
+
+/// Sends `sig` to a child that has not been reaped yet.
+#[allow(unsafe_code)]
+fn signal(pid: u32, sig: i32) {
+    // SAFETY: kill(2) takes a pid and a signal number and touches no memory of ours; the
+    // pid is of a child whose exit we have not seen, so it has not been reaped.
+    unsafe {
+        libc::kill(pid as libc::pid_t, sig);
+    }
+}
+
+/// Removes the stale iceoryx2 resources of `domain`: dead nodes, then every file of the
+/// domain (its exact prefix `vbap_<mission>.`) left in /dev/shm and under iceoryx2's root
+/// folder. Refuses when a live process of the same mission exists.
+pub fn clean_domain(domain: &Domain) -> Result<usize> {
+    let alive = domain.alive_node_names();
+    if !alive.is_empty() {
+        bail!(
+            "mission {:?} is already running on this host (live processes: {}); choose another mission.name",
+            domain.mission,
+            alive.join(", ")
+        );
+    }
+    let dead = domain.cleanup_dead_nodes();
+    Ok(dead + domain.remove_files())
+}
+
+/// Waits (polling every 100 ms, at most `timeout`) until no process of `domain` is alive: the
+/// processes of a supervisor that was killed end on their own (they get SIGTERM when it
+/// dies). Err names the ones still alive.
+pub fn await_domain_free(domain: &Domain, timeout: Duration) -> Result<()> {
+    let start = Instant::now();
+    loop {
+        let alive = domain.alive_node_names();
+        if alive.is_empty() {
+            return Ok(());
+        }
+        if start.elapsed() >= timeout {
+            bail!(
+                "mission {:?} is already running on this host (live processes: {}); choose another mission.name",
+                domain.mission,
+                alive.join(", ")
+            );
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Files of the domain still present (for checks and tests).
+pub fn leftover_files(domain: &Domain) -> Vec<PathBuf> {
+    domain.files()
+}
+
+async fn spawn(bin: &Path, name: &str, args: &[String], dir: &RunDir) -> Result<Child> {
+    let stderr = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(dir.root.join("logs").join(format!("{name}.stderr.log")))
+        .with_context(|| format!("creating the stderr log of {name}"))?;
+    Command::new(bin)
+        .args(args)
+        .arg("--log")
+        .arg(dir.log(name))
+        .arg("--parent")
+        .arg(std::process::id().to_string())
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::from(stderr))
+        .kill_on_drop(true)
+        .spawn()
+        .with_context(|| format!("starting {}", bin.display()))
+}
+
+async fn await_ready(name: &str, child: &mut Child) -> Result<()> {
+    let stdout = child.stdout.take().context("child stdout")?;
+    let mut lines = BufReader::new(stdout).lines();
+    let line = tokio::time::timeout(READY_TIMEOUT, lines.next_line())
+        .await
+        .with_context(|| format!("{name} did not get ready within {READY_TIMEOUT:?}"))?
+        .with_context(|| format!("reading {name}'s stdout"))?;
+    match line.as_deref() {
+        Some("ready") => Ok(()),
+        other => bail!("{name} exited before it was ready ({other:?}); see its logs"),
+    }
+}
+
+/// The process set of one run.
+struct ProcessSet<'a> {
+    bin: PathBuf,
+    mission: &'a Mission,
+    mission_file: String,
+    dir: &'a RunDir,
+    procs: Vec<Proc>,
+    exits: mpsc::UnboundedSender<Exit>,
+    notices: std::sync::mpsc::Sender<Notice>,
+}
+
+impl ProcessSet<'_> {
+    fn args(&self, role: Role, restart: bool) -> (PathBuf, Vec<String>) {
+        let mut args = vec!["--mission".to_string(), self.mission_file.clone()];
+        let exe = match role {
+            Role::FieldServer => "field_server",
+            Role::Coordinator => {
+                args.extend([
+                    "--run-dir".to_string(),
+                    self.dir.root.to_string_lossy().to_string(),
+                ]);
+                "coordinator"
+            }
+            Role::Agent(id) => {
+                args.extend(["--id".to_string(), id.to_string()]);
+                if restart {
+                    args.push("--rejoin".to_string());
+                }
+                "vehicle_agent"
+            }
+        };
+        (self.bin.join(exe), args)
+    }
+
+    /// Starts the process of `slot` (first start or restart) and waits until it is ready.
+    async fn start(&mut self, slot: usize) -> Result<()> {
+        let (name, mut child) = self.launch(slot).await?;
+        let ready = await_ready(&name, &mut child).await;
+        self.watch(slot, child);
+        ready
+    }
+
+    /// Spawns the process of `slot` without waiting for it to be ready.
+    async fn launch(&mut self, slot: usize) -> Result<(String, Child)> {
+        let role = self.procs[slot].role;
+        let (exe, args) = self.args(role, self.procs[slot].generation > 0);
+        let name = role.name();
+        let child = spawn(&exe, &name, &args, self.dir).await?;
+        self.procs[slot].pid = child.id();
+        self.procs[slot].generation += 1;
+        Ok((name, child))
+    }
+
+    /// Reports the end of `child` (the process of `slot`) on the exit channel.
+    fn watch(&self, slot: usize, mut child: Child) {
+        let generation = self.procs[slot].generation;
+        let role = self.procs[slot].role;
+        let exits = self.exits.clone();
+        let notices = self.notices.clone();
+        tokio::spawn(async move {
+            let pid = child.id();
+            let status = child.wait().await;
+            // Told at once: the coordinator acts on a death before any restart of it.
+            if let Some(pid) = pid {
+                let report = exit_report(role, pid, &status, wall_ns());
+                let _ = notices.send(Notice::Exit(report));
+            }
+            let _ = exits.send(Exit {
+                slot,
+                generation,
+                status,
+            });
+        });
+    }
+
+    /// Sends `sig` to every running process.
+    fn signal_all(&self, sig: i32) {
+        for p in &self.procs {
+            if let Some(pid) = p.pid {
+                signal(pid, sig);
+            }
+        }
+    }
+
+    fn running(&self) -> usize {
+        self.procs.iter().filter(|p| p.pid.is_some()).count()
+    }
+
+    fn policy(&self, role: Role) -> RestartPolicy {
+        let r = &self.mission.restart;
+        match role {
+            Role::FieldServer => r.field_server,
+            Role::Coordinator => r.coordinator,
+            Role::Agent(_) => r.vehicles,
+        }
+    }
+}
+
+/// SIGTERM to every running process, a grace period, then SIGKILL; reaps all.
+async fn stop_all(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedReceiver<Exit>) {
+    set.signal_all(libc::SIGTERM);
+    let deadline = tokio::time::Instant::now() + GRACE;
+    while set.running() > 0 {
+        match tokio::time::timeout_at(deadline, exits.recv()).await {
+            Ok(Some(e)) => {
+                if set.procs[e.slot].generation == e.generation {
+                    set.procs[e.slot].pid = None;
+                }
+            }
+            Ok(None) => break,
+            Err(_) => {
+                for p in &set.procs {
+                    if let Some(pid) = p.pid {
+                        warn!(process = %p.role.name(), "did not stop within the grace period: SIGKILL");
+                        signal(pid, libc::SIGKILL);
+                    }
+                }
+                while set.running() > 0 {
+                    match exits.recv().await {
+                        Some(e) if set.procs[e.slot].generation == e.generation => {
+                            set.procs[e.slot].pid = None
+                        }
+                        Some(_) => {}
+                        None => break,
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// How a supervised run ended.
+#[derive(Debug)]
+pub struct RunOutcome {
+    /// The summary, when the coordinator wrote one.
+    pub summary: Option<Summary>,
+    /// True when a signal stopped the run.
+    pub interrupted: bool,
+    /// True when the coordinator exited with success.
+    pub coordinator_ok: bool,
+    /// Wall time from first spawn to every process ready, s.
+    pub startup_s: f64,
+}
+
+/// Runs `mission` as a process set writing `dir`.
+pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result<RunOutcome> {
+    let wall = Instant::now();
+    let domain = Domain::new(&mission.mission.name)?;
+    let cleaned = clean_domain(&domain)?;
+    if cleaned > 0 {
+        info!(
+            cleaned,
+            "removed stale resources of an earlier run of this mission"
+        );
+    }
+    let (tx, mut exits) = mpsc::unbounded_channel();
+    let bin = bin_dir()?;
+    let mut notices = Notices::start(&domain, mission.vehicles.count);
+    let mut roles = vec![Role::FieldServer, Role::Coordinator];
+    roles.extend((0..mission.vehicles.count as u32).map(Role::Agent));
+    let mut set = ProcessSet {
+        bin,
+        mission,
+        mission_file: dir.mission().to_string_lossy().to_string(),
+        dir,
+        procs: roles
+            .into_iter()
+            .map(|role| Proc {
+                role,
+                pid: None,
+                generation: 0,
+                restarts: VecDeque::new(),
+            })
+            .collect(),
+        exits: tx,
+        notices: notices.tx.clone(),
+    };
+    let mut interrupted = false;
+    let start = async {
+        // Field server, then coordinator, each ready before the next; then every agent
+        // at once (they start in parallel), each awaited.
+        set.start(0).await?;
+        set.start(1).await?;
+        let mut launched = Vec::new();
+        for slot in 2..set.procs.len() {
+            launched.push((slot, set.launch(slot).await?));
+        }
+        let mut first_error = None;
+        for (slot, (name, mut child)) in launched {
+            if let Err(e) = await_ready(&name, &mut child).await {
+                first_error.get_or_insert(e);
+            }
+            set.watch(slot, child);
+        }
+        match first_error {
+            Some(e) => Err(e),
+            None => anyhow::Ok(()),
+        }
+    };
+    let started = tokio::select! {
+        r = start => r,
+        _ = shutdown_signal() => { interrupted = true; Ok(()) }
+    };
+    let startup_s = wall.elapsed().as_secs_f64();
+    if let Err(e) = started {
+        stop_all(&mut set, &mut exits).await;
+        notices.stop();
+        let _ = clean_domain(&domain);
+        return Err(e);
+    }
+    info!(startup_s, processes = set.procs.len(), "process set up");
+
+    let mut view = ProgressView::start(mission, show_progress && !interrupted);
+    let mut coordinator_ok = false;
+    let mut restarts_done = 0u32;
+    while !interrupted {
+        let exit = tokio::select! {
+            e = exits.recv() => e,
+            _ = shutdown_signal() => { interrupted = true; None }
+        };
+        let Some(exit) = exit else { break };
+        let slot = exit.slot;
+        if set.procs[slot].generation != exit.generation {
+            continue;
+        }
+        set.procs[slot].pid = None;
+        let role = set.procs[slot].role;
+        let failed = !exit.status.as_ref().is_ok_and(|s| s.success());
+        if role == Role::Coordinator && !failed {
+            coordinator_ok = true;
+            break;
+        }
+        if !failed && policy_is_not_always(set.policy(role)) {
+            continue; // a normal end (the mission finished)
+        }
+        let policy = set.policy(role);
+        let restart = match policy {
+            RestartPolicy::Never => false,
+            RestartPolicy::OnFailure => failed,
+            RestartPolicy::Always => true,
+        };
+        // Past the mission's final command nothing is restarted: the processes end
+        // normally on it (policy `always` would otherwise start them all again).
+        if restart && notices.mission_finished().await {
+            info!(process = %role.name(), "ended after the mission's final command: not restarted");
+            continue;
+        }
+        warn!(process = %role.name(), status = ?exit.status, ?policy, restart, "process ended");
+        if !restart {
+            if role == Role::Coordinator || role == Role::FieldServer {
+                break; // the mission cannot go on
+            }
+            continue;
+        }
+        // Restart with backoff, at most max_restarts per window.
+        let r = &mission.restart;
+        let window = Duration::from_secs_f64(r.window);
+        let p = &mut set.procs[slot];
+        while p.restarts.front().is_some_and(|t| t.elapsed() > window) {
+            p.restarts.pop_front();
+        }
+        if p.restarts.len() >= r.max_restarts as usize {
+            warn!(process = %role.name(), "restart limit reached: not restarting");
+            if role == Role::Coordinator || role == Role::FieldServer {
+                break;
+            }
+            continue;
+        }
+        let backoff = Duration::from_secs_f64(r.backoff * 2f64.powi(p.restarts.len() as i32));
+        p.restarts.push_back(Instant::now());
+        tokio::select! {
+            _ = tokio::time::sleep(backoff) => {}
+            _ = shutdown_signal() => { interrupted = true; break; }
+        }
+        // Clean the dead node first so the restarted process can take its services.
+        domain.cleanup_dead_nodes();
+        match set.start(slot).await {
+            Ok(()) => {
+                restarts_done += 1;
+                info!(process = %role.name(), restarts_done, "restarted");
+            }
+            Err(e) => warn!(process = %role.name(), error = %e, "restart failed"),
+        }
+    }
+    view.finish();
+    if !interrupted {
+        // The mission is over: the others end on FINISHED; stragglers get SIGTERM.
+        let deadline = tokio::time::Instant::now() + GRACE;
+        while set.running() > 0 {
+            match tokio::time::timeout_at(deadline, exits.recv()).await {
+                Ok(Some(e)) if set.procs[e.slot].generation == e.generation => {
+                    set.procs[e.slot].pid = None
+                }
+                Ok(Some(_)) => {}
+                _ => break,
+            }
+        }
+    }
+    stop_all(&mut set, &mut exits).await;
+    notices.stop();
+    let _ = clean_domain(&domain);
+
+    let mut summary = Summary::read(dir).ok();
+    if let Some(s) = summary.as_mut() {
+        s.wall_time_s = wall.elapsed().as_secs_f64();
+        if let Ok(report) = analyze::analyze(dir) {
+            report.fill_summary(s);
+        }
+        s.agent_rejected = count_agent_rejections(dir);
+        if interrupted && s.verdict != "interrupted" {
+            s.verdict = "interrupted".into();
+            s.converged = false;
+            s.reasons.insert(
+                0,
+                "the run was stopped by a signal (Ctrl-C / SIGTERM)".into(),
+            );
+        }
+        s.write(dir).context("writing summary.json")?;
+        if let Err(e) = vbap_report::report_plots::write_run_plots(dir) {
+            warn!(error = %e, "time-series plots failed");
+        }
+    }
+    Ok(RunOutcome {
+        summary,
+        interrupted,
+        coordinator_ok,
+        startup_s,
+    })
+}
+
+fn policy_is_not_always(p: RestartPolicy) -> bool {
+    p != RestartPolicy::Always
+}
+
+/// Body commands rejected by the agents, counted from their logs.
+fn count_agent_rejections(dir: &RunDir) -> u64 {
+    let Ok(entries) = std::fs::read_dir(dir.root.join("logs")) else {
+        return 0;
+    };
+    let mut n = 0;
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().to_string();
+        if name.starts_with("vehicle_agent") && name.ends_with(".jsonl") {
+            if let Ok(text) = std::fs::read_to_string(e.path()) {
+                n += text
+                    .lines()
+                    .filter(|l| l.contains("rejected a body command"))
+                    .count() as u64;
+            }
+        }
+    }
+    n
+}
+
+/// Resolves on SIGINT or SIGTERM.
+pub async fn shutdown_signal() {
+    use tokio::signal::unix::{signal, SignalKind};
+    let mut term = signal(SignalKind::terminate()).expect("installing the SIGTERM handler");
+    let mut int = signal(SignalKind::interrupt()).expect("installing the SIGINT handler");
+    tokio::select! {
+        _ = term.recv() => {},
+        _ = int.recv() => {},
+    }
+}

@@ -1,5 +1,0 @@
-//! `vbap`: see `vbap --help`.
-
-fn main() {
-    std::process::exit(deploy::cli::main());
-}

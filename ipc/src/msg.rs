@@ -1,0 +1,368 @@
+//! Zero-copy payloads, grouped by direction (`agent_to_coordinator`, ...).
+//!
+//! Every payload is `#[repr(C)]`, `Copy`, fixed size and `ZeroCopySend`, with an explicit,
+//! versioned type name: change the version whenever the layout changes, so an old process
+//! can never read a new layout. Every payload starts with a [`Header`] (docs/ARCHITECTURE.md §4).
+
+use iceoryx2::prelude::ZeroCopySend;
+
+use vbap_math::Vec3;
+
+/// Largest fleet a mission may have (fixed capacity of the swarm snapshot).
+pub const MAX_VEHICLES: usize = 256;
+/// Largest number of virtual leaders a formation design may have.
+pub const MAX_LEADERS: usize = 256;
+
+/// Wall-clock time now, in nanoseconds since the Unix epoch (for latency analysis only;
+/// the control law never sees it).
+pub fn wall_ns() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0)
+}
+
+/// What every payload carries first.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("vbap.Header.v1")]
+pub struct Header {
+    /// Sender id: the vehicle id, or [`Header::COORDINATOR`] / [`Header::FIELD_SERVER`].
+    pub sender: u32,
+    /// Bit flags, meaning defined by the payload.
+    pub flags: u32,
+    /// Control tick k.
+    pub tick: u64,
+    /// Mission time t = k·dt, s.
+    pub t: f64,
+    /// Per-sender sequence number, strictly increasing (replays are rejected).
+    pub seq: u64,
+    /// Send wall-clock time, ns since the Unix epoch.
+    pub sent_ns: u64,
+}
+
+impl Header {
+    /// Sender id of the coordinator.
+    pub const COORDINATOR: u32 = u32::MAX - 1;
+    /// Sender id of the field server.
+    pub const FIELD_SERVER: u32 = u32::MAX - 2;
+    /// Sender id of the supervisor (`vbap run`).
+    pub const SUPERVISOR: u32 = u32::MAX - 3;
+}
+
+/// Converts a payload array to a vector.
+pub fn to_vec3(a: &[f64; 3]) -> Vec3 {
+    Vec3::new(a[0], a[1], a[2])
+}
+
+/// Converts a vector to a payload array.
+pub fn from_vec3(v: &Vec3) -> [f64; 3] {
+    [v.x, v.y, v.z]
+}
+
+/// Vehicle → coordinator.
+pub mod agent_to_coordinator {
+    use super::*;
+
+    /// A vehicle's state at tick `header.tick` (service `<mission>/vehicle/<id>/state`).
+    /// Its sensor reading is taken where and when this state says, by the field server,
+    /// batched for the whole tick (see [`super::coordinator_to_field`]).
+    #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.VehicleState.v4")]
+    pub struct VehicleState {
+        pub header: Header,
+        /// OS process id of the agent (the coordinator SIGKILLs it for a scheduled kill).
+        pub pid: u32,
+        pub _pad: u32,
+        /// Position x_i, length unit.
+        pub position: [f64; 3],
+        /// Velocity ẋ_i, length unit/s.
+        pub velocity: [f64; 3],
+        /// Commands read so far: one more than the tick of the newest command the agent has
+        /// taken from its buffer (0: none). The coordinator publishes no command that
+        /// could overflow an agent's command buffer (lockstep flow control).
+        pub commands_read: u64,
+    }
+
+    impl VehicleState {
+        /// Flag: the agent is holding station (heard nothing from the coordinator).
+        pub const HOLDING: u32 = 1;
+        /// Flag: a (re)started agent asks to join a mission under way; the state is its
+        /// last known one, not a report of the tick.
+        pub const JOINING: u32 = 2;
+        /// Flag: no new state, only a newer `commands_read` (an agent that ran ahead and
+        /// waits reports that it keeps reading commands).
+        pub const ACK: u32 = 4;
+
+        /// True when every number is finite.
+        pub fn is_finite(&self) -> bool {
+            self.header.t.is_finite()
+                && self.position.iter().all(|v| v.is_finite())
+                && self.velocity.iter().all(|v| v.is_finite())
+        }
+    }
+}
+
+/// Coordinator → vehicles.
+pub mod coordinator_to_agent {
+    use super::*;
+
+    /// One vehicle's last known state, as the coordinator holds it.
+    #[derive(
+        Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, serde::Serialize, serde::Deserialize,
+    )]
+    #[repr(C)]
+    #[type_name("vbap.SnapshotEntry.v3")]
+    pub struct SnapshotEntry {
+        /// Vehicle id.
+        pub id: u32,
+        /// [`SnapshotEntry::LOST`], [`SnapshotEntry::MEMBER`] or [`SnapshotEntry::ADMITTED`].
+        pub alive: u32,
+        /// 1 while the vehicle rejoins (flies to `target`, `vbap_math::rejoin`), else 0.
+        pub rejoining: u32,
+        pub _pad: u32,
+        /// Position, length unit.
+        pub position: [f64; 3],
+        /// Velocity, length unit/s.
+        pub velocity: [f64; 3],
+        /// The slot a rejoining vehicle flies to, at this tick, length unit (zeros when not
+        /// rejoining).
+        pub target: [f64; 3],
+    }
+
+    impl SnapshotEntry {
+        /// A lost vehicle: its last true state (a restarted agent resumes from it).
+        pub const LOST: u32 = 0;
+        /// A member of the formation: its last state the coordinator received.
+        pub const MEMBER: u32 = 1;
+        /// Admitted back at this tick: the agent restores this state and steps from it.
+        pub const ADMITTED: u32 = 2;
+    }
+
+    /// The virtual body for the step from tick `header.tick` to the next, with the swarm
+    /// snapshot every agent needs for the inter-vehicle potential (service `<mission>/body`).
+    /// Agents read it in place (zero copy).
+    #[derive(Debug, Clone, Copy, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.BodyCommand.v4")]
+    pub struct BodyCommand {
+        pub header: Header,
+        /// Virtual body parameter s.
+        pub s: f64,
+        /// Formation speed ṡ (IV.4), 1/s.
+        pub sdot: f64,
+        /// Virtual body centre r, length unit.
+        pub r: [f64; 3],
+        /// Formation scale k (III.3).
+        pub scale: f64,
+        /// Scaled inter-vehicle potential (alpha, d0, d1) of (III.3).
+        pub inter: [f64; 3],
+        /// Scaled vehicle–leader potential (alpha, h0, h1) of (III.3).
+        pub leader: [f64; 3],
+        /// Damping gain K = damping·I of (II.1), 1/s.
+        pub damping: f64,
+        /// Velocity of the body centre dr/ds·ṡ, length unit/s (dead reckoning when out of
+        /// contact).
+        pub velocity: [f64; 3],
+        /// Number of valid entries in `leaders`.
+        pub n_leaders: u32,
+        /// Number of valid entries in `snapshot` (ordered by id).
+        pub n_vehicles: u32,
+        /// Virtual leader positions b_l(s), length unit.
+        pub leaders: [[f64; 3]; MAX_LEADERS],
+        /// Every vehicle's last known state at this tick, ordered by id.
+        pub snapshot: [SnapshotEntry; MAX_VEHICLES],
+    }
+
+    impl BodyCommand {
+        /// Flag: the mission is over; agents exit.
+        pub const FINISHED: u32 = 1;
+        /// Flag: the body holds position (too few vehicles to estimate a gradient).
+        pub const HOLDING: u32 = 2;
+
+        /// An empty command (no leaders, no vehicles).
+        pub fn empty() -> Self {
+            Self {
+                header: Header::default(),
+                s: 0.0,
+                sdot: 0.0,
+                r: [0.0; 3],
+                scale: 1.0,
+                inter: [0.0; 3],
+                leader: [0.0; 3],
+                damping: 0.0,
+                velocity: [0.0; 3],
+                n_leaders: 0,
+                n_vehicles: 0,
+                leaders: [[0.0; 3]; MAX_LEADERS],
+                snapshot: [SnapshotEntry::default(); MAX_VEHICLES],
+            }
+        }
+
+        /// True when every number in use is finite and the counts are in range.
+        pub fn is_valid(&self) -> bool {
+            let n_l = self.n_leaders as usize;
+            let n_v = self.n_vehicles as usize;
+            n_l <= MAX_LEADERS
+                && n_v <= MAX_VEHICLES
+                && [self.header.t, self.s, self.sdot, self.scale, self.damping]
+                    .iter()
+                    .chain(self.velocity.iter())
+                    .chain(self.r.iter())
+                    .chain(self.inter.iter())
+                    .chain(self.leader.iter())
+                    .all(|v| v.is_finite())
+                && self.leaders[..n_l].iter().flatten().all(|v| v.is_finite())
+                && self.snapshot[..n_v].iter().all(|e| {
+                    e.position
+                        .iter()
+                        .chain(e.velocity.iter())
+                        .chain(e.target.iter())
+                        .all(|v| v.is_finite())
+                })
+        }
+    }
+}
+
+/// Coordinator → field server: the sensor reads of one tick, in one request.
+///
+/// Every vehicle's sensor reads where and when its state says. The coordinator, which
+/// gathers the states of a tick anyway, asks the field server for all of them at once: one
+/// round trip per tick instead of one per vehicle, and each agent wakes once per tick
+/// (for its command) instead of twice. The readings are the same numbers the vehicles
+/// would have read themselves: noise keyed by (seed, vehicle, tick), sensor faults applied
+/// by the field server, which simulates the sensors.
+pub mod coordinator_to_field {
+    use super::*;
+
+    /// Where and when one vehicle's sensor reads.
+    #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.SensorRead.v1")]
+    pub struct SensorRead {
+        /// Vehicle id (keys the sensor noise).
+        pub vehicle: u32,
+        pub _pad: u32,
+        /// Tick of the reading (keys the sensor noise).
+        pub tick: u64,
+        /// Mission time of the reading, s.
+        pub t: f64,
+        /// Sensor position, length unit.
+        pub position: [f64; 3],
+    }
+
+    /// The sensor reads of one tick (service `<mission>/field/sample`).
+    #[derive(Debug, Clone, Copy, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.SampleBatch.v1")]
+    pub struct SampleBatch {
+        pub header: Header,
+        /// Number of valid entries in `reads`.
+        pub n: u32,
+        pub _pad: u32,
+        pub reads: [SensorRead; MAX_VEHICLES],
+    }
+
+    impl SampleBatch {
+        /// An empty batch.
+        pub fn empty() -> Self {
+            Self {
+                header: Header::default(),
+                n: 0,
+                _pad: 0,
+                reads: [SensorRead::default(); MAX_VEHICLES],
+            }
+        }
+        /// The valid entries.
+        pub fn reads(&self) -> &[SensorRead] {
+            &self.reads[..(self.n as usize).min(MAX_VEHICLES)]
+        }
+    }
+}
+
+/// Field server → coordinator.
+pub mod field_to_coordinator {
+    use super::*;
+
+    /// One vehicle's noisy reading T(p, t) + N(0, σ_M²), sensor faults applied.
+    #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.Reading.v1")]
+    pub struct Reading {
+        /// Vehicle id.
+        pub vehicle: u32,
+        /// 1 when the read was rejected (non-finite position, unknown vehicle).
+        pub rejected: u32,
+        /// Tick of the reading.
+        pub tick: u64,
+        /// The reading, field unit (NaN when rejected).
+        pub value: f64,
+    }
+
+    /// The answer to a [`super::coordinator_to_field::SampleBatch`], entry by entry.
+    #[derive(Debug, Clone, Copy, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.ReadingBatch.v1")]
+    pub struct ReadingBatch {
+        pub header: Header,
+        /// Sequence number of the request answered.
+        pub request_seq: u64,
+        /// Number of valid entries in `readings`.
+        pub n: u32,
+        pub _pad: u32,
+        pub readings: [Reading; MAX_VEHICLES],
+    }
+
+    impl ReadingBatch {
+        /// An empty batch.
+        pub fn empty() -> Self {
+            Self {
+                header: Header::default(),
+                request_seq: 0,
+                n: 0,
+                _pad: 0,
+                readings: [Reading::default(); MAX_VEHICLES],
+            }
+        }
+        /// The valid entries.
+        pub fn readings(&self) -> &[Reading] {
+            &self.readings[..(self.n as usize).min(MAX_VEHICLES)]
+        }
+    }
+}
+
+/// Supervisor → coordinator.
+pub mod supervisor_to_coordinator {
+    use super::*;
+
+    /// A supervised process ended (service `<mission>/supervisor/exits`): the supervisor
+    /// reaped it, so this is certain knowledge, not a guess from silence. Published at once,
+    /// before any restart of that process.
+    #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+    #[repr(C)]
+    #[type_name("vbap.ProcessExit.v1")]
+    pub struct ProcessExit {
+        pub header: Header,
+        /// [`ProcessExit::AGENT`], [`ProcessExit::COORDINATOR`] or [`ProcessExit::FIELD_SERVER`].
+        pub role: u32,
+        /// Vehicle id (agents only).
+        pub vehicle: u32,
+        /// OS process id of the process that ended.
+        pub pid: u32,
+        /// Signal that killed it (0: it exited by itself).
+        pub signal: u32,
+        /// Wall-clock time the supervisor reaped it, ns since the Unix epoch (the time of
+        /// death within the supervisor's wake-up latency).
+        pub died_ns: u64,
+    }
+
+    impl ProcessExit {
+        /// Role: a vehicle agent.
+        pub const AGENT: u32 = 0;
+        /// Role: the coordinator.
+        pub const COORDINATOR: u32 = 1;
+        /// Role: the field server.
+        pub const FIELD_SERVER: u32 = 2;
+    }
+}

@@ -1,0 +1,707 @@
+//! Where the vehicles truly are against the formation they should hold: each vehicle's
+//! distance from its slot of the current design, and the distance to its nearest
+//! neighbour, both divided by the design spacing. These judge a mission by its vehicles
+//! (the ground truth of a simulation), beside the Lyapunov function `V` of (II.2).
+//!
+//! The slots of a design are `k R p̄_i + r` (III.3). Vehicles are anonymous (which one takes
+//! which slot depends on where it is), so the fit assigns vehicles to slots:
+//!
+//! - **central designs** (one virtual leader at the body centre: polygons, Platonic
+//!   solids) keep the rotational symmetry about the centre (Fig. 4(a)): any rotation of the
+//!   slots about `r` is an equilibrium too. The fit therefore also chooses the rotation:
+//!   from a few candidate rotations (the body's own `R`, and for up to two "anchor"
+//!   vehicles, the rotation that puts the anchor on slot 0 — in 3-D with its nearest
+//!   neighbour in the plane of slot 0 and slot 0's nearest slot) it keeps the one with the
+//!   smallest robust cost `Σ min(e_i², (½ D)²)` (`e_i` the distance to the nearest slot, `D`
+//!   the spacing), then alternates assignment and a least-squares rotation (Kabsch; about z
+//!   in 2-D) fitted to the vehicles within `½ D` of their slot (all of them when fewer than
+//!   `dim − 1` are), at most [`FIT_ITERATIONS`] times or until the assignment repeats.
+//! - **per-slot designs** (each slot its own leaders, Remark 5.3) follow the body's
+//!   rotation exactly: only the assignment is fitted.
+//!
+//! The assignment gives every vehicle its nearest slot when those are distinct; otherwise
+//! the vehicles choose greedily, the one nearest to any slot first (ties by index), each
+//! taking the nearest slot still free. That is exact whenever every vehicle is within half
+//! a spacing of a distinct slot; otherwise it is a cheap upper bound of the optimal
+//! assignment (a vehicle far from the formation may be charged to a farther slot than an
+//! optimal assignment would give it, never to a nearer one than its nearest). Vehicles
+//! left without a slot (more vehicles than slots, e.g. one admitted back before the
+//! redesign, or the last to choose) are measured to their nearest slot. Cost: `O(n m)` per
+//! pass (`n` vehicles, `m` slots), a few passes.
+
+use super::body::VirtualBody;
+use super::formation::FormationDesign;
+use super::{Mat3, Vec3};
+
+/// A live vehicle counts as "in formation" when its distance from its slot is at most this
+/// fraction of the design spacing `D` (the neighbour spacing `d0` times the scale `k`).
+/// A quarter spacing: well beyond the steady following lag of a well-tuned formation (a
+/// few % of the radius), well short of the half spacing at which slots become ambiguous.
+pub const IN_FORMATION: f64 = 0.25;
+
+/// Two vehicles closer than this fraction of the design spacing are a near collision
+/// (the repulsion of `V_I` is meant to keep them near `d0`; 0.06 `D` is a collision of
+/// real vehicles).
+pub const NEAR_COLLISION: f64 = 0.1;
+
+/// Rounds of assignment and rotation fit at most.
+pub const FIT_ITERATIONS: usize = 6;
+
+/// The result of [`fit_slots`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SlotFit {
+    /// Distance of each vehicle from its slot (or its nearest slot when it has none),
+    /// length unit, in the order of the positions given.
+    pub errors: Vec<f64>,
+    /// The slot index each vehicle was assigned, `None` when there were more vehicles
+    /// than slots and it got none.
+    pub slot: Vec<Option<usize>>,
+    /// The fitted orientation of the design (the body's own `R` for per-slot designs).
+    pub rotation: Mat3,
+}
+
+/// True when `design` has one virtual leader at the body centre (free rotation about it).
+pub fn is_central(design: &FormationDesign) -> bool {
+    design.leaders.len() == 1 && design.leaders[0] == Vec3::zeros()
+}
+
+/// The design spacing `D = k d̄0` of `design` moved by `body` (length unit): the
+/// neighbour distance of the designed equilibrium at the body's scale.
+pub fn spacing(design: &FormationDesign, body: &VirtualBody) -> f64 {
+    design.neighbour_spacing() * body.scale
+}
+
+/// Fits the slots of `design`, moved by `body`, to the vehicle `positions` (length unit);
+/// see the module docs. `dim` is 2 or 3 (in 2-D only rotations about z are fitted).
+/// With no slots every error is `+∞`.
+pub fn fit_slots(
+    positions: &[Vec3],
+    design: &FormationDesign,
+    body: &VirtualBody,
+    dim: usize,
+) -> SlotFit {
+    let centre = body.r;
+    let q: Vec<Vec3> = positions.iter().map(|x| x - centre).collect();
+    let base: Vec<Vec3> = design.slots.iter().map(|p| body.scale * p).collect();
+    let own = *body.rotation.matrix();
+    if base.is_empty() {
+        return SlotFit {
+            errors: vec![f64::INFINITY; q.len()],
+            slot: vec![None; q.len()],
+            rotation: own,
+        };
+    }
+    let trim = 0.5 * spacing(design, body);
+    let mut rotation = own;
+    if is_central(design) && !q.is_empty() {
+        let mut best = (robust_cost(&q, &rotate(&own, &base), trim), own);
+        for r in candidates(&q, &base, dim) {
+            let c = robust_cost(&q, &rotate(&r, &base), trim);
+            if c < best.0 {
+                best = (c, r);
+            }
+        }
+        rotation = best.1;
+        let mut last: Option<Vec<Option<usize>>> = None;
+        for _ in 0..FIT_ITERATIONS {
+            let slots = rotate(&rotation, &base);
+            let slot = assign(&q, &slots);
+            if last.as_ref() == Some(&slot) {
+                break;
+            }
+            rotation = refit(&q, &base, &slot, &rotation, trim, dim);
+            last = Some(slot);
+        }
+    }
+    let slots = rotate(&rotation, &base);
+    let slot = assign(&q, &slots);
+    let near = nearest_all(&q, &slots);
+    let errors = q
+        .iter()
+        .zip(&slot)
+        .enumerate()
+        .map(|(i, (x, s))| match s {
+            Some(j) => (x - slots[*j]).norm(),
+            None => near[i].1.sqrt(),
+        })
+        .collect();
+    SlotFit {
+        errors,
+        slot,
+        rotation,
+    }
+}
+
+/// Indices of `positions` sorted by x (ties by index).
+fn by_x(positions: &[Vec3]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..positions.len()).collect();
+    order.sort_by(|&a, &b| positions[a].x.total_cmp(&positions[b].x).then(a.cmp(&b)));
+    order
+}
+
+/// For every position, its nearest other position: (index, distance), `None` when alone.
+/// Ties go to the lower index. A sweep along x: each position looks at the others in x
+/// order only while their x-distance alone is below the best distance so far (`O(n log
+/// n)` for spread-out fleets, `O(n²)` at worst).
+pub fn nearest_neighbours(positions: &[Vec3]) -> Vec<Option<(usize, f64)>> {
+    let n = positions.len();
+    let order = by_x(positions);
+    let mut best: Vec<Option<(usize, f64)>> = vec![None; n];
+    for (p, &i) in order.iter().enumerate() {
+        let x = positions[i];
+        let mut b: Option<(usize, f64)> = None;
+        let consider = |j: usize, b: &mut Option<(usize, f64)>| {
+            let d = (x - positions[j]).norm();
+            if b.is_none_or(|(k, bd)| d < bd || (d == bd && j < k)) {
+                *b = Some((j, d));
+            }
+        };
+        for &j in &order[p + 1..] {
+            if b.is_some_and(|(_, bd)| positions[j].x - x.x > bd) {
+                break;
+            }
+            consider(j, &mut b);
+        }
+        for &j in order[..p].iter().rev() {
+            if b.is_some_and(|(_, bd)| x.x - positions[j].x > bd) {
+                break;
+            }
+            consider(j, &mut b);
+        }
+        best[i] = b;
+    }
+    best
+}
+
+/// The potential part of (II.2), as `lyapunov::potential_energy`, for large fleets: every
+/// pair (vehicle–vehicle, vehicle–leader) beyond its potential's cut-off `d1` sits on the
+/// plateau, so only pairs closer than `d1` are evaluated (found by a sweep along x) and the
+/// others counted. Equal to `potential_energy` up to rounding (the sum is taken in another
+/// order); energy per unit mass. `+∞` if two positions coincide.
+pub fn potential_energy_sparse(
+    positions: &[Vec3],
+    leaders: &[Vec3],
+    inter: &super::potential::PairPotential,
+    leader: &super::potential::PairPotential,
+) -> f64 {
+    let n = positions.len();
+    let order = by_x(positions);
+    let mut energy = 0.0;
+    let mut close = 0usize;
+    for (p, &i) in order.iter().enumerate() {
+        for &j in &order[p + 1..] {
+            if positions[j].x - positions[i].x >= inter.d1 {
+                break;
+            }
+            let d = (positions[i] - positions[j]).norm();
+            if d < inter.d1 {
+                energy += inter.value(d);
+                close += 1;
+            }
+        }
+    }
+    let pairs = n * n.saturating_sub(1) / 2;
+    energy += (pairs - close) as f64 * inter.plateau();
+    let lorder = by_x(leaders);
+    let lx: Vec<f64> = lorder.iter().map(|&l| leaders[l].x).collect();
+    let mut lclose = 0usize;
+    for x in positions {
+        let from = lx.partition_point(|&v| v <= x.x - leader.d1);
+        for &l in &lorder[from..] {
+            if leaders[l].x - x.x >= leader.d1 {
+                break;
+            }
+            let d = (x - leaders[l]).norm();
+            if d < leader.d1 {
+                energy += leader.value(d);
+                lclose += 1;
+            }
+        }
+    }
+    energy += (n * leaders.len() - lclose) as f64 * leader.plateau();
+    energy
+}
+
+fn rotate(r: &Mat3, base: &[Vec3]) -> Vec<Vec3> {
+    base.iter().map(|p| r * p).collect()
+}
+
+/// (index, squared distance) of the slot nearest to `x`.
+fn nearest(x: &Vec3, slots: &[Vec3]) -> (usize, f64) {
+    let mut best = (0, f64::INFINITY);
+    for (j, s) in slots.iter().enumerate() {
+        let d = (x - s).norm_squared();
+        if d < best.1 {
+            best = (j, d);
+        }
+    }
+    best
+}
+
+/// (index, squared distance) of the slot nearest to every vehicle. When the slots lie on
+/// one circle about the centre in the plane z = 0 (2-D central designs), the nearest slot
+/// of a vehicle in that plane is the one nearest in angle (`|x − p|² = |x|² + ρ² −
+/// 2|x|ρ cos Δφ`), found by bisection in `O(log m)`; otherwise by a scan in `O(m)`.
+fn nearest_all(q: &[Vec3], slots: &[Vec3]) -> Vec<(usize, f64)> {
+    let Some(angles) = circle_order(slots) else {
+        return q.iter().map(|x| nearest(x, slots)).collect();
+    };
+    let m = angles.len();
+    q.iter()
+        .map(|x| {
+            if x.z != 0.0 || (x.x == 0.0 && x.y == 0.0) {
+                return nearest(x, slots);
+            }
+            let phi = x.y.atan2(x.x);
+            let at = angles.partition_point(|(a, _)| *a < phi);
+            let mut best = (0, f64::INFINITY);
+            for c in [at + m - 1, at] {
+                let j = angles[c % m].1;
+                let d = (x - slots[j]).norm_squared();
+                if d < best.1 || (d == best.1 && j < best.0) {
+                    best = (j, d);
+                }
+            }
+            best
+        })
+        .collect()
+}
+
+/// The slots sorted by angle about the centre, when they lie on one circle about it in the
+/// plane z = 0 (then nearness in angle is nearness in distance, see [`nearest_all`]).
+fn circle_order(slots: &[Vec3]) -> Option<Vec<(f64, usize)>> {
+    let rho = slots.first()?.norm();
+    let on_circle = slots.len() > 2
+        && rho > 0.0
+        && slots
+            .iter()
+            .all(|p| p.z == 0.0 && (p.norm() - rho).abs() <= 1e-9 * rho);
+    if !on_circle {
+        return None;
+    }
+    let mut angles: Vec<(f64, usize)> = slots
+        .iter()
+        .enumerate()
+        .map(|(j, p)| (p.y.atan2(p.x), j))
+        .collect();
+    angles.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    Some(angles)
+}
+
+/// The free slot nearest to `x`: on a circle, the first free one on either side in angle
+/// (`O(k)`, `k` the slots passed over); otherwise a scan.
+fn nearest_free(
+    x: &Vec3,
+    slots: &[Vec3],
+    used: &[bool],
+    circle: Option<&[(f64, usize)]>,
+) -> Option<usize> {
+    let pick = |best: Option<(usize, f64)>, j: usize| {
+        let d = (x - slots[j]).norm_squared();
+        match best {
+            Some((b, bd)) if bd < d || (bd == d && b < j) => Some((b, bd)),
+            _ => Some((j, d)),
+        }
+    };
+    let mut best: Option<(usize, f64)> = None;
+    match circle {
+        Some(angles) if x.z == 0.0 && (x.x != 0.0 || x.y != 0.0) => {
+            let m = angles.len();
+            let at = angles.partition_point(|(a, _)| *a < x.y.atan2(x.x));
+            if let Some(j) = (0..m).map(|s| angles[(at + s) % m].1).find(|&j| !used[j]) {
+                best = pick(best, j);
+            }
+            if let Some(j) = (1..=m)
+                .map(|s| angles[(at + m * 2 - s) % m].1)
+                .find(|&j| !used[j])
+            {
+                best = pick(best, j);
+            }
+        }
+        _ => {
+            for j in (0..slots.len()).filter(|&j| !used[j]) {
+                best = pick(best, j);
+            }
+        }
+    }
+    best.map(|(j, _)| j)
+}
+
+fn robust_cost(q: &[Vec3], slots: &[Vec3], trim: f64) -> f64 {
+    nearest_all(q, slots)
+        .into_iter()
+        .map(|(_, d)| d.min(trim * trim))
+        .sum()
+}
+
+/// Vehicle → slot: nearest slots when distinct, else greedy by distance.
+fn assign(q: &[Vec3], slots: &[Vec3]) -> Vec<Option<usize>> {
+    let near_d = nearest_all(q, slots);
+    let near: Vec<usize> = near_d.iter().map(|(j, _)| *j).collect();
+    let mut taken = vec![false; slots.len()];
+    let distinct = near
+        .iter()
+        .all(|&j| !std::mem::replace(&mut taken[j], true));
+    if distinct {
+        return near.into_iter().map(Some).collect();
+    }
+    // Vehicles closest to a slot choose first, each the nearest slot still free.
+    let mut order: Vec<(f64, usize)> = near_d
+        .iter()
+        .enumerate()
+        .map(|(i, (_, d))| (*d, i))
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let circle = circle_order(slots);
+    let mut slot = vec![None; q.len()];
+    let mut used = vec![false; slots.len()];
+    for (_, i) in order.into_iter().take(slots.len()) {
+        if let Some(j) = nearest_free(&q[i], slots, &used, circle.as_deref()) {
+            slot[i] = Some(j);
+            used[j] = true;
+        }
+    }
+    slot
+}
+
+/// Candidate orientations from anchor vehicles (see the module docs).
+fn candidates(q: &[Vec3], base: &[Vec3], dim: usize) -> Vec<Mat3> {
+    let rho = base.iter().map(|p| p.norm()).sum::<f64>() / base.len() as f64;
+    let mut order: Vec<usize> = (0..q.len()).filter(|&i| q[i].norm() > 0.0).collect();
+    order.sort_by(|&a, &b| {
+        (q[a].norm() - rho)
+            .abs()
+            .total_cmp(&(q[b].norm() - rho).abs())
+            .then(a.cmp(&b))
+    });
+    let p0 = base[0];
+    if p0.norm() == 0.0 {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    for &a in order.iter().take(2) {
+        if dim == 2 {
+            let angle = q[a].y.atan2(q[a].x) - p0.y.atan2(p0.x);
+            out.push(rot_z(angle));
+            continue;
+        }
+        // 3-D: anchor a on slot 0, its nearest neighbour b in the plane of slot 0 and the
+        // slot nearest to it.
+        let b = (0..q.len()).filter(|&j| j != a).min_by(|&i, &j| {
+            (q[i] - q[a])
+                .norm_squared()
+                .total_cmp(&(q[j] - q[a]).norm_squared())
+                .then(i.cmp(&j))
+        });
+        let n0 = (1..base.len()).min_by(|&i, &j| {
+            (base[i] - p0)
+                .norm_squared()
+                .total_cmp(&(base[j] - p0).norm_squared())
+                .then(i.cmp(&j))
+        });
+        let frame = |u: Vec3, v: Vec3| -> Option<Mat3> {
+            let e1 = u.try_normalize(1e-12)?;
+            let e2 = (v - e1 * e1.dot(&v)).try_normalize(1e-9 * v.norm().max(1e-300))?;
+            Some(Mat3::from_columns(&[e1, e2, e1.cross(&e2)]))
+        };
+        let aligned = match (b, n0) {
+            (Some(b), Some(n0)) => frame(q[a], q[b]).zip(frame(p0, base[n0])),
+            _ => None,
+        };
+        match aligned {
+            Some((e, f)) => out.push(e * f.transpose()),
+            None => {
+                if let Some(r) = nalgebra::Rotation3::rotation_between(&p0, &q[a]) {
+                    out.push(*r.matrix());
+                }
+            }
+        }
+    }
+    out
+}
+
+fn rot_z(angle: f64) -> Mat3 {
+    *nalgebra::Rotation3::from_axis_angle(&Vec3::z_axis(), angle).matrix()
+}
+
+/// Least-squares orientation `R` of the base slots onto the vehicles assigned to them
+/// (within `trim` of their slot at the current `rotation`, or all of them if too few are).
+fn refit(
+    q: &[Vec3],
+    base: &[Vec3],
+    slot: &[Option<usize>],
+    rotation: &Mat3,
+    trim: f64,
+    dim: usize,
+) -> Mat3 {
+    let pairs: Vec<(Vec3, Vec3)> = q
+        .iter()
+        .zip(slot)
+        .filter_map(|(x, s)| s.map(|j| (*x, base[j])))
+        .collect();
+    let close: Vec<(Vec3, Vec3)> = pairs
+        .iter()
+        .copied()
+        .filter(|(x, p)| (x - rotation * p).norm() <= trim)
+        .collect();
+    let need = dim - 1;
+    let used = if close.len() >= need { close } else { pairs };
+    if used.len() < need {
+        return *rotation;
+    }
+    if dim == 2 {
+        let (mut sin, mut cos) = (0.0, 0.0);
+        for (x, p) in &used {
+            sin += p.x * x.y - p.y * x.x;
+            cos += p.x * x.x + p.y * x.y;
+        }
+        if sin == 0.0 && cos == 0.0 {
+            return *rotation;
+        }
+        return rot_z(sin.atan2(cos));
+    }
+    let mut h = Mat3::zeros();
+    for (x, p) in &used {
+        h += x * p.transpose();
+    }
+    let svd = h.svd(true, true);
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return *rotation;
+    };
+    let d = (u * v_t).determinant().signum();
+    let r = u * Mat3::from_diagonal(&Vec3::new(1.0, 1.0, d)) * v_t;
+    if r.iter().all(|c| c.is_finite()) {
+        r
+    } else {
+        *rotation
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formation::design_regular;
+    use crate::rng::{keyed, Stream};
+    use nalgebra::Rotation3;
+    use rand::Rng;
+
+    fn body_at(r: Vec3, scale: f64) -> VirtualBody {
+        VirtualBody {
+            scale,
+            ..VirtualBody::at(r)
+        }
+    }
+
+    /// The slots of `design` at `body`, turned by `turn` about the centre, shuffled.
+    fn placed(design: &FormationDesign, body: &VirtualBody, turn: &Mat3, seed: u64) -> Vec<Vec3> {
+        let mut pts: Vec<Vec3> = design
+            .slots
+            .iter()
+            .map(|p| body.r + turn * (body.scale * p))
+            .collect();
+        let mut rng = keyed(seed, Stream::Test, 0, 0);
+        for i in (1..pts.len()).rev() {
+            let j = rng.random_range(0..=i);
+            pts.swap(i, j);
+        }
+        pts
+    }
+
+    #[test]
+    fn rotated_shuffled_polygon_fits_exactly() {
+        let d = design_regular(6, 2, 1.5, 1.0, 1.0).unwrap();
+        let body = body_at(Vec3::new(3.0, -2.0, 0.0), 1.7);
+        let x = placed(&d, &body, &rot_z(0.3), 1);
+        let f = fit_slots(&x, &d, &body, 2);
+        for e in &f.errors {
+            assert!(*e < 1e-9, "{e}");
+        }
+        let mut slots: Vec<usize> = f.slot.iter().map(|s| s.unwrap()).collect();
+        slots.sort_unstable();
+        assert_eq!(slots, (0..6).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_flung_vehicle_alone_is_out_of_formation() {
+        let d = design_regular(5, 2, 1.5, 1.0, 1.0).unwrap();
+        let body = body_at(Vec3::new(10.0, 5.0, 0.0), 1.0);
+        let mut x = placed(&d, &body, &rot_z(-1.1), 2);
+        let away = Vec3::new(20.0, -7.0, 0.0);
+        x[2] += away;
+        let f = fit_slots(&x, &d, &body, 2);
+        let spacing = spacing(&d, &body);
+        for (i, e) in f.errors.iter().enumerate() {
+            if i == 2 {
+                // Its own slot or another one: at least its offset less the ring's diameter.
+                assert!(*e >= away.norm() - 3.0 - 1e-9, "{e}");
+                assert!(*e / spacing > IN_FORMATION);
+            } else {
+                assert!(*e < 1e-9, "vehicle {i}: {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn platonic_solids_fit_under_any_rotation() {
+        for n in [4, 6, 12] {
+            let d = design_regular(n, 3, 2.0, 1.0, 1.0).unwrap();
+            assert!(is_central(&d));
+            let body = body_at(Vec3::new(1.0, 2.0, 3.0), 0.8);
+            for seed in 0..5 {
+                let mut rng = keyed(seed, Stream::Test, 1, 0);
+                let axis = Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                let turn = *Rotation3::new(axis * 2.5).matrix();
+                let x = placed(&d, &body, &turn, seed);
+                let f = fit_slots(&x, &d, &body, 3);
+                for e in &f.errors {
+                    assert!(*e < 1e-9, "n = {n}, seed {seed}: {e}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn noisy_positions_give_errors_of_the_noise() {
+        let d = design_regular(12, 3, 2.0, 1.0, 1.0).unwrap();
+        let body = body_at(Vec3::zeros(), 1.0);
+        let mut x = placed(&d, &body, &rot_z(0.7), 3);
+        let mut rng = keyed(3, Stream::Test, 2, 0);
+        for p in &mut x {
+            *p += Vec3::new(
+                rng.random_range(-0.05..0.05),
+                rng.random_range(-0.05..0.05),
+                rng.random_range(-0.05..0.05),
+            );
+        }
+        let f = fit_slots(&x, &d, &body, 3);
+        let worst = f.errors.iter().copied().fold(0.0, f64::max);
+        // Each offset is at most 0.05·√3 ≈ 0.087; the fitted rotation can only do better
+        // on the sum of squares, so no error should be far beyond it.
+        assert!(worst < 0.12, "{worst}");
+    }
+
+    #[test]
+    fn per_slot_designs_do_not_rotate() {
+        let d = design_regular(8, 3, 2.0, 1.0, 1.0).unwrap();
+        assert!(!is_central(&d));
+        let body = body_at(Vec3::zeros(), 1.0);
+        let exact = placed(&d, &body, &Mat3::identity(), 4);
+        assert!(fit_slots(&exact, &d, &body, 3)
+            .errors
+            .iter()
+            .all(|e| *e < 1e-12));
+        let turned = placed(&d, &body, &rot_z(std::f64::consts::FRAC_PI_4), 4);
+        let f = fit_slots(&turned, &d, &body, 3);
+        assert_eq!(f.rotation, Mat3::identity());
+        assert!(f.errors.iter().all(|e| *e > 0.5), "{:?}", f.errors);
+    }
+
+    #[test]
+    fn extra_vehicles_are_measured_to_their_nearest_slot() {
+        let d = design_regular(4, 2, 1.0, 1.0, 1.0).unwrap();
+        let body = body_at(Vec3::zeros(), 1.0);
+        let mut x = placed(&d, &body, &Mat3::identity(), 5);
+        x.push(Vec3::new(1.0, 0.3, 0.0));
+        let f = fit_slots(&x, &d, &body, 2);
+        assert_eq!(f.slot[4], None);
+        assert!((f.errors[4] - 0.3).abs() < 1e-9, "{}", f.errors[4]);
+        assert!(f.errors[..4].iter().all(|e| *e < 1e-9));
+    }
+
+    #[test]
+    fn large_formations_fit() {
+        let d = design_regular(256, 2, 50.0, 1.0, 1.0).unwrap();
+        let body = body_at(Vec3::new(-4.0, 9.0, 0.0), 1.0);
+        let x = placed(&d, &body, &rot_z(0.004), 6);
+        let f = fit_slots(&x, &d, &body, 2);
+        assert!(f.errors.iter().all(|e| *e < 1e-9));
+    }
+
+    #[test]
+    fn nearest_slot_by_angle_equals_the_scan() {
+        let d = design_regular(9, 2, 2.0, 1.0, 1.0).unwrap();
+        let slots = rotate(&rot_z(0.4), &d.slots);
+        let mut rng = keyed(7, Stream::Test, 3, 0);
+        let q: Vec<Vec3> = (0..500)
+            .map(|_| {
+                Vec3::new(
+                    rng.random_range(-6.0..6.0),
+                    rng.random_range(-6.0..6.0),
+                    0.0,
+                )
+            })
+            .collect();
+        let fast = nearest_all(&q, &slots);
+        for (x, (j, d)) in q.iter().zip(&fast) {
+            let (k, e) = nearest(x, &slots);
+            assert_eq!(*d, e, "{x:?}");
+            assert!(*j == k || (x - slots[*j]).norm_squared() == e);
+        }
+        // The nearest free slot by angle equals the scan's.
+        let circle = circle_order(&slots);
+        let mut used = vec![false; slots.len()];
+        for (i, x) in q.iter().enumerate() {
+            let by_angle = nearest_free(x, &slots, &used, circle.as_deref());
+            let by_scan = nearest_free(x, &slots, &used, None);
+            let dist = |j: Option<usize>| j.map(|j| (x - slots[j]).norm_squared());
+            assert_eq!(dist(by_angle), dist(by_scan), "{x:?}");
+            if i % 60 == 0 {
+                if let Some(j) = by_scan {
+                    used[j] = true;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sparse_sums_equal_the_full_ones() {
+        use crate::lyapunov::potential_energy;
+        for (n, dim) in [(7, 2), (20, 3), (64, 2)] {
+            let d = design_regular(n, dim, 3.0, 1.0, 2.0).unwrap();
+            let mut rng = keyed(n as u64, Stream::Test, 4, 0);
+            let mut x: Vec<Vec3> = d.slots.clone();
+            for p in &mut x {
+                *p += Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    if dim == 3 {
+                        rng.random_range(-1.0..1.0)
+                    } else {
+                        0.0
+                    },
+                );
+            }
+            x[0] += Vec3::new(40.0, 0.0, 0.0);
+            let full = potential_energy(&x, &d.leaders, &d.inter, &d.leader);
+            let sparse = potential_energy_sparse(&x, &d.leaders, &d.inter, &d.leader);
+            assert!(
+                (full - sparse).abs() <= 1e-9 * full.abs().max(1.0),
+                "{full} vs {sparse}"
+            );
+            let fast = nearest_neighbours(&x);
+            for (i, got) in fast.iter().enumerate() {
+                let want = (0..x.len())
+                    .filter(|&j| j != i)
+                    .map(|j| ((x[i] - x[j]).norm(), j))
+                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+                    .map(|(d, j)| (j, d));
+                assert_eq!(*got, want, "vehicle {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn nearest_neighbours_of_a_line() {
+        let x = [0.0, 1.0, 3.0, 3.5].map(|a| Vec3::new(a, 0.0, 0.0));
+        let n = nearest_neighbours(&x);
+        assert_eq!(n[0], Some((1, 1.0)));
+        assert_eq!(n[1], Some((0, 1.0)));
+        assert_eq!(n[2], Some((3, 0.5)));
+        assert_eq!(n[3], Some((2, 0.5)));
+        assert_eq!(nearest_neighbours(&x[..1]), vec![None]);
+    }
+}

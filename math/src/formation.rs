@@ -1,0 +1,930 @@
+//! The formation designer (Sec. II, Figs. 3–4; docs/ARCHITECTURE.md §5): from a number of vehicles (or a
+//! wanted shape) to virtual leaders `b̄_l` and potentials `V_I(d0, d1)`, `V_h(h0, h1)`
+//! whose equilibrium of (II.1) is that shape.
+//!
+//! Two kinds of design:
+//!
+//! - **Central** ([`design_regular`] for one vehicle, 2-D polygons with `N ≥ 3`, and the
+//!   tetrahedron, octahedron and icosahedron): one virtual leader at the body centre with
+//!   `h0 = radius`, vehicles on the circle/sphere of that radius with every neighbour pair
+//!   (an edge) at `d0` and every other pair beyond `d1`. Each active term of (II.2) is at
+//!   its minimum, so the shape is an exact equilibrium and a local minimum of the potential
+//!   energy; it keeps the rotational symmetry about the centre (Fig. 4(a)), as the paper
+//!   does for regular formations. These frameworks (edges plus spokes to the centre) are
+//!   infinitesimally rigid up to that rotation, so the minimum is non-degenerate.
+//! - **Per-slot leaders** ([`design_for_shape`], and [`design_regular`] for the other
+//!   cases): each slot gets its own `dim + 1` virtual leaders at distance `h0` on its outer
+//!   side, out of reach (`h1`) of every other slot. This breaks all symmetry (Remark 5.3,
+//!   Fig. 4(b)) and makes any shape with distinct slots an exact, strict local minimum.
+//!
+//! Why not central everywhere: around a single centre some frameworks are flexible to first
+//! order, so their equilibrium is only quartically stable and converges slowly (seen in
+//! simulation): two antipodal vehicles (collinear with the centre), three vehicles in 3-D
+//! (coplanar with the centre), the cube (24 coordinates − 3 rotations = 21 > 12 edges + 8
+//! spokes) and the dodecahedron (57 > 30 + 20).
+
+use super::potential::{potential_energy, PairPotential};
+use super::Vec3;
+
+/// Why no formation could be designed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FormationError {
+    /// A formation needs at least one vehicle.
+    #[error("a formation needs at least one vehicle")]
+    NoVehicles,
+    /// The dimension must be 2 or 3.
+    #[error("dimension must be 2 or 3, got {0}")]
+    BadDimension(usize),
+    /// A numeric parameter is non-finite or out of range.
+    #[error("{name} = {value} is invalid: must be finite and > 0")]
+    BadParameter {
+        /// Which parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A slot has a non-finite coordinate.
+    #[error("slot {0} has a non-finite coordinate")]
+    NonFiniteSlot(usize),
+    /// In a 2-D design every slot must have z = 0.
+    #[error("slot {index} has z = {z} in a 2-D design")]
+    NotPlanar {
+        /// Which slot.
+        index: usize,
+        /// Its z coordinate.
+        z: f64,
+    },
+    /// Two slots (nearly) coincide, so no spacing can be designed.
+    #[error("slots {i} and {j} coincide")]
+    CoincidentSlots {
+        /// First slot.
+        i: usize,
+        /// Second slot.
+        j: usize,
+    },
+    /// A single slot at the body centre gives no length scale to design with.
+    #[error("a single slot at the body centre gives no length scale")]
+    DegenerateShape,
+}
+
+/// A formation design at scale `k = 1` in the body frame (origin = virtual body centre `r`),
+/// Sec. II; moved, rotated and scaled by the virtual body (III.3).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FormationDesign {
+    /// 2 or 3.
+    pub dim: usize,
+    /// Virtual leaders `b̄_l` in the body frame, length.
+    pub leaders: Vec<Vec3>,
+    /// The `N` vehicle positions of the designed equilibrium, body frame, length. Prefixes
+    /// `slots[..n]` are themselves equilibria with as many neighbour pairs as the design
+    /// allows (used when vehicles are lost, see [`FormationDesign::equilibrium_energy`]).
+    pub slots: Vec<Vec3>,
+    /// Inter-vehicle potential `V_I` with `d̄0`, `d̄1`.
+    pub inter: PairPotential,
+    /// Vehicle–leader potential `V_h` with `h̄0`, `h̄1`.
+    pub leader: PairPotential,
+    /// Potential energy of (II.2) at the equilibrium (pairs beyond the cut-offs each add a
+    /// plateau), energy per unit mass; subtracted so the Lyapunov function is 0 there.
+    /// Invariant under scaling.
+    pub v_eq: f64,
+}
+
+impl FormationDesign {
+    /// Number of vehicles `N` the design is for.
+    pub fn n(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// `d̄0`, the designed neighbour spacing at `k = 1` (length), as used by the resolution
+    /// adaptation `dk/ds = −a(k d̄0 − Δd)` of Sec. V. It is the equilibrium distance of
+    /// `V_I` and the smallest slot-to-slot distance.
+    pub fn neighbour_spacing(&self) -> f64 {
+        self.inter.d0
+    }
+
+    /// The potential energy (II.2) of an equilibrium of `n` vehicles, energy per unit mass,
+    /// the constant the Lyapunov function subtracts (`lyapunov_terms`):
+    ///
+    /// - `n = N`: [`FormationDesign::v_eq`];
+    /// - `n < N` (vehicles lost): the energy of the first `n` slots, themselves an
+    ///   equilibrium (every active pair at its `d0`/`h0`); the slots are ordered so that
+    ///   each prefix keeps as many neighbour pairs as possible;
+    /// - `n > N` (vehicles joined, not yet redesigned): `v_eq` plus the extra vehicles
+    ///   counted as far away (each pair and leader term at its plateau).
+    pub fn equilibrium_energy(&self, n: usize) -> f64 {
+        let big_n = self.n();
+        if n == big_n {
+            return self.v_eq;
+        }
+        if n < big_n {
+            return potential_energy(&self.slots[..n], &self.leaders, &self.inter, &self.leader);
+        }
+        let extra = (n - big_n) as f64;
+        let new_pairs = (n * (n - 1) / 2 - big_n * big_n.saturating_sub(1) / 2) as f64;
+        self.v_eq
+            + extra * self.leaders.len() as f64 * self.leader.plateau()
+            + new_pairs * self.inter.plateau()
+    }
+}
+
+fn check_positive(name: &'static str, value: f64) -> Result<(), FormationError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(FormationError::BadParameter { name, value })
+    }
+}
+
+fn check_dim(dim: usize) -> Result<(), FormationError> {
+    if dim == 2 || dim == 3 {
+        Ok(())
+    } else {
+        Err(FormationError::BadDimension(dim))
+    }
+}
+
+/// A regular formation of `n` vehicles at distance `radius` (length) from the body centre
+/// (Sec. II, Figs. 3–4), with potential strengths `alpha_inter` (`V_I`) and `alpha_leader`
+/// (`V_h`), (length/s)². Always `d0` = the smallest slot distance (the edge) and
+/// `d1 = min(1.5 d0, (d0 + d_next)/2)`, `d_next` the next larger slot distance, so that
+/// only neighbours interact at equilibrium.
+///
+/// - `n = 1`: one slot at `(radius, 0, 0)`, central; `d0 = 2 radius` (where a second
+///   vehicle would sit), `d1 = 1.5 d0`.
+/// - `n = 2`: two antipodal slots on the x axis, `d0 = 2 radius`, per-slot leaders.
+/// - 2-D, `n ≥ 3`: the regular `n`-gon of circumradius `radius` (vertex 0 on +x, ring
+///   order), `d0` = side, central.
+/// - 3-D, `n = 3`: the equilateral triangle in the plane z = 0, per-slot leaders.
+/// - 3-D, `n ∈ {4, 6, 12}`: tetrahedron, octahedron, icosahedron inscribed in the sphere,
+///   `d0` = edge, central.
+/// - 3-D, `n ∈ {8, 20}`: cube, dodecahedron, `d0` = edge, per-slot leaders.
+/// - 3-D, other `n`: `n` points spread evenly on the sphere (a Fibonacci lattice relaxed
+///   for a fixed number of steps under Coulomb repulsion, deterministic), per-slot leaders,
+///   so these points are the exact equilibrium; neighbour spacings are only roughly equal
+///   (`d0` is the smallest).
+///
+/// Central designs: one leader at the centre, `h0 = radius`, `h1 = 4 radius` (a wide
+/// basin). Per-slot designs: see [`design_for_shape`]. See the module docs for why.
+/// Slots are ordered so that every prefix keeps as many neighbour pairs as possible.
+pub fn design_regular(
+    n: usize,
+    dim: usize,
+    radius: f64,
+    alpha_inter: f64,
+    alpha_leader: f64,
+) -> Result<FormationDesign, FormationError> {
+    check_dim(dim)?;
+    if n == 0 {
+        return Err(FormationError::NoVehicles);
+    }
+    check_positive("radius", radius)?;
+    check_positive("alpha_inter", alpha_inter)?;
+    check_positive("alpha_leader", alpha_leader)?;
+    let per_slot = |unit: Vec<Vec3>| {
+        let slots: Vec<Vec3> = unit.iter().map(|p| p * radius).collect();
+        design_for_shape(&dense_order(slots), dim, alpha_inter, alpha_leader)
+    };
+    let unit: Vec<Vec3> = match (dim, n) {
+        (_, 1) => vec![Vec3::x()],
+        (_, 2) => return per_slot(vec![Vec3::x(), -Vec3::x()]),
+        (2, _) => polygon(n),
+        (3, 3) => return per_slot(polygon(3)),
+        (3, 4 | 6 | 12) => platonic(n),
+        (3, 8 | 20) => return per_slot(platonic(n)),
+        _ => return per_slot(sphere_points(n)),
+    };
+    let slots = dense_order(unit.iter().map(|p| p * radius).collect());
+    let (d0, d1) = if n == 1 {
+        (2.0 * radius, 3.0 * radius)
+    } else {
+        spacing(&slots)
+    };
+    let inter = PairPotential {
+        alpha: alpha_inter,
+        d0,
+        d1,
+    };
+    let leader = PairPotential {
+        alpha: alpha_leader,
+        d0: radius,
+        d1: 4.0 * radius,
+    };
+    let leaders = vec![Vec3::zeros()];
+    let v_eq = potential_energy(&slots, &leaders, &inter, &leader);
+    Ok(FormationDesign {
+        dim,
+        leaders,
+        slots,
+        inter,
+        leader,
+        v_eq,
+    })
+}
+
+/// A design whose equilibrium of (II.1) is exactly the given shape (e.g. an anisotropic
+/// optimal formation of (V.7)), Remark 5.3: `slots` in the body frame (length, z = 0 in
+/// 2-D), potential strengths in (length/s)².
+///
+/// With `D` the smallest slot-to-slot distance (for a single slot, its distance to the
+/// centre):
+///
+/// - `V_I` has `d0 = D` and `d1 = min(1.5 D, (D + d_next)/2)`, `d_next` the next larger
+///   slot distance: nearest pairs sit at `d0`, all others beyond `d1`, and closer vehicles
+///   repel (collision avoidance). Pair distances within 1e-6 relative of `D` count as
+///   nearest pairs (slots from an optimiser are symmetric only to its tolerance); their
+///   residual force is at most about `alpha_inter · 1e-6 / D`.
+/// - each slot `p_i` gets `dim + 1` virtual leaders `p_i + h0 u_k` on its outer side: with
+///   `o_i` the direction away from the other slots (their inverse-square repulsion; for a
+///   single slot, away from the centre), `u_k` are `o_i` rotated by 0, ±60° (2-D), or `o_i`
+///   and three directions at `arccos(1/3)` from it, 120° apart (3-D). The slot is the only
+///   point at distance `h0` from all of them (the centre of their circumcircle/sphere), and
+///   their energy has a strict minimum there with the isotropic Hessian
+///   `V_h''(h0) (dim+1)/dim · I`.
+/// - `h0` is the largest of `0.5 D, 0.4 D, 0.3 D, 0.25 D` for which
+///   `h1 = min(3 h0, 0.9 c) ≥ 1.5 h0`, `c` the smallest distance from a leader to another
+///   slot; `h0 = 0.25 D` always qualifies (`c ≥ 0.75 D`). So no leader reaches another
+///   slot.
+///
+/// Every term of (II.2) is then at its minimum or on its plateau: the shape is an exact
+/// equilibrium and a strict local minimum, with no remaining symmetry (the body's rotation
+/// `R(s)` is followed). Limits: leaders sit `h0` from their slot (singular repulsion
+/// there), so a vehicle must start clearly closer to its slot than `h0`, and it feels its
+/// slot's leaders only within about `h0 + h1` of the slot; vehicles must start near
+/// distinct slots. Vehicles are anonymous: which one takes which slot depends on where it
+/// starts. Far from the shape the energy landscape may hold other minima (e.g. a vehicle
+/// between two slots within reach of leaders of both).
+pub fn design_for_shape(
+    slots: &[Vec3],
+    dim: usize,
+    alpha_inter: f64,
+    alpha_leader: f64,
+) -> Result<FormationDesign, FormationError> {
+    check_dim(dim)?;
+    if slots.is_empty() {
+        return Err(FormationError::NoVehicles);
+    }
+    check_positive("alpha_inter", alpha_inter)?;
+    check_positive("alpha_leader", alpha_leader)?;
+    for (i, p) in slots.iter().enumerate() {
+        if !p.iter().all(|c| c.is_finite()) {
+            return Err(FormationError::NonFiniteSlot(i));
+        }
+        if dim == 2 && p.z != 0.0 {
+            return Err(FormationError::NotPlanar { index: i, z: p.z });
+        }
+    }
+    let extent = slots.iter().map(|p| p.norm()).fold(0.0, f64::max);
+    let (d0, d1) = if slots.len() == 1 {
+        if extent <= 0.0 {
+            return Err(FormationError::DegenerateShape);
+        }
+        (extent, 1.5 * extent)
+    } else {
+        let (i, j, d) = closest_pair(slots);
+        if d <= 1e-9 * extent.max(d) {
+            return Err(FormationError::CoincidentSlots { i, j });
+        }
+        spacing(slots)
+    };
+    let inter = PairPotential {
+        alpha: alpha_inter,
+        d0,
+        d1,
+    };
+    let dirs: Vec<Vec<Vec3>> = (0..slots.len())
+        .map(|i| outer_directions(slots, i, dim))
+        .collect();
+    let place = |h0: f64| -> Vec<Vec3> {
+        slots
+            .iter()
+            .zip(&dirs)
+            .flat_map(|(p, us)| us.iter().map(move |u| p + u * h0))
+            .collect()
+    };
+    let per_slot = dim + 1;
+    let mut chosen = None;
+    for frac in [0.5, 0.4, 0.3, 0.25] {
+        let h0 = frac * d0;
+        let leaders = place(h0);
+        let mut clearance = f64::INFINITY;
+        for (l, b) in leaders.iter().enumerate() {
+            for (j, p) in slots.iter().enumerate() {
+                if j != l / per_slot {
+                    clearance = clearance.min((b - p).norm());
+                }
+            }
+        }
+        let h1 = (3.0 * h0).min(0.9 * clearance);
+        if h1 >= 1.5 * h0 || frac == 0.25 {
+            chosen = Some((
+                leaders,
+                PairPotential {
+                    alpha: alpha_leader,
+                    d0: h0,
+                    d1: h1,
+                },
+            ));
+            break;
+        }
+    }
+    let (leaders, leader) = chosen.expect("the last fraction is always accepted");
+    let slots = slots.to_vec();
+    let v_eq = potential_energy(&slots, &leaders, &inter, &leader);
+    Ok(FormationDesign {
+        dim,
+        leaders,
+        slots,
+        inter,
+        leader,
+        v_eq,
+    })
+}
+
+/// The `dim + 1` unit directions of slot `i`'s leaders, on the side away from the other
+/// slots (see [`design_for_shape`]).
+fn outer_directions(slots: &[Vec3], i: usize, dim: usize) -> Vec<Vec3> {
+    let p = slots[i];
+    let mut g = Vec3::zeros();
+    for (j, q) in slots.iter().enumerate() {
+        if j != i {
+            let d = p - q;
+            g += d / d.norm().powi(3);
+        }
+    }
+    // Scale of g for a lone neighbour at distance D is 1/D²; below 1e-6 of that it is a
+    // symmetric interior slot: fall back to the direction from the centre, then to x.
+    let d_min = if slots.len() > 1 {
+        closest_pair(slots).2
+    } else {
+        p.norm()
+    };
+    let o = if g.norm() * d_min * d_min > 1e-6 {
+        g.normalize()
+    } else if p.norm() > 1e-6 * d_min {
+        p.normalize()
+    } else {
+        Vec3::x()
+    };
+    if dim == 2 {
+        let perp = Vec3::new(-o.y, o.x, 0.0);
+        let (s, c) = 60f64.to_radians().sin_cos();
+        vec![o, c * o + s * perp, c * o - s * perp]
+    } else {
+        let a = if o.x.abs() < 0.9 {
+            Vec3::x()
+        } else {
+            Vec3::y()
+        };
+        let e1 = (a - o * a.dot(&o)).normalize();
+        let e2 = o.cross(&e1);
+        let cos_t: f64 = 1.0 / 3.0;
+        let sin_t = (1.0 - cos_t * cos_t).sqrt();
+        let mut v = vec![o];
+        for k in 0..3 {
+            let (s, c) = (std::f64::consts::TAU * k as f64 / 3.0).sin_cos();
+            v.push(cos_t * o + sin_t * (c * e1 + s * e2));
+        }
+        v
+    }
+}
+
+/// The closest pair `(i, j, distance)`, first in index order on ties.
+fn closest_pair(slots: &[Vec3]) -> (usize, usize, f64) {
+    let mut best = (0, 0, f64::INFINITY);
+    for i in 0..slots.len() {
+        for j in i + 1..slots.len() {
+            let d = (slots[i] - slots[j]).norm();
+            if d < best.2 {
+                best = (i, j, d);
+            }
+        }
+    }
+    best
+}
+
+/// `(d0, d1)`: `d0` the smallest pair distance, `d1 = min(1.5 d0, (d0 + d_next)/2)` with
+/// `d_next` the smallest pair distance clearly above `d0` (relative gap > 1e-6). Needs ≥ 2
+/// slots.
+fn spacing(slots: &[Vec3]) -> (f64, f64) {
+    let d0 = closest_pair(slots).2;
+    let mut next = f64::INFINITY;
+    for i in 0..slots.len() {
+        for j in i + 1..slots.len() {
+            let d = (slots[i] - slots[j]).norm();
+            if d > d0 * (1.0 + 1e-6) && d < next {
+                next = d;
+            }
+        }
+    }
+    (d0, (1.5 * d0).min(0.5 * (d0 + next)))
+}
+
+/// Reorders slots greedily so that every prefix has as many neighbour pairs (distance
+/// within 1e-6 relative of the smallest) as the greedy choice allows: start at slot 0,
+/// then repeatedly take the slot with most neighbours already taken (lowest index on ties).
+/// For polygons this is the ring order.
+fn dense_order(slots: Vec<Vec3>) -> Vec<Vec3> {
+    let n = slots.len();
+    if n < 3 {
+        return slots;
+    }
+    let d0 = closest_pair(&slots).2;
+    let adjacent = |i: usize, j: usize| (slots[i] - slots[j]).norm() <= d0 * (1.0 + 1e-6);
+    let mut order = vec![0usize];
+    let mut taken = vec![false; n];
+    taken[0] = true;
+    while order.len() < n {
+        let mut best: Option<(usize, usize)> = None;
+        for c in (0..n).filter(|&c| !taken[c]) {
+            let score = order.iter().filter(|&&o| adjacent(o, c)).count();
+            if best.is_none_or(|(_, s)| score > s) {
+                best = Some((c, score));
+            }
+        }
+        let (c, _) = best.expect("an untaken slot remains");
+        taken[c] = true;
+        order.push(c);
+    }
+    order.into_iter().map(|i| slots[i]).collect()
+}
+
+/// Unit-circumradius regular polygon in the plane z = 0, vertex 0 on +x.
+fn polygon(n: usize) -> Vec<Vec3> {
+    (0..n)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            Vec3::new(a.cos(), a.sin(), 0.0)
+        })
+        .collect()
+}
+
+/// Vertices of the Platonic solid with `n ∈ {4, 6, 8, 12, 20}` vertices, unit circumradius.
+fn platonic(n: usize) -> Vec<Vec3> {
+    let phi = 0.5 * (1.0 + 5.0f64.sqrt());
+    let signs = [1.0, -1.0];
+    let mut v: Vec<Vec3> = Vec::new();
+    match n {
+        4 => {
+            v = vec![
+                Vec3::new(1.0, 1.0, 1.0),
+                Vec3::new(1.0, -1.0, -1.0),
+                Vec3::new(-1.0, 1.0, -1.0),
+                Vec3::new(-1.0, -1.0, 1.0),
+            ]
+        }
+        6 => {
+            for axis in 0..3 {
+                for s in signs {
+                    let mut p = Vec3::zeros();
+                    p[axis] = s;
+                    v.push(p);
+                }
+            }
+        }
+        8 => {
+            for a in signs {
+                for b in signs {
+                    for c in signs {
+                        v.push(Vec3::new(a, b, c));
+                    }
+                }
+            }
+        }
+        12 => {
+            // Cyclic permutations of (0, ±1, ±φ).
+            for shift in 0..3 {
+                for a in signs {
+                    for b in signs {
+                        v.push(cyclic(Vec3::new(0.0, a, b * phi), shift));
+                    }
+                }
+            }
+        }
+        20 => {
+            v = platonic(8);
+            // Cyclic permutations of (0, ±1/φ, ±φ).
+            for shift in 0..3 {
+                for a in signs {
+                    for b in signs {
+                        v.push(cyclic(Vec3::new(0.0, a / phi, b * phi), shift));
+                    }
+                }
+            }
+        }
+        _ => unreachable!("no Platonic solid with {n} vertices"),
+    }
+    v.into_iter().map(|p| p.normalize()).collect()
+}
+
+fn cyclic(p: Vec3, shift: usize) -> Vec3 {
+    Vec3::new(p[shift % 3], p[(shift + 1) % 3], p[(shift + 2) % 3])
+}
+
+/// `n ≥ 3` points spread over the unit sphere: a Fibonacci lattice relaxed by 400 fixed
+/// projected-gradient steps of the Coulomb energy `Σ 1/|p_i − p_j|` (Jacobi updates, so
+/// the result does not depend on iteration order within a step).
+fn sphere_points(n: usize) -> Vec<Vec3> {
+    let golden = std::f64::consts::PI * (3.0 - 5.0f64.sqrt());
+    let mut pts: Vec<Vec3> = (0..n)
+        .map(|i| {
+            let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+            let rho = (1.0 - z * z).sqrt();
+            let a = golden * i as f64;
+            Vec3::new(rho * a.cos(), rho * a.sin(), z)
+        })
+        .collect();
+    // Typical spacing ~ sqrt(4π/n); step so that a typical force moves a point ~5% of it.
+    let spacing = (4.0 * std::f64::consts::PI / n as f64).sqrt();
+    let eta = 0.05 * spacing.powi(3);
+    for _ in 0..400 {
+        let forces: Vec<Vec3> = (0..n)
+            .map(|i| {
+                let mut f = Vec3::zeros();
+                for j in 0..n {
+                    if j != i {
+                        let d = pts[i] - pts[j];
+                        let r = d.norm();
+                        f += d / (r * r * r);
+                    }
+                }
+                f - pts[i] * f.dot(&pts[i])
+            })
+            .collect();
+        for (p, f) in pts.iter_mut().zip(&forces) {
+            *p = (*p + f * eta).normalize();
+        }
+    }
+    pts
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::{control_law, integrate};
+    use crate::rng::{keyed, Stream};
+    use approx::assert_relative_eq;
+    use rand::Rng;
+
+    /// Slots perturbed by up to `amp` per coordinate (z kept 0 in 2-D), keyed RNG.
+    fn perturbed(design: &FormationDesign, amp: f64, seed: u64) -> Vec<Vec3> {
+        design
+            .slots
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let mut rng = keyed(seed, Stream::Test, i as u64, 0);
+                let mut d = Vec3::new(
+                    rng.random_range(-amp..amp),
+                    rng.random_range(-amp..amp),
+                    rng.random_range(-amp..amp),
+                );
+                if design.dim == 2 {
+                    d.z = 0.0;
+                }
+                p + d
+            })
+            .collect()
+    }
+
+    /// Simulates (II.1) with the design's leaders (body at rest, k = 1) until the
+    /// vehicles are at rest or `t_max` seconds. Returns the final positions.
+    fn relax(design: &FormationDesign, start: Vec<Vec3>, damping: f64, t_max: f64) -> Vec<Vec3> {
+        let dt = 0.02;
+        let mut x = start;
+        let mut v = vec![Vec3::zeros(); x.len()];
+        let steps = (t_max / dt) as usize;
+        for step in 0..steps {
+            let mut max_u: f64 = 0.0;
+            // The whole swarm as neighbours: the control law skips the vehicle itself
+            // (distance exactly 0).
+            let u: Vec<Vec3> = (0..x.len())
+                .map(|i| {
+                    control_law(
+                        &x[i],
+                        &v[i],
+                        &x,
+                        &design.leaders,
+                        &design.inter,
+                        &design.leader,
+                        damping,
+                    )
+                })
+                .collect();
+            for i in 0..x.len() {
+                max_u = max_u.max(u[i].norm());
+                (x[i], v[i]) = integrate(&x[i], &v[i], &u[i], dt);
+            }
+            let max_v = v.iter().map(|w| w.norm()).fold(0.0, f64::max);
+            if step > 100 && max_u < 1e-8 && max_v < 1e-8 {
+                break;
+            }
+        }
+        x
+    }
+
+    fn forces_at_slots(design: &FormationDesign) -> f64 {
+        let x = &design.slots;
+        (0..x.len())
+            .map(|i| {
+                let others: Vec<Vec3> = x
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| *j != i)
+                    .map(|(_, p)| *p)
+                    .collect();
+                control_law(
+                    &x[i],
+                    &Vec3::zeros(),
+                    &others,
+                    &design.leaders,
+                    &design.inter,
+                    &design.leader,
+                    1.0,
+                )
+                .norm()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn errors_are_values() {
+        assert_eq!(
+            design_regular(0, 2, 1.0, 1.0, 1.0),
+            Err(FormationError::NoVehicles)
+        );
+        assert_eq!(
+            design_regular(3, 4, 1.0, 1.0, 1.0),
+            Err(FormationError::BadDimension(4))
+        );
+        assert!(matches!(
+            design_regular(3, 2, -1.0, 1.0, 1.0),
+            Err(FormationError::BadParameter { .. })
+        ));
+        assert!(matches!(
+            design_regular(3, 2, 1.0, f64::NAN, 1.0),
+            Err(FormationError::BadParameter { .. })
+        ));
+        assert_eq!(
+            design_for_shape(&[], 2, 1.0, 1.0),
+            Err(FormationError::NoVehicles)
+        );
+        assert_eq!(
+            design_for_shape(&[Vec3::zeros()], 2, 1.0, 1.0),
+            Err(FormationError::DegenerateShape)
+        );
+        let p = Vec3::new(1.0, 0.0, 0.0);
+        assert_eq!(
+            design_for_shape(&[p, p], 2, 1.0, 1.0),
+            Err(FormationError::CoincidentSlots { i: 0, j: 1 })
+        );
+        assert!(matches!(
+            design_for_shape(&[Vec3::new(0.0, 0.0, 1.0)], 2, 1.0, 1.0),
+            Err(FormationError::NotPlanar { .. })
+        ));
+        assert!(matches!(
+            design_for_shape(&[Vec3::new(0.0, f64::NAN, 0.0)], 3, 1.0, 1.0),
+            Err(FormationError::NonFiniteSlot(0))
+        ));
+    }
+
+    #[test]
+    fn polygon_parameters() {
+        for n in 3..=12usize {
+            let d = design_regular(n, 2, 1.5, 1.0, 2.0).unwrap();
+            let side = 2.0 * 1.5 * (std::f64::consts::PI / n as f64).sin();
+            assert_relative_eq!(d.neighbour_spacing(), side, max_relative = 1e-12);
+            assert_eq!(d.n(), n);
+            assert_eq!(d.leaders, vec![Vec3::zeros()]);
+            assert_eq!((d.leader.d0, d.leader.alpha), (1.5, 2.0));
+            if n == 3 {
+                assert_relative_eq!(d.inter.d1, 1.5 * side, max_relative = 1e-12);
+            } else {
+                let second = 2.0 * 1.5 * (2.0 * std::f64::consts::PI / n as f64).sin();
+                assert!(d.inter.d1 > side && d.inter.d1 < second);
+            }
+            // Ring order: consecutive slots are neighbours.
+            for i in 0..n {
+                assert_relative_eq!(
+                    (d.slots[i] - d.slots[(i + 1) % n]).norm(),
+                    side,
+                    max_relative = 1e-12
+                );
+            }
+            // n(n−3)/2 non-adjacent pairs on the plateau, leader term 0.
+            let far = (n * (n - 1) / 2 - n) as f64;
+            assert_relative_eq!(d.v_eq, far * d.inter.plateau(), epsilon = 1e-12);
+        }
+    }
+
+    #[test]
+    fn platonic_parameters() {
+        // (n, edge/circumradius, next distance/circumradius or none)
+        let phi = 0.5 * (1.0 + 5.0f64.sqrt());
+        let ico_r = (1.0 + phi * phi).sqrt();
+        let cases = [
+            (4, (8.0f64 / 3.0).sqrt(), None),
+            (6, 2.0f64.sqrt(), Some(2.0)),
+            (
+                8,
+                2.0 / 3.0f64.sqrt(),
+                Some(2.0 * 2.0f64.sqrt() / 3.0f64.sqrt()),
+            ),
+            (12, 2.0 / ico_r, Some(2.0 * phi / ico_r)),
+            (20, 2.0 / phi / 3.0f64.sqrt(), Some(2.0 / 3.0f64.sqrt())),
+        ];
+        for (n, edge, next) in cases {
+            let d = design_regular(n, 3, 2.0, 1.0, 1.0).unwrap();
+            assert_relative_eq!(d.neighbour_spacing(), 2.0 * edge, max_relative = 1e-12);
+            match next {
+                None => assert_relative_eq!(d.inter.d1, 3.0 * edge, max_relative = 1e-12),
+                Some(nx) => assert_relative_eq!(d.inter.d1, edge + nx, max_relative = 1e-12),
+            }
+            for p in &d.slots {
+                assert_relative_eq!(p.norm(), 2.0, max_relative = 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn every_design_is_an_equilibrium() {
+        for dim in [2usize, 3] {
+            for n in 1..=21usize {
+                let d = design_regular(n, dim, 1.3, 1.0, 1.5).unwrap();
+                assert_eq!(d.n(), n);
+                assert!(
+                    forces_at_slots(&d) < 1e-9,
+                    "dim {dim} n {n}: {}",
+                    forces_at_slots(&d)
+                );
+                for p in &d.slots {
+                    assert_relative_eq!(p.norm(), 1.3, max_relative = 1e-12);
+                    if dim == 2 {
+                        assert_eq!(p.z, 0.0);
+                    }
+                }
+                assert!(d.v_eq.is_finite() && d.v_eq >= 0.0);
+                assert_eq!(d.equilibrium_energy(n), d.v_eq);
+            }
+        }
+    }
+
+    /// Relaxes design_regular(n, dim) from perturbed slots and checks distances to the
+    /// centre ≈ radius and neighbour distances ≈ d0 (1e-3 relative), others beyond d1.
+    fn check_regular_converges(n: usize, dim: usize) {
+        let radius = 1.5;
+        let d = design_regular(n, dim, radius, 2.0, 2.0).unwrap();
+        let start = perturbed(&d, 0.1 * radius, 1 + n as u64);
+        let x = relax(&d, start, 1.0, 200.0);
+        let d0 = d.neighbour_spacing();
+        for i in 0..n {
+            assert_relative_eq!(x[i].norm(), radius, max_relative = 1e-3);
+            for j in i + 1..n {
+                let slot_dist = (d.slots[i] - d.slots[j]).norm();
+                let dist = (x[i] - x[j]).norm();
+                if slot_dist < d.inter.d1 {
+                    assert_relative_eq!(dist, d0, max_relative = 1e-3);
+                } else {
+                    assert!(dist > d.inter.d1, "dim {dim} n {n} pair {i} {j}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn regular_polygons_converge_to_their_shape() {
+        for n in 3..=8 {
+            check_regular_converges(n, 2);
+        }
+    }
+
+    #[test]
+    fn central_polyhedra_converge_to_their_shape() {
+        for n in [4, 6, 12] {
+            check_regular_converges(n, 3);
+        }
+    }
+
+    #[test]
+    fn per_slot_polyhedra_converge_to_their_shape() {
+        check_regular_converges(2, 2);
+        for n in [2, 3, 5, 8] {
+            check_regular_converges(n, 3);
+        }
+    }
+
+    #[test]
+    fn dodecahedron_converges_to_its_shape() {
+        check_regular_converges(20, 3);
+    }
+
+    /// Smallest over permutations of max_i |x_π(i) − slot_i| (brute force, n ≤ 7).
+    fn best_match(x: &[Vec3], slots: &[Vec3]) -> f64 {
+        fn rec(
+            x: &[Vec3],
+            slots: &[Vec3],
+            used: &mut Vec<bool>,
+            i: usize,
+            worst: f64,
+            best: &mut f64,
+        ) {
+            if worst >= *best {
+                return;
+            }
+            if i == slots.len() {
+                *best = worst;
+                return;
+            }
+            for j in 0..x.len() {
+                if !used[j] {
+                    used[j] = true;
+                    rec(
+                        x,
+                        slots,
+                        used,
+                        i + 1,
+                        worst.max((x[j] - slots[i]).norm()),
+                        best,
+                    );
+                    used[j] = false;
+                }
+            }
+        }
+        let mut best = f64::INFINITY;
+        rec(x, slots, &mut vec![false; x.len()], 0, 0.0, &mut best);
+        best
+    }
+
+    #[test]
+    fn shapes_are_equilibria_and_attract() {
+        let shapes: Vec<(usize, Vec<Vec3>)> = vec![
+            // Lemma 5.3 right triangle (l1, 0), (0, l2), (0, 0).
+            (
+                2,
+                vec![
+                    Vec3::new(1.2, 0.0, 0.0),
+                    Vec3::new(0.0, 0.7, 0.0),
+                    Vec3::zeros(),
+                ],
+            ),
+            // Square squeezed into an ellipse (anisotropic H).
+            (
+                2,
+                vec![
+                    Vec3::new(2.0, 0.0, 0.0),
+                    Vec3::new(0.0, 0.8, 0.0),
+                    Vec3::new(-2.0, 0.0, 0.0),
+                    Vec3::new(0.0, -0.8, 0.0),
+                ],
+            ),
+            // Hexagon stretched along x.
+            (
+                2,
+                polygon(6)
+                    .iter()
+                    .map(|p| Vec3::new(1.8 * p.x, 1.0 * p.y, 0.0))
+                    .collect(),
+            ),
+            // Flattened tetrahedron.
+            (
+                3,
+                platonic(4)
+                    .iter()
+                    .map(|p| Vec3::new(1.5 * p.x, p.y, 0.6 * p.z))
+                    .collect(),
+            ),
+            // A single slot.
+            (3, vec![Vec3::new(0.0, 1.0, 0.5)]),
+        ];
+        for (k, (dim, slots)) in shapes.into_iter().enumerate() {
+            let d = design_for_shape(&slots, dim, 2.0, 2.0).unwrap();
+            assert_eq!(d.slots, slots);
+            assert!(forces_at_slots(&d) < 1e-12, "shape {k}");
+            let dmin = d.neighbour_spacing();
+            let start = perturbed(&d, 0.2 * dmin, 100 + k as u64);
+            let x = relax(&d, start, 1.0, 100.0);
+            let err = best_match(&x, &slots);
+            assert!(err < 1e-3 * dmin, "shape {k}: {err}");
+        }
+    }
+
+    #[test]
+    fn prefix_energies_for_lost_vehicles() {
+        let d = design_regular(6, 2, 1.0, 1.0, 1.0).unwrap();
+        // 5 contiguous vehicles on a hexagon: 4 adjacent pairs, 6 pairs on the plateau.
+        assert_relative_eq!(
+            d.equilibrium_energy(5),
+            6.0 * d.inter.plateau(),
+            epsilon = 1e-12
+        );
+        assert_eq!(d.equilibrium_energy(0), 0.0);
+        let extra = d.equilibrium_energy(7) - d.v_eq;
+        assert_relative_eq!(
+            extra,
+            d.leader.plateau() + 6.0 * d.inter.plateau(),
+            epsilon = 1e-12
+        );
+        // The octahedron prefix of 3 is a triangle of neighbours.
+        let o = design_regular(6, 3, 1.0, 1.0, 1.0).unwrap();
+        assert!(o.equilibrium_energy(3).abs() < 1e-12);
+    }
+}

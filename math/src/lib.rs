@@ -1,0 +1,35 @@
+//! `vbap-math`: the mathematics of Ögren, Fiorelli and Leonard (IEEE TAC 2004), pure functions only.
+//!
+//! Positions are always [`Vec3`] (metres or the mission's length unit); in 2-D missions the
+//! z component is zero and stays zero. Equation numbers are those of the paper (Ögren, Fiorelli and Leonard, IEEE TAC 2004).
+//!
+//! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`],
+//! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design;
+//! bringing a vehicle back from anywhere: [`rejoin`].
+//! Gradient estimation (Section V): [`estimate`], [`optimal`], [`kalman`], [`convergence`],
+//! [`adapt`].
+//!
+//! Random streams keyed by (seed, stream, id, tick), so every process draws the same noise:
+//! [`rng`].
+//!
+//! This crate depends on no IPC, I/O, clock or logging crate: the compiler keeps it pure.
+
+pub mod adapt;
+pub mod body;
+pub mod control;
+pub mod convergence;
+pub mod estimate;
+pub mod fit;
+pub mod formation;
+pub mod kalman;
+pub mod lyapunov;
+pub mod optimal;
+pub mod potential;
+pub mod rejoin;
+pub mod rng;
+pub mod speed;
+
+/// A point or vector in the inertial frame (length unit of the mission).
+pub type Vec3 = nalgebra::Vector3<f64>;
+/// A 3×3 matrix (Hessians, rotations, second moments).
+pub type Mat3 = nalgebra::Matrix3<f64>;

@@ -1,0 +1,12 @@
+//! `vbap-mission`: what a mission is, apart from any process.
+//!
+//! - [`config`]: the mission file (TOML), parsed and validated.
+//! - [`field`]: the sensed environments, with ground truth, and the keyed sensor noise.
+//! - [`link`], [`faults`]: the emulated glider link and the scheduled faults.
+//! - [`rundir`]: the run directory a mission writes (CSV, JSON lines, summary).
+
+pub mod config;
+pub mod faults;
+pub mod field;
+pub mod link;
+pub mod rundir;

@@ -1,0 +1,158 @@
+//! Renders demonstration plots: /tmp/plot_demo.svg (a Gaussian field, four vehicles
+//! spiralling in towards its peak), /tmp/plot_demo_ts.svg (time series with event markers) and
+//! /tmp/plot_demo_crowded.svg (24 vehicles, non-dimensional, a field with a hole).
+//!
+//! `cargo run -p shared --example plot_demo`
+
+use vbap_report::plot::{write_mission_svg, write_timeseries_svg, MissionPlot, Snapshot, Track};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let (ox, oy) = (120.0, 80.0);
+    let field = move |x: f64, y: f64| {
+        12.0 + 8.0 * (-((x - ox).powi(2) + (y - oy).powi(2)) / (2.0 * 90.0_f64.powi(2))).exp()
+    };
+    let n = 3000;
+    let dt = 0.2;
+    let start = (-150.0, -60.0);
+    let centre_at = |s: f64| {
+        // The body centre moves from `start` to the optimum along a gentle curve.
+        let e = 1.0 - (-4.0 * s).exp();
+        (
+            start.0 + (ox - start.0) * e,
+            start.1 + (oy - start.1) * e + 40.0 * (std::f64::consts::PI * e).sin(),
+        )
+    };
+    let tracks: Vec<Track> = (0..4u32)
+        .map(|id| {
+            let phase = f64::from(id) * std::f64::consts::FRAC_PI_2;
+            let points = (0..n)
+                .map(|k| {
+                    let s = k as f64 / (n - 1) as f64;
+                    let (cx, cy) = centre_at(s);
+                    let r = 25.0 + 20.0 * (1.0 - s);
+                    let a = phase + 5.0 * s;
+                    (cx + r * a.cos(), cy + r * a.sin())
+                })
+                .collect();
+            Track { id, points }
+        })
+        .collect();
+    let body_path = (0..n)
+        .map(|k| centre_at(k as f64 / (n - 1) as f64))
+        .collect();
+    let snapshots = [0, n / 4, n / 2, n - 1]
+        .iter()
+        .map(|&k| Snapshot {
+            t: k as f64 * dt,
+            label: if k == n / 2 {
+                "lost 2, redesign".into()
+            } else {
+                String::new()
+            },
+            positions: tracks.iter().map(|t| t.points[k]).collect(),
+            centre: centre_at(k as f64 / (n - 1) as f64),
+        })
+        .collect();
+    let kill_k = 900;
+    let rejoin_k = 1300;
+    let events = vec![
+        (
+            tracks[2].points[kill_k].0,
+            tracks[2].points[kill_k].1,
+            format!("vehicle 2 killed (t = {:.0} s)", kill_k as f64 * dt),
+        ),
+        (
+            tracks[2].points[rejoin_k].0,
+            tracks[2].points[rejoin_k].1,
+            format!("vehicle 2 rejoined (t = {:.0} s)", rejoin_k as f64 * dt),
+        ),
+    ];
+    let plot = MissionPlot {
+        title: "Demo mission: 4 gliders climbing a Gaussian temperature field".into(),
+        length_unit: "m".into(),
+        field: &field,
+        field_label: "T (°C)".into(),
+        tracks,
+        body_path,
+        snapshots,
+        optimum: Some((ox, oy)),
+        events,
+    };
+    write_mission_svg(&plot, std::path::Path::new("/tmp/plot_demo.svg"))?;
+
+    let times: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+    let series = vec![
+        (
+            "V / V_U".to_string(),
+            times
+                .iter()
+                .map(|&t| (t, 0.9 * (-t / 150.0).exp() + 0.05 * (t / 20.0).sin().abs()))
+                .collect(),
+        ),
+        (
+            "speed (m/s)".to_string(),
+            times
+                .iter()
+                .map(|&t| (t, 0.6 * (-t / 300.0).exp()))
+                .collect(),
+        ),
+    ];
+    let markers = vec![
+        (kill_k as f64 * dt, "kill 2".to_string()),
+        (rejoin_k as f64 * dt, "rejoin 2".to_string()),
+    ];
+    write_timeseries_svg(
+        std::path::Path::new("/tmp/plot_demo_ts.svg"),
+        "Demo: Lyapunov ratio and speed",
+        "t (s)",
+        &series,
+        "value",
+        &markers,
+    )?;
+    println!("wrote /tmp/plot_demo.svg and /tmp/plot_demo_ts.svg");
+
+    // A crowded, non-dimensional variant: 24 vehicles and a field undefined on part of the plane.
+    let holey = |x: f64, y: f64| {
+        if x > 1.5 && y < -1.0 {
+            f64::NAN
+        } else {
+            (x * 1.3).sin() * (y * 0.9).cos() + 0.2 * x
+        }
+    };
+    let tracks: Vec<Track> = (0..24u32)
+        .map(|id| {
+            let a0 = f64::from(id) / 24.0 * std::f64::consts::TAU;
+            let points = (0..200)
+                .map(|k| {
+                    let s = f64::from(k) / 199.0;
+                    let r = 3.0 - 2.0 * s;
+                    (r * (a0 + s).cos(), r * (a0 + s).sin())
+                })
+                .collect();
+            Track { id, points }
+        })
+        .collect();
+    let crowded = MissionPlot {
+        title: "Crowded: 24 vehicles, non-dimensional".into(),
+        length_unit: String::new(),
+        field: &holey,
+        field_label: "f".into(),
+        snapshots: vec![Snapshot {
+            t: 12.5,
+            label: String::new(),
+            positions: tracks.iter().map(|t| t.points[100]).collect(),
+            centre: (0.0, 0.0),
+        }],
+        tracks,
+        body_path: vec![(0.0, 0.0), (0.1, 0.1)],
+        optimum: None,
+        events: vec![
+            (1.0, 1.0, "kill 3".into()),
+            (1.05, 1.0, "kill 4".into()),
+            (1.0, 1.05, "kill 5".into()),
+        ],
+    };
+    write_mission_svg(&crowded, std::path::Path::new("/tmp/plot_demo_crowded.svg"))?;
+    println!("wrote /tmp/plot_demo_crowded.svg");
+    Ok(())
+}
