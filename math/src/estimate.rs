@@ -375,17 +375,7 @@ pub fn expected_error(
     sigma_h: f64,
     sigma_m: f64,
 ) -> Result<f64, EstimateError> {
-    check_geometry(dim, rel_positions)?;
-    check_sigmas(sigma_h, sigma_m)?;
-    if !hessian.iter().all(|v| v.is_finite()) {
-        return Err(EstimateError::NonFinite("hessian"));
-    }
-    let unit = rms_radius(dim, rel_positions);
-    let cost = Cost::new(dim, hessian, sigma_h, sigma_m, unit);
-    let x: Vec<Vec3> = rel_positions
-        .iter()
-        .map(|p| project(dim, p) / unit)
-        .collect();
+    let (cost, x, _) = normalised_cost(dim, rel_positions, hessian, sigma_h, sigma_m)?;
     cost.eval(&x, None)
         .ok_or(EstimateError::Numerical("g (V.6) is not finite"))
 }
@@ -399,6 +389,24 @@ pub fn expected_error_gradient(
     sigma_h: f64,
     sigma_m: f64,
 ) -> Result<(f64, Vec<Vec3>), EstimateError> {
+    let (cost, x, unit) = normalised_cost(dim, rel_positions, hessian, sigma_h, sigma_m)?;
+    let mut grad = vec![Vec3::zeros(); x.len()];
+    let g = cost
+        .eval(&x, Some(&mut grad))
+        .ok_or(EstimateError::Numerical("g (V.6) is not finite"))?;
+    Ok((g, grad.into_iter().map(|d| d / unit).collect()))
+}
+
+/// The cost g (V.6) of `rel_positions` after checking its inputs, with the positions
+/// projected to `dim` and divided by their RMS radius `unit` (returned with them), so the
+/// optimiser works on numbers near 1.
+fn normalised_cost(
+    dim: usize,
+    rel_positions: &[Vec3],
+    hessian: &Mat3,
+    sigma_h: f64,
+    sigma_m: f64,
+) -> Result<(Cost, Vec<Vec3>, f64), EstimateError> {
     check_geometry(dim, rel_positions)?;
     check_sigmas(sigma_h, sigma_m)?;
     if !hessian.iter().all(|v| v.is_finite()) {
@@ -410,11 +418,7 @@ pub fn expected_error_gradient(
         .iter()
         .map(|p| project(dim, p) / unit)
         .collect();
-    let mut grad = vec![Vec3::zeros(); x.len()];
-    let g = cost
-        .eval(&x, Some(&mut grad))
-        .ok_or(EstimateError::Numerical("g (V.6) is not finite"))?;
-    Ok((g, grad.into_iter().map(|d| d / unit).collect()))
+    Ok((cost, x, unit))
 }
 
 /// (V.8), Lemma 5.3: g for three vehicles at `(l1, 0)`, `(0, l2)`, `(0, 0)` with
