@@ -90,6 +90,27 @@ pub struct FormationDesign {
 }
 
 impl FormationDesign {
+    /// A design of `slots` and `leaders` (body frame, length) with potentials `inter`
+    /// (V_I) and `leader` (V_h), its equilibrium energy `v_eq` the potential part of (II.2)
+    /// with every vehicle at its slot.
+    fn at_equilibrium(
+        dim: usize,
+        leaders: Vec<Vec3>,
+        slots: Vec<Vec3>,
+        inter: PairPotential,
+        leader: PairPotential,
+    ) -> Self {
+        let v_eq = potential_energy(&slots, &leaders, &inter, &leader);
+        Self {
+            dim,
+            leaders,
+            slots,
+            inter,
+            leader,
+            v_eq,
+        }
+    }
+
     /// Number of vehicles `N` the design is for.
     pub fn n(&self) -> usize {
         self.slots.len()
@@ -210,15 +231,9 @@ pub fn design_regular(
         d1: 4.0 * radius,
     };
     let leaders = vec![Vec3::zeros()];
-    let v_eq = potential_energy(&slots, &leaders, &inter, &leader);
-    Ok(FormationDesign {
-        dim,
-        leaders,
-        slots,
-        inter,
-        leader,
-        v_eq,
-    })
+    Ok(FormationDesign::at_equilibrium(
+        dim, leaders, slots, inter, leader,
+    ))
 }
 
 /// A design whose equilibrium of (II.1) is exactly the given shape (e.g. an anisotropic
@@ -329,15 +344,9 @@ pub fn design_for_shape(
     }
     let (leaders, leader) = chosen.expect("the last fraction is always accepted");
     let slots = slots.to_vec();
-    let v_eq = potential_energy(&slots, &leaders, &inter, &leader);
-    Ok(FormationDesign {
-        dim,
-        leaders,
-        slots,
-        inter,
-        leader,
-        v_eq,
-    })
+    Ok(FormationDesign::at_equilibrium(
+        dim, leaders, slots, inter, leader,
+    ))
 }
 
 /// The `dim + 1` unit directions of slot `i`'s leaders, on the side away from the other

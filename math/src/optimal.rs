@@ -84,17 +84,7 @@ pub fn regular_shape(n: usize, dim: usize) -> Vec<Vec3> {
                     Vec3::z(),
                     -Vec3::z(),
                 ],
-                8 => {
-                    let mut v = Vec::new();
-                    for &x in &[1.0, -1.0] {
-                        for &y in &[1.0, -1.0] {
-                            for &z in &[1.0, -1.0] {
-                                v.push(Vec3::new(x, y, z));
-                            }
-                        }
-                    }
-                    v
-                }
+                8 => cube_vertices(),
                 12 => {
                     let mut v = Vec::new();
                     for &a in &[1.0, -1.0] {
@@ -107,14 +97,7 @@ pub fn regular_shape(n: usize, dim: usize) -> Vec<Vec3> {
                     v
                 }
                 20 => {
-                    let mut v = Vec::new();
-                    for &x in &[1.0, -1.0] {
-                        for &y in &[1.0, -1.0] {
-                            for &z in &[1.0, -1.0] {
-                                v.push(Vec3::new(x, y, z));
-                            }
-                        }
-                    }
+                    let mut v = cube_vertices();
                     for &a in &[1.0 / phi, -1.0 / phi] {
                         for &b in &[phi, -phi] {
                             v.push(Vec3::new(0.0, a, b));
@@ -497,6 +480,19 @@ pub fn optimal_formation_with(
         radius,
         second_moments,
     })
+}
+
+/// The eight vertices (±1, ±1, ±1) of the cube, in a fixed order.
+fn cube_vertices() -> Vec<Vec3> {
+    let mut v = Vec::with_capacity(8);
+    for &x in &[1.0, -1.0] {
+        for &y in &[1.0, -1.0] {
+            for &z in &[1.0, -1.0] {
+                v.push(Vec3::new(x, y, z));
+            }
+        }
+    }
+    v
 }
 
 #[cfg(test)]
