@@ -8,9 +8,14 @@
 //! coordinator process run it. [`run`] wires the ports.
 
 pub mod checkpoint;
+pub mod command;
 pub mod fleet;
+pub mod handover;
+pub mod membership;
+pub mod plan;
 pub mod planner;
 pub mod record;
 pub mod run;
+pub mod tally;
 pub mod tick;
 pub mod truth;

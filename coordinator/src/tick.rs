@@ -7,7 +7,8 @@ use shared::link::Fate;
 use shared::msg::coordinator_to_agent::SnapshotEntry;
 
 use crate::fleet::Fleet;
-use crate::planner::{Command, Planner, PlannerError, Report};
+use crate::plan::Plan;
+use crate::planner::{Command, PlannerError, Report};
 use crate::record::Recorder;
 
 /// What a tick produced.
@@ -38,7 +39,7 @@ pub fn plan_tick(
     dt: f64,
     truth: &[Report],
     fleet: &mut Fleet,
-    planner: &mut Planner,
+    planner: &mut impl Plan,
     recorder: &mut Recorder,
 ) -> Result<TickOutcome, TickError> {
     let t = k as f64 * dt;
