@@ -633,37 +633,12 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
     notices.stop();
     let _ = clean_domain(&domain);
 
-    // The coordinator's summary, completed here with what only the supervisor knows and
-    // written once (a coordinator that outlived its supervisor wrote its own).
+    // The coordinator's summary (handed over; read back if it had to write it itself),
+    // completed with what only the supervisor knows and written once.
     let handed = set.handed.lock().unwrap_or_else(|e| e.into_inner()).take();
     let mut summary = handed.or_else(|| Summary::read(dir).ok());
     if let Some(s) = summary.as_mut() {
-        s.wall_time_s = wall.elapsed().as_secs_f64();
-        let analysed = match analyze::compute(dir) {
-            Ok((report, _)) => {
-                report.fill_summary(s);
-                true
-            }
-            Err(_) => false,
-        };
-        s.agent_rejected = count_agent_rejections(dir);
-        if interrupted && s.verdict != "interrupted" {
-            s.verdict = "interrupted".into();
-            s.converged = false;
-            s.reasons.insert(
-                0,
-                "the run was stopped by a signal (Ctrl-C / SIGTERM)".into(),
-            );
-        }
-        s.write(dir).context("writing summary.json")?;
-        // The analysis plots read the late ticks from summary.json: drawn once it is there
-        // (a second reading of the message records).
-        if analysed {
-            let _ = analyze::analyze(dir);
-        }
-        if let Err(e) = crate::report_plots::write_run_plots(dir) {
-            warn!(error = %e, "time-series plots failed");
-        }
+        complete_summary(s, dir, wall.elapsed().as_secs_f64(), interrupted)?;
     }
     Ok(RunOutcome {
         summary,
@@ -671,6 +646,40 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
         coordinator_ok,
         startup_s,
     })
+}
+
+/// Completes the coordinator's summary `s` with what the supervisor knows once every
+/// process has ended (`wall_s`, the analysis of the message records, the agents'
+/// rejections, whether a signal stopped the run), writes `summary.json`, then draws the
+/// analysis and time-series plots.
+fn complete_summary(s: &mut Summary, dir: &RunDir, wall_s: f64, interrupted: bool) -> Result<()> {
+    s.wall_time_s = wall_s;
+    let analysed = match analyze::compute(dir) {
+        Ok((report, _)) => {
+            report.fill_summary(s);
+            true
+        }
+        Err(_) => false,
+    };
+    s.agent_rejected = count_agent_rejections(dir);
+    if interrupted && s.verdict != "interrupted" {
+        s.verdict = "interrupted".into();
+        s.converged = false;
+        s.reasons.insert(
+            0,
+            "the run was stopped by a signal (Ctrl-C / SIGTERM)".into(),
+        );
+    }
+    s.write(dir).context("writing summary.json")?;
+    // The analysis plots read the late ticks from summary.json: drawn once it is there
+    // (a second reading of the message records).
+    if analysed {
+        let _ = analyze::analyze(dir);
+    }
+    if let Err(e) = crate::report_plots::write_run_plots(dir) {
+        warn!(error = %e, "time-series plots failed");
+    }
+    Ok(())
 }
 
 fn policy_is_not_always(p: RestartPolicy) -> bool {
