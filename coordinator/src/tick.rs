@@ -1,7 +1,7 @@
 //! One tick of the coordinator's decision, as `vbap sim` and the coordinator process both
 //! run it: the true reports pass the link model, the planner steps on what was delivered,
 //! and the run directory records it all. Sharing this one function is what keeps the two
-//! byte-identical.
+//! byte-identical. The planner is any [`Plan`] (the binaries ship [`crate::planner::Planner`]).
 
 use shared::link::Fate;
 use shared::msg::coordinator_to_agent::SnapshotEntry;
