@@ -9,15 +9,18 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use coordinator::fleet::Fleet;
+use coordinator::membership::{self, Loss};
+use coordinator::plan::Plan;
 use coordinator::planner::{Planner, PlannerParams, Report};
 use coordinator::record::Recorder;
+use coordinator::tally::LinkTally;
 use coordinator::tick::{plan_tick, TickOutcome};
 use field_server::Sensors;
 use std::collections::BTreeMap;
 use vbap_mission::config::Mission;
 use vbap_mission::faults::FaultPlan;
 use vbap_mission::rundir::{RunDir, Summary};
-use vehicle_agent::{initial_agent, initial_design, Agent, DownlinkCounts, Guidance, Vehicle};
+use vehicle_agent::{initial_agent, initial_design, Agent, Guidance, Vehicle};
 
 /// Set (by the command line's SIGINT/SIGTERM handler) to stop a simulation early: it
 /// ends after the tick in progress and writes its files and summary (verdict
@@ -27,8 +30,25 @@ pub static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::
 /// Progress callback: (tick, ticks, mission time s, distance to optimum if known).
 pub type Progress<'a> = &'a mut dyn FnMut(u64, u64, f64, Option<f64>);
 
-/// Runs `mission` in process, writing the run directory `dir`. Returns the summary.
+/// Runs `mission` in process with the paper's planner, writing the run directory `dir`.
+/// Returns the summary.
 pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Result<Summary> {
+    let ids: Vec<u32> = (0..mission.vehicles.count as u32).collect();
+    let planner = Planner::new(
+        PlannerParams::from_mission(mission),
+        mission.start_vec(),
+        &ids,
+    )?;
+    simulate_with(mission, dir, planner, progress)
+}
+
+/// [`simulate`] with any planner (`planner`: for every vehicle of the mission).
+pub fn simulate_with(
+    mission: &Mission,
+    dir: &RunDir,
+    mut planner: impl Plan,
+    progress: Progress<'_>,
+) -> Result<Summary> {
     let wall = Instant::now();
     let dt = mission.mission.dt;
     let ticks = mission.ticks();
@@ -49,14 +69,9 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
     let mut sensors = Sensors::new(mission);
     let field = mission.field();
     let mut fleet = Fleet::new(mission, &ids);
-    let mut planner = Planner::new(
-        PlannerParams::from_mission(mission),
-        mission.start_vec(),
-        &ids,
-    )?;
     let mut recorder = Recorder::open(mission, dir).context("opening the run directory files")?;
     let every = (ticks / 200).max(1);
-    let mut downlink = DownlinkCounts::default();
+    let mut tally = LinkTally::default();
     for k in 0..ticks {
         if STOP.load(std::sync::atomic::Ordering::Relaxed) {
             break;
@@ -64,16 +79,15 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
         let t = k as f64 * dt;
         recorder.faults_starting(k)?;
         for v in plan.kills_at(k).collect::<Vec<_>>() {
-            if fleet.lose(v) {
+            if let Some(event) = membership::lose(&mut fleet, k, dt, v, &Loss::scheduled_kill()) {
                 if let Some(gone) = vehicles.remove(&v) {
-                    downlink.delivered += gone.counts.delivered;
-                    downlink.dropped += gone.counts.dropped;
+                    tally.add_downlink(gone.counts.delivered, gone.counts.dropped);
                 }
-                recorder.lost(k, v, "scheduled kill")?;
+                recorder.event(event)?;
             }
         }
         for v in plan.restarts_at(k).collect::<Vec<_>>() {
-            if let Some(restore) = fleet.admit(v) {
+            if let Some((restore, event)) = membership::rejoin(&mut fleet, k, dt, v) {
                 let agent = Agent {
                     id: v,
                     dim,
@@ -81,7 +95,7 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
                     velocity: restore.velocity,
                 };
                 vehicles.insert(v, Vehicle::new(agent, initial.clone(), k));
-                recorder.rejoined(k, v)?;
+                recorder.event(event)?;
             }
         }
         let admitted: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
@@ -126,21 +140,11 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
         }
     }
     for veh in vehicles.values() {
-        downlink.delivered += veh.counts.delivered;
-        downlink.dropped += veh.counts.dropped;
+        tally.add_downlink(veh.counts.delivered, veh.counts.dropped);
     }
     recorder.flush()?;
     let mut summary = recorder.summary(&planner, "in-process");
-    // Reports still held by the uplink when the mission ends were let through by the link
-    // model (as the commands' fates count them), their delivery time lies after the end.
-    let in_flight = fleet.held_reports().0.len() as u64;
-    summary.messages.sent = fleet.counts.delivered
-        + in_flight
-        + fleet.counts.dropped_injected
-        + downlink.delivered
-        + downlink.dropped;
-    summary.messages.delivered = fleet.counts.delivered + in_flight + downlink.delivered;
-    summary.messages.dropped_injected = fleet.counts.dropped_injected + downlink.dropped;
+    summary.messages = tally.counts(&fleet);
     summary.wall_time_s = wall.elapsed().as_secs_f64();
     summary.write(dir).context("writing summary.json")?;
     recorder.write_plot().context("writing plot.svg")?;

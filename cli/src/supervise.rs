@@ -275,7 +275,12 @@ async fn spawn(bin: &Path, name: &str, args: &[String], dir: &RunDir) -> Result<
         .with_context(|| format!("starting {}", bin.display()))
 }
 
-async fn await_ready(name: &str, child: &mut Child) -> Result<()> {
+/// A child's standard output, read line by line.
+type StdoutLines = tokio::io::Lines<BufReader<tokio::process::ChildStdout>>;
+
+/// Waits until `child` prints `ready`; returns the rest of its output (None when the child
+/// had no output to read).
+async fn await_ready(name: &str, child: &mut Child) -> Result<StdoutLines> {
     let stdout = child.stdout.take().context("child stdout")?;
     let mut lines = BufReader::new(stdout).lines();
     let line = tokio::time::timeout(READY_TIMEOUT, lines.next_line())
@@ -283,9 +288,23 @@ async fn await_ready(name: &str, child: &mut Child) -> Result<()> {
         .with_context(|| format!("{name} did not get ready within {READY_TIMEOUT:?}"))?
         .with_context(|| format!("reading {name}'s stdout"))?;
     match line.as_deref() {
-        Some("ready") => Ok(()),
+        Some("ready") => Ok(lines),
         other => bail!("{name} exited before it was ready ({other:?}); see its logs"),
     }
+}
+
+/// The summary a coordinator hands over on its output (`coordinator::handover`), read
+/// until the output ends (the coordinator exits).
+async fn read_handover(mut lines: StdoutLines) -> Option<Summary> {
+    let mut summary = None;
+    while let Ok(Some(line)) = lines.next_line().await {
+        match coordinator::handover::parse_summary_line(&line) {
+            Some(Ok(s)) => summary = Some(s),
+            Some(Err(e)) => warn!(error = %e, "the coordinator's summary does not parse"),
+            None => {}
+        }
+    }
+    summary
 }
 
 /// The process set of one run.
@@ -297,6 +316,8 @@ struct ProcessSet<'a> {
     procs: Vec<Proc>,
     exits: mpsc::UnboundedSender<Exit>,
     notices: std::sync::mpsc::Sender<Notice>,
+    /// The summary the last coordinator handed over when it ended.
+    handed: std::sync::Arc<std::sync::Mutex<Option<Summary>>>,
 }
 
 impl ProcessSet<'_> {
@@ -308,6 +329,7 @@ impl ProcessSet<'_> {
                 args.extend([
                     "--run-dir".to_string(),
                     self.dir.root.to_string_lossy().to_string(),
+                    "--summary-to-parent".to_string(),
                 ]);
                 "coordinator"
             }
@@ -326,8 +348,16 @@ impl ProcessSet<'_> {
     async fn start(&mut self, slot: usize) -> Result<()> {
         let (name, mut child) = self.launch(slot).await?;
         let ready = await_ready(&name, &mut child).await;
-        self.watch(slot, child);
-        ready
+        match ready {
+            Ok(lines) => {
+                self.watch(slot, child, Some(lines));
+                Ok(())
+            }
+            Err(e) => {
+                self.watch(slot, child, None);
+                Err(e)
+            }
+        }
     }
 
     /// Spawns the process of `slot` without waiting for it to be ready.
@@ -341,13 +371,22 @@ impl ProcessSet<'_> {
         Ok((name, child))
     }
 
-    /// Reports the end of `child` (the process of `slot`) on the exit channel.
-    fn watch(&self, slot: usize, mut child: Child) {
+    /// Reports the end of `child` (the process of `slot`) on the exit channel. A
+    /// coordinator's output (`lines`, after `ready`) is read until it ends, for the summary
+    /// it hands over; any other child's is closed.
+    fn watch(&self, slot: usize, mut child: Child, lines: Option<StdoutLines>) {
         let generation = self.procs[slot].generation;
         let role = self.procs[slot].role;
         let exits = self.exits.clone();
         let notices = self.notices.clone();
+        let handed = self.handed.clone();
+        let lines = lines.filter(|_| role == Role::Coordinator);
         tokio::spawn(async move {
+            if let Some(lines) = lines {
+                if let Some(summary) = read_handover(lines).await {
+                    *handed.lock().unwrap_or_else(|e| e.into_inner()) = Some(summary);
+                }
+            }
             let pid = child.id();
             let status = child.wait().await;
             // Told at once: the coordinator acts on a death before any restart of it.
@@ -422,7 +461,7 @@ async fn stop_all(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedReceiver<
 /// How a supervised run ended.
 #[derive(Debug)]
 pub struct RunOutcome {
-    /// The summary, when the coordinator wrote one.
+    /// The summary, when a coordinator handed one over (or wrote one).
     pub summary: Option<Summary>,
     /// True when a signal stopped the run.
     pub interrupted: bool,
@@ -464,6 +503,7 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
             .collect(),
         exits: tx,
         notices: notices.tx.clone(),
+        handed: Default::default(),
     };
     let mut interrupted = false;
     let start = async {
@@ -477,10 +517,13 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
         }
         let mut first_error = None;
         for (slot, (name, mut child)) in launched {
-            if let Err(e) = await_ready(&name, &mut child).await {
-                first_error.get_or_insert(e);
+            match await_ready(&name, &mut child).await {
+                Ok(lines) => set.watch(slot, child, Some(lines)),
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                    set.watch(slot, child, None);
+                }
             }
-            set.watch(slot, child);
         }
         match first_error {
             Some(e) => Err(e),
@@ -590,25 +633,12 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
     notices.stop();
     let _ = clean_domain(&domain);
 
-    let mut summary = Summary::read(dir).ok();
+    // The coordinator's summary (handed over; read back if it had to write it itself),
+    // completed with what only the supervisor knows and written once.
+    let handed = set.handed.lock().unwrap_or_else(|e| e.into_inner()).take();
+    let mut summary = handed.or_else(|| Summary::read(dir).ok());
     if let Some(s) = summary.as_mut() {
-        s.wall_time_s = wall.elapsed().as_secs_f64();
-        if let Ok(report) = analyze::analyze(dir) {
-            report.fill_summary(s);
-        }
-        s.agent_rejected = count_agent_rejections(dir);
-        if interrupted && s.verdict != "interrupted" {
-            s.verdict = "interrupted".into();
-            s.converged = false;
-            s.reasons.insert(
-                0,
-                "the run was stopped by a signal (Ctrl-C / SIGTERM)".into(),
-            );
-        }
-        s.write(dir).context("writing summary.json")?;
-        if let Err(e) = vbap_report::report_plots::write_run_plots(dir) {
-            warn!(error = %e, "time-series plots failed");
-        }
+        complete_summary(s, dir, wall.elapsed().as_secs_f64(), interrupted)?;
     }
     Ok(RunOutcome {
         summary,
@@ -616,6 +646,40 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
         coordinator_ok,
         startup_s,
     })
+}
+
+/// Completes the coordinator's summary `s` with what the supervisor knows once every
+/// process has ended (`wall_s`, the analysis of the message records, the agents'
+/// rejections, whether a signal stopped the run), writes `summary.json`, then draws the
+/// analysis and time-series plots.
+fn complete_summary(s: &mut Summary, dir: &RunDir, wall_s: f64, interrupted: bool) -> Result<()> {
+    s.wall_time_s = wall_s;
+    let analysed = match analyze::compute(dir) {
+        Ok((report, _)) => {
+            report.fill_summary(s);
+            true
+        }
+        Err(_) => false,
+    };
+    s.agent_rejected = count_agent_rejections(dir);
+    if interrupted && s.verdict != "interrupted" {
+        s.verdict = "interrupted".into();
+        s.converged = false;
+        s.reasons.insert(
+            0,
+            "the run was stopped by a signal (Ctrl-C / SIGTERM)".into(),
+        );
+    }
+    s.write(dir).context("writing summary.json")?;
+    // The analysis plots read the late ticks from summary.json: drawn once it is there
+    // (a second reading of the message records).
+    if analysed {
+        let _ = analyze::analyze(dir);
+    }
+    if let Err(e) = vbap_report::report_plots::write_run_plots(dir) {
+        warn!(error = %e, "time-series plots failed");
+    }
+    Ok(())
 }
 
 fn policy_is_not_always(p: RestartPolicy) -> bool {

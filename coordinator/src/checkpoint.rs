@@ -22,6 +22,7 @@ use std::io;
 use serde::{Deserialize, Serialize};
 use vbap_mission::rundir::{FileOffsets, MessageCounts, RunDir};
 
+use crate::command::BodyRecord;
 use crate::fleet::Fleet;
 use crate::planner::{Planner, Report};
 use crate::record::RecorderStats;
@@ -33,12 +34,12 @@ pub struct PeerMark {
     pub last_seq: Option<u64>,
 }
 
-/// One checkpoint.
+/// One checkpoint, of a coordinator with planner `P`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Checkpoint {
+pub struct Checkpoint<P = Planner> {
     /// The tick to process next.
     pub next_tick: u64,
-    pub planner: Planner,
+    pub planner: P,
     pub fleet: Fleet,
     pub stats: RecorderStats,
     pub offsets: FileOffsets,
@@ -49,7 +50,7 @@ pub struct Checkpoint {
     pub rejoin_ms: Vec<f64>,
     pub peers: Vec<PeerMark>,
     /// The command of the last tick, re-published on resume.
-    pub body: crate::run::BodyRecord,
+    pub body: BodyRecord,
     /// Wall-clock time tick 0 of a paced mission was due, ns since the Unix epoch: a
     /// resumed coordinator keeps the mission's clock (None: lockstep, or not started).
     pub clock_start_ns: Option<u64>,
@@ -75,9 +76,9 @@ pub struct JournalMarks {
 /// A checkpoint written from borrowed state (no clone of the planner or the fleet per
 /// tick); it reads back as a [`Checkpoint`].
 #[derive(Serialize)]
-pub struct CheckpointRef<'a> {
+pub struct CheckpointRef<'a, P = Planner> {
     pub next_tick: u64,
-    pub planner: &'a Planner,
+    pub planner: &'a P,
     pub fleet: &'a Fleet,
     pub stats: &'a RecorderStats,
     pub offsets: FileOffsets,
@@ -87,13 +88,13 @@ pub struct CheckpointRef<'a> {
     pub detection_ms: &'a [f64],
     pub rejoin_ms: &'a [f64],
     pub peers: &'a [PeerMark],
-    pub body: &'a crate::run::BodyRecord,
+    pub body: &'a BodyRecord,
     pub clock_start_ns: Option<u64>,
     /// Filled in by [`CheckpointWriter::save`].
     pub journal: JournalMarks,
 }
 
-impl CheckpointRef<'_> {
+impl<P: Serialize> CheckpointRef<'_, P> {
     /// Writes this checkpoint with `writer` (journal first, then the checkpoint).
     pub fn save_with(mut self, writer: &mut CheckpointWriter) -> io::Result<()> {
         self.journal = writer.journal(self.fleet)?;
@@ -101,7 +102,7 @@ impl CheckpointRef<'_> {
     }
 }
 
-impl Checkpoint {
+impl<P: for<'de> Deserialize<'de>> Checkpoint<P> {
     /// The newest valid checkpoint of `dir`, if any (a torn write fails to parse and the
     /// other slot is used).
     pub fn load(dir: &RunDir) -> io::Result<Option<Self>> {
@@ -293,7 +294,6 @@ impl CheckpointWriter {
 mod tests {
     use super::*;
     use crate::planner::PlannerParams;
-    use crate::run::BodyRecord;
     use vbap_math::Vec3;
     use vbap_mission::config::Mission;
 
@@ -374,14 +374,14 @@ mod tests {
             }
             .save_with(&mut writer)
             .unwrap();
-            let back = Checkpoint::load(&dir).unwrap().unwrap();
+            let back = Checkpoint::<Planner>::load(&dir).unwrap().unwrap();
             assert_eq!(back.next_tick, k + 1);
             assert_eq!(back.fleet.held_reports(), fleet.held_reports(), "tick {k}");
             assert_eq!(back.fleet.body_track(), fleet.body_track(), "tick {k}");
         }
         assert!(held_at_some_point > 20, "the links held reports");
         // A restarted writer continues the journals where its checkpoint left them.
-        let marks = Checkpoint::load(&dir).unwrap().unwrap().journal;
+        let marks = Checkpoint::<Planner>::load(&dir).unwrap().unwrap().journal;
         let again = CheckpointWriter::open(&dir, Some(marks)).unwrap();
         assert_eq!(again.marks, marks);
         let _ = std::fs::remove_dir_all(&root);

@@ -5,12 +5,19 @@
 //! redesign when the fleet changes) and never sees iceoryx2. [`record::Recorder`] turns
 //! ticks into the run-directory files and the summary, with ground truth the planner
 //! never sees. [`tick::plan_tick`] is one tick of both, as the simulator and the
-//! coordinator process run it. [`run`] wires the ports.
+//! coordinator process run it, with any planner of the trait [`plan::Plan`].
+//! [`membership`] (losses and rejoins) and [`tally`] (message counts) are the bookkeeping
+//! both share. [`run`] wires the ports; [`handover`] passes the summary to `vbap run`.
 
 pub mod checkpoint;
+pub mod command;
 pub mod fleet;
+pub mod handover;
+pub mod membership;
+pub mod plan;
 pub mod planner;
 pub mod record;
 pub mod run;
+pub mod tally;
 pub mod tick;
 pub mod truth;

@@ -2,11 +2,12 @@
 
 use std::path::PathBuf;
 
+use anyhow::Context;
 use clap::Parser;
 use vbap_ipc::process::{
-    announce_ready, die_with_parent, finish, load_mission_or_exit, EXIT_INVALID,
+    announce_ready, die_with_parent, finish, load_mission_or_exit, orphaned, EXIT_INVALID,
 };
-use vbap_mission::rundir::RunDir;
+use vbap_mission::rundir::{RunDir, Summary};
 
 /// The coordinator of a vbap mission (normally started by `vbap run`).
 #[derive(Parser, Debug)]
@@ -24,6 +25,11 @@ struct Args {
     /// Exit when this process (the supervisor) is no longer our parent.
     #[arg(long)]
     parent: Option<u32>,
+    /// Hand the summary to the supervisor (`--parent`) on standard output instead of
+    /// writing `summary.json`: it completes the summary and writes the file once. Written
+    /// here all the same when the supervisor is gone.
+    #[arg(long, requires = "parent")]
+    summary_to_parent: bool,
 }
 
 fn main() {
@@ -36,7 +42,25 @@ fn main() {
     });
     let log = vbap_ipc::telemetry::init("coordinator", args.log.as_deref());
     let msgs = vbap_ipc::process::message_log(args.log.as_deref());
-    let result = coordinator::run::run(&mission, &dir, msgs, announce_ready);
+    let result = coordinator::run::run(&mission, &dir, msgs, announce_ready).and_then(|summary| {
+        let parent = args.parent.filter(|_| args.summary_to_parent);
+        deliver(&summary, &dir, parent)
+    });
     vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
     finish("coordinator", result.err().map(|e| format!("{e:#}")), log);
+}
+
+/// Hands `summary` to the supervisor `parent` (one line on standard output), or, without
+/// one (none asked for, or it died: the line cannot be written), writes `summary.json`.
+fn deliver(summary: &Summary, dir: &RunDir, parent: Option<u32>) -> anyhow::Result<()> {
+    use std::io::Write;
+    if parent.is_some() && !orphaned(parent) {
+        let line = coordinator::handover::summary_line(summary)?;
+        let mut out = std::io::stdout().lock();
+        match writeln!(out, "{line}").and_then(|()| out.flush()) {
+            Ok(()) => return Ok(()),
+            Err(e) => tracing::warn!(error = %e, "the supervisor is gone: writing summary.json"),
+        }
+    }
+    summary.write(dir).context("writing summary.json")
 }

@@ -17,7 +17,8 @@ use vbap_mission::rundir::{
 use vbap_report::plot::{MissionPlot, Snapshot, Track};
 
 use crate::fleet::Fleet;
-use crate::planner::{Command, Planner, Report};
+use crate::plan::Plan;
+use crate::planner::{Command, Report};
 use crate::truth::{self, BodyOutcome, TruthStats};
 
 /// Number of formation snapshots drawn on the plot.
@@ -97,7 +98,8 @@ impl Recorder {
         &self.stats
     }
 
-    /// Appends an event to `events.jsonl`.
+    /// Appends an event to `events.jsonl` (a `lost` or `rejoin` event, made by
+    /// [`crate::membership`], is counted in the summary).
     pub fn event(&mut self, e: Event) -> io::Result<()> {
         match e.kind.as_str() {
             "lost" => self.stats.vehicles_lost += 1,
@@ -127,43 +129,6 @@ impl Recorder {
             })?;
         }
         Ok(())
-    }
-
-    /// Vehicle `v` was lost at tick `k` (`cause`: "scheduled kill", "process died", ...).
-    pub fn lost(&mut self, k: u64, v: u32, cause: &str) -> io::Result<()> {
-        let t = k as f64 * self.mission.mission.dt;
-        self.event(Event {
-            t,
-            k,
-            kind: "lost".into(),
-            vehicle: Some(v),
-            detail: serde_json::json!({ "cause": cause }),
-        })
-    }
-
-    /// Vehicle `v` was found lost at tick `k`; `detail` says how (`cause`, and in the
-    /// multi-process system `by`, `pid`, `detection_ms`).
-    pub fn lost_with(&mut self, k: u64, v: u32, detail: serde_json::Value) -> io::Result<()> {
-        let t = k as f64 * self.mission.mission.dt;
-        self.event(Event {
-            t,
-            k,
-            kind: "lost".into(),
-            vehicle: Some(v),
-            detail,
-        })
-    }
-
-    /// Vehicle `v` was admitted back at tick `k`.
-    pub fn rejoined(&mut self, k: u64, v: u32) -> io::Result<()> {
-        let t = k as f64 * self.mission.mission.dt;
-        self.event(Event {
-            t,
-            k,
-            kind: "rejoin".into(),
-            vehicle: Some(v),
-            detail: serde_json::Value::Null,
-        })
     }
 
     /// Writes a `link_drop` event for every uplink report the link model dropped.
@@ -370,7 +335,7 @@ impl Recorder {
 
     /// The mission figures of `summary.json` (message counts, latency and wall time are
     /// filled in by the caller).
-    pub fn summary(&self, planner: &Planner, mode: &str) -> Summary {
+    pub fn summary(&self, planner: &impl Plan, mode: &str) -> Summary {
         let m = &self.mission;
         let t = self.stats.last_t;
         let r = self.stats.last_r;

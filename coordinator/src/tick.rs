@@ -1,13 +1,14 @@
 //! One tick of the coordinator's decision, as `vbap sim` and the coordinator process both
 //! run it: the true reports pass the link model, the planner steps on what was delivered,
 //! and the run directory records it all. Sharing this one function is what keeps the two
-//! byte-identical.
+//! byte-identical. The planner is any [`Plan`] (the binaries ship [`crate::planner::Planner`]).
 
 use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
 use vbap_mission::link::Fate;
 
 use crate::fleet::Fleet;
-use crate::planner::{Command, Planner, PlannerError, Report};
+use crate::plan::Plan;
+use crate::planner::{Command, PlannerError, Report};
 use crate::record::Recorder;
 
 /// What a tick produced.
@@ -38,7 +39,7 @@ pub fn plan_tick(
     dt: f64,
     truth: &[Report],
     fleet: &mut Fleet,
-    planner: &mut Planner,
+    planner: &mut impl Plan,
     recorder: &mut Recorder,
 ) -> Result<TickOutcome, TickError> {
     let t = k as f64 * dt;

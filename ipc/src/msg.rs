@@ -6,6 +6,7 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 
+use vbap_math::potential::PairPotential;
 use vbap_math::Vec3;
 
 /// Largest fleet a mission may have (fixed capacity of the swarm snapshot).
@@ -58,6 +59,20 @@ pub fn to_vec3(a: &[f64; 3]) -> Vec3 {
 /// Converts a vector to a payload array.
 pub fn from_vec3(v: &Vec3) -> [f64; 3] {
     [v.x, v.y, v.z]
+}
+
+/// Converts a payload triple (alpha, d0, d1) to a pair potential of (III.3).
+pub fn to_potential(p: &[f64; 3]) -> PairPotential {
+    PairPotential {
+        alpha: p[0],
+        d0: p[1],
+        d1: p[2],
+    }
+}
+
+/// Converts a pair potential of (III.3) to its payload triple (alpha, d0, d1).
+pub fn from_potential(p: &PairPotential) -> [f64; 3] {
+    [p.alpha, p.d0, p.d1]
 }
 
 /// Vehicle → coordinator.
@@ -198,6 +213,22 @@ pub mod coordinator_to_agent {
                 leaders: [[0.0; 3]; MAX_LEADERS],
                 snapshot: [SnapshotEntry::default(); MAX_VEHICLES],
             }
+        }
+
+        /// The virtual leader positions b_l(s) in use, length unit.
+        pub fn leader_positions(&self) -> Vec<Vec3> {
+            let n_l = (self.n_leaders as usize).min(MAX_LEADERS);
+            self.leaders[..n_l].iter().map(to_vec3).collect()
+        }
+
+        /// The scaled inter-vehicle and vehicle–leader potentials of (III.3).
+        pub fn potentials(&self) -> (PairPotential, PairPotential) {
+            (to_potential(&self.inter), to_potential(&self.leader))
+        }
+
+        /// The swarm snapshot entries in use, ordered by id.
+        pub fn snapshot_entries(&self) -> &[SnapshotEntry] {
+            &self.snapshot[..(self.n_vehicles as usize).min(MAX_VEHICLES)]
         }
 
         /// True when every number in use is finite and the counts are in range.

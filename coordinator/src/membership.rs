@@ -1,0 +1,284 @@
+//! Membership changes of the fleet, written once for the simulator and the coordinator
+//! process: a vehicle is lost (the fleet forgets it and what it sent that is still in
+//! flight) or admitted back (a member again at its last true state), and the event that
+//! `events.jsonl` records is made here. The formation is redesigned by the planner's next
+//! step, which sees the members change ([`crate::planner::Planner::step`]). Pure: the
+//! caller records the event and keeps its own books (the process forgets the vehicle's
+//! queued states; the simulator removes or restarts the vehicle).
+
+use vbap_mission::rundir::Event;
+
+use crate::fleet::Fleet;
+use crate::planner::Report;
+
+/// How the multi-process system found a vehicle lost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Found {
+    /// `supervisor` (it reaped the process), `scan` (the node is listed dead or gone),
+    /// `join` (a new process of the vehicle asked to join), `silence`.
+    pub by: &'static str,
+    /// The process id the coordinator knew for it (0: none).
+    pub pid: u32,
+    /// Wall ms from the death to the verdict: exact for `supervisor`, an upper bound (from
+    /// the vehicle's last message) otherwise; for `silence`, how long it was silent.
+    pub ms: Option<f64>,
+}
+
+/// Why a vehicle is lost, as its `lost` event says.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Loss {
+    /// `scheduled kill`, `process died`, `process ended`, `process gone`, `process
+    /// restarted`, `silent`.
+    pub cause: &'static str,
+    /// How it was found (None: a scheduled kill, which the coordinator does itself).
+    pub found: Option<Found>,
+}
+
+impl Loss {
+    /// A kill of the mission's fault schedule.
+    pub fn scheduled_kill() -> Self {
+        Self {
+            cause: "scheduled kill",
+            found: None,
+        }
+    }
+
+    /// A death (or silence) the multi-process system found `by` some means.
+    pub fn found(cause: &'static str, by: &'static str, pid: u32, ms: Option<f64>) -> Self {
+        Self {
+            cause,
+            found: Some(Found { by, pid, ms }),
+        }
+    }
+
+    /// The detection latency this loss adds to `summary.json` (`detection_latency_ms`),
+    /// wall ms: none for a scheduled kill, and none for silence, which is no death.
+    pub fn detection_ms(&self) -> Option<f64> {
+        if self.cause == "silent" {
+            return None;
+        }
+        self.found.and_then(|f| f.ms)
+    }
+
+    /// The `detail` of the `lost` event: `cause`, and when found, `by`, `pid` and
+    /// `detection_ms` (or `silent_ms` for silence).
+    pub fn detail(&self) -> serde_json::Value {
+        let Some(f) = self.found else {
+            return serde_json::json!({ "cause": self.cause });
+        };
+        let mut detail = serde_json::json!({ "cause": self.cause, "by": f.by, "pid": f.pid });
+        if let Some(ms) = f.ms {
+            let key = if self.cause == "silent" {
+                "silent_ms"
+            } else {
+                "detection_ms"
+            };
+            detail[key] = serde_json::json!(ms);
+        }
+        detail
+    }
+}
+
+/// Vehicle `v` is lost at tick `k` (length `dt`, s): the fleet forgets it. Returns the
+/// `lost` event to record; None when it was not alive (nothing changes).
+pub fn lose(fleet: &mut Fleet, k: u64, dt: f64, v: u32, loss: &Loss) -> Option<Event> {
+    if !fleet.lose(v) {
+        return None;
+    }
+    Some(Event {
+        t: k as f64 * dt,
+        k,
+        kind: "lost".into(),
+        vehicle: Some(v),
+        detail: loss.detail(),
+    })
+}
+
+/// Lost vehicle `v` is admitted back at tick `k` (length `dt`, s): a member from this tick
+/// on, at its last true state. Returns that state (its agent resumes from it) and the
+/// `rejoin` event to record; None when `v` is not lost or was never heard of.
+pub fn rejoin(fleet: &mut Fleet, k: u64, dt: f64, v: u32) -> Option<(Report, Event)> {
+    let restore = fleet.admit(v)?;
+    let event = Event {
+        t: k as f64 * dt,
+        k,
+        kind: "rejoin".into(),
+        vehicle: Some(v),
+        detail: serde_json::Value::Null,
+    };
+    Some((restore, event))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::planner::{Planner, PlannerParams};
+    use vbap_math::Vec3;
+    use vbap_mission::config::Mission;
+
+    const DT: f64 = 0.05;
+
+    fn mission(links: &str) -> Mission {
+        Mission::from_toml_str(
+            &format!(
+                "[mission]\nname = \"t\"\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 4\n{links}"
+            ),
+            "<test>",
+        )
+        .unwrap()
+    }
+
+    fn report(id: u32, k: u64) -> Report {
+        Report {
+            id,
+            tick: k,
+            position: Vec3::new(k as f64 + id as f64, 2.0 * id as f64, 0.0),
+            velocity: Vec3::new(0.5, 0.0, 0.0),
+            measurement: id as f64,
+        }
+    }
+
+    /// Tick `k` of the fleet with every alive vehicle reporting: (members, fresh) ids.
+    fn tick(fleet: &mut Fleet, k: u64) -> (Vec<u32>, Vec<u32>) {
+        let truth: Vec<Report> = fleet.alive().map(|id| report(id, k)).collect();
+        fleet.receive(k, DT, &truth);
+        fleet.track_body(k, Vec3::zeros());
+        let (members, fresh) = fleet.deliver(k as f64 * DT, DT);
+        (
+            members.iter().map(|r| r.id).collect(),
+            fresh.iter().map(|r| r.id).collect(),
+        )
+    }
+
+    #[test]
+    fn loss_details_say_how_the_vehicle_was_found() {
+        let kill = Loss::scheduled_kill();
+        assert_eq!(
+            kill.detail(),
+            serde_json::json!({ "cause": "scheduled kill" })
+        );
+        assert_eq!(kill.detection_ms(), None);
+        let scan = Loss::found("process died", "scan", 42, Some(12.5));
+        assert_eq!(
+            scan.detail(),
+            serde_json::json!({ "cause": "process died", "by": "scan", "pid": 42,
+                "detection_ms": 12.5 })
+        );
+        assert_eq!(scan.detection_ms(), Some(12.5));
+        // Silence is no death: how long it lasted, not a detection latency.
+        let quiet = Loss::found("silent", "silence", 7, Some(10_000.0));
+        assert_eq!(quiet.detail()["silent_ms"], 10_000.0);
+        assert!(quiet.detail().get("detection_ms").is_none());
+        assert_eq!(quiet.detection_ms(), None);
+        let unknown = Loss::found("process restarted", "join", 3, None);
+        assert_eq!(
+            unknown.detail(),
+            serde_json::json!({ "cause": "process restarted", "by": "join", "pid": 3 })
+        );
+    }
+
+    /// Lose, then admit back: the fleet's books at each step, and the events made.
+    #[test]
+    fn lose_and_rejoin_keep_the_fleet_books() {
+        let m = mission("");
+        let mut fleet = Fleet::new(&m, &[0, 1, 2, 3]);
+        assert_eq!(tick(&mut fleet, 0), (vec![0, 1, 2, 3], vec![0, 1, 2, 3]));
+        fleet.end_tick();
+        let lost = lose(&mut fleet, 1, DT, 2, &Loss::scheduled_kill()).unwrap();
+        assert_eq!(
+            (lost.kind.as_str(), lost.k, lost.vehicle),
+            ("lost", 1, Some(2))
+        );
+        assert_eq!(lost.t, 1.0 * DT);
+        assert!(!fleet.is_alive(2) && fleet.is_lost(2));
+        assert_eq!(fleet.newest_report(2), None);
+        // Losing it again changes nothing; a vehicle never lost cannot rejoin.
+        assert!(lose(&mut fleet, 1, DT, 2, &Loss::scheduled_kill()).is_none());
+        assert!(rejoin(&mut fleet, 1, DT, 1).is_none());
+        assert_eq!(tick(&mut fleet, 1), (vec![0, 1, 3], vec![0, 1, 3]));
+        fleet.end_tick();
+
+        let (restore, event) = rejoin(&mut fleet, 5, DT, 2).unwrap();
+        assert_eq!(restore, report(2, 0), "its last true state");
+        assert_eq!((event.kind.as_str(), event.vehicle), ("rejoin", Some(2)));
+        assert!(event.detail.is_null());
+        assert!(fleet.is_alive(2) && !fleet.is_lost(2));
+        assert_eq!(
+            fleet.admitted().iter().map(|r| r.id).collect::<Vec<_>>(),
+            [2]
+        );
+        // Admitted at this tick: a member at its restore state, not yet reporting.
+        let truth: Vec<Report> = [0, 1, 3].iter().map(|&id| report(id, 5)).collect();
+        fleet.receive(5, DT, &truth);
+        fleet.track_body(5, Vec3::zeros());
+        let (members, _) = fleet.deliver(5.0 * DT, DT);
+        let back = members.iter().find(|r| r.id == 2).unwrap();
+        assert_eq!((back.tick, back.position), (5, restore.position));
+        fleet.end_tick();
+        assert!(fleet.admitted().is_empty());
+        assert_eq!(tick(&mut fleet, 6).0, vec![0, 1, 2, 3]);
+    }
+
+    /// Reports a lost vehicle sent that the links still hold are dropped with it.
+    #[test]
+    fn a_lost_vehicle_s_reports_in_flight_are_dropped() {
+        let m = mission("[links]\ndelay = 0.5\n");
+        let mut fleet = Fleet::new(&m, &[0, 1, 2, 3]);
+        for k in 0..3 {
+            tick(&mut fleet, k);
+            fleet.end_tick();
+        }
+        let held = |f: &Fleet, v: u32| f.held_reports().0.iter().filter(|e| e.2.id == v).count();
+        assert!(held(&fleet, 1) > 0, "a 0.5 s delay holds reports");
+        lose(
+            &mut fleet,
+            3,
+            DT,
+            1,
+            &Loss::found("process died", "scan", 9, None),
+        )
+        .unwrap();
+        assert_eq!(held(&fleet, 1), 0);
+        for k in 3..30 {
+            let (members, fresh) = tick(&mut fleet, k);
+            assert!(!members.contains(&1) && !fresh.contains(&1));
+            fleet.end_tick();
+        }
+    }
+
+    /// Losing a member redesigns the formation for the vehicles left at the planner's next
+    /// step; admitting it back redesigns it again, with the vehicle rejoining.
+    #[test]
+    fn membership_changes_redesign_the_formation() {
+        let m = mission("");
+        let ids = [0, 1, 2, 3];
+        let mut fleet = Fleet::new(&m, &ids);
+        let mut planner =
+            Planner::new(PlannerParams::from_mission(&m), m.start_vec(), &ids).unwrap();
+        let mut step = |fleet: &mut Fleet, k: u64| {
+            let truth: Vec<Report> = fleet.alive().map(|id| report(id, k)).collect();
+            fleet.receive(k, DT, &truth);
+            fleet.track_body(k, planner.body().r);
+            let joined: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
+            let (members, fresh) = fleet.deliver(k as f64 * DT, DT);
+            let c = planner.step(k, &members, &fresh, &joined, DT).unwrap();
+            fleet.end_tick();
+            (c, planner.design().slots.len(), planner.reconfigurations())
+        };
+        let (c, slots, n) = step(&mut fleet, 0);
+        assert!(!c.reconfigured);
+        assert_eq!((slots, n), (4, 0));
+        lose(&mut fleet, 1, DT, 3, &Loss::scheduled_kill()).unwrap();
+        let (c, slots, n) = step(&mut fleet, 1);
+        assert!(c.reconfigured);
+        assert_eq!((c.members.clone(), slots, n), (vec![0, 1, 2], 3, 1));
+        rejoin(&mut fleet, 2, DT, 3).unwrap();
+        let (c, slots, n) = step(&mut fleet, 2);
+        assert!(c.reconfigured);
+        assert_eq!((c.members, slots, n), (vec![0, 1, 2, 3], 4, 2));
+        assert!(
+            c.rejoining.iter().any(|(id, _)| *id == 3),
+            "it flies back to a slot"
+        );
+    }
+}

@@ -1,0 +1,223 @@
+//! How the coordinator learns that vehicle processes died, apart from the tick: the
+//! supervisor's reports of the processes it reaped (certain, at once), join requests of
+//! new processes, and a scan of the node list when a vehicle is silent (the fallback of a
+//! coordinator started without a supervisor); and how long silence is tolerated.
+
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use iceoryx2::prelude::*;
+use serde::Serialize;
+use tracing::warn;
+use vbap_ipc::msg::supervisor_to_coordinator::ProcessExit;
+use vbap_ipc::msg::{wall_ns, Header};
+use vbap_ipc::topics;
+
+use super::inbox::Peer;
+use super::{Coordinator, LOCKSTEP_TIMEOUT};
+use crate::membership::{self, Loss};
+use crate::plan::Plan;
+
+/// Wall time a vehicle may be missing from a lockstep gather, or silent in a paced run (and
+/// at least [`SUSPECT_TICKS`] tick periods), before the node list is scanned for its
+/// process. A wall-clock deadline of the coordinator's own: it does not depend on the tick.
+pub(super) const SUSPECT_AFTER: Duration = Duration::from_millis(50);
+/// Tick periods of silence (paced runs) before a vehicle is suspect.
+const SUSPECT_TICKS: f64 = 3.0;
+/// Least wall time between two node-list scans (one scan costs ~0.2 ms at 6 nodes, ~40 ms
+/// at 257). A scan checks every vehicle, so deaths at once are found together.
+const LIVENESS_EVERY: Duration = Duration::from_millis(100);
+/// Scans take at most 1 / SCAN_SHARE of the coordinator's wall time: the least time
+/// between two scans is also SCAN_SHARE times the last scan's cost (large fleets).
+const SCAN_SHARE: u32 = 5;
+/// Silence tolerated of a vehicle whose process is alive (stopped by SIGSTOP, hung,
+/// starved): past it the vehicle is lost (cause `silent`) and the formation redesigned; its
+/// process is readmitted as soon as it speaks again (SIGCONT). In lockstep this is the
+/// tick's wait.
+const SILENCE_LIMIT: Duration = LOCKSTEP_TIMEOUT;
+
+/// The supervisor's reports and the state of the node-list scans.
+pub(super) struct Liveness {
+    /// The supervisor's process exits (`<m>/supervisor/exits`).
+    pub exits: iceoryx2::port::subscriber::Subscriber<ipc::Service, ProcessExit, ()>,
+    /// Agent exits heard and not acted on yet.
+    pub agent_exits: Vec<ProcessExit>,
+    pub last_scan: Instant,
+    /// Wall time the last node-list scan took.
+    pub scan_cost: Duration,
+    /// When this coordinator process started: the silence of a vehicle it has not heard
+    /// from yet counts from here.
+    pub since: Instant,
+    /// The same, wall clock, ns since the Unix epoch.
+    pub since_ns: u64,
+    /// True when this coordinator resumed from a checkpoint (every vehicle alive in it has
+    /// had a process: one whose node is gone is dead).
+    pub resumed: bool,
+}
+
+impl Liveness {
+    /// Takes in the supervisor's reports; true when one says the field server died.
+    pub fn hear(&mut self) -> Result<bool> {
+        let mut field_died = false;
+        while let Some(sample) = self
+            .exits
+            .receive()
+            .map_err(|e| anyhow::anyhow!("receiving a process exit: {e:?}"))?
+        {
+            let e: ProcessExit = *sample;
+            if e.header.sender != Header::SUPERVISOR {
+                continue;
+            }
+            match e.role {
+                ProcessExit::AGENT => self.agent_exits.push(e),
+                ProcessExit::FIELD_SERVER => field_died = true,
+                _ => {}
+            }
+        }
+        Ok(field_died)
+    }
+
+    /// How long `peer` has been silent (since this process started, when never heard).
+    fn silence(&self, peer: &Peer) -> Duration {
+        peer.last_recv.unwrap_or(self.since).elapsed()
+    }
+}
+
+impl<P: Plan + Serialize> Coordinator<'_, P> {
+    /// Vehicle `v` is lost at this tick: formation redesigned without it (at the planner's
+    /// next step), its states forgotten, the event written with how and how fast it was
+    /// found.
+    pub(super) fn lose(&mut self, v: u32, loss: Loss) -> Result<()> {
+        let k = self.k;
+        let Some(event) = membership::lose(&mut self.fleet, k, self.dt, v, &loss) else {
+            return Ok(());
+        };
+        if let Some(f) = loss.found {
+            warn!(
+                vehicle = v,
+                tick = k,
+                cause = loss.cause,
+                by = f.by,
+                pid = f.pid,
+                detection_ms = f.ms,
+                "vehicle process is dead"
+            );
+        }
+        self.inbox.states.remove(&v);
+        if let Some(ms) = loss.detection_ms() {
+            self.books.detection_ms.push(ms);
+        }
+        self.recorder.event(event)?;
+        Ok(())
+    }
+
+    /// One liveness check, whatever the tick's pace: acts on the supervisor's reports and
+    /// on join requests of vehicles still believed alive, then, when a vehicle is suspect
+    /// (`missing` from a lockstep gather for [`SUSPECT_AFTER`], or silent for as long and
+    /// [`SUSPECT_TICKS`] periods in a paced run) and no scan ran for [`LIVENESS_EVERY`],
+    /// scans the node list once for every vehicle. True when a vehicle was lost.
+    pub(super) fn detect(&mut self, missing: &[u32], gather_start: Instant) -> Result<bool> {
+        if self.live.hear()? {
+            self.sensors.forget_pending("the field server died");
+        }
+        let mut lost = self.supervisor_reports()?;
+        lost |= self.restarted_unseen()?;
+        let suspect = match self.paced {
+            None => !missing.is_empty() && gather_start.elapsed() >= SUSPECT_AFTER,
+            Some(period) => {
+                let after = SUSPECT_AFTER.max(Duration::from_secs_f64(SUSPECT_TICKS * period));
+                self.fleet
+                    .alive()
+                    .any(|v| self.live.silence(&self.inbox.peers[v as usize]) >= after)
+            }
+        };
+        let every = LIVENESS_EVERY.max(self.live.scan_cost * SCAN_SHARE);
+        if !suspect || self.live.last_scan.elapsed() < every {
+            return Ok(lost);
+        }
+        Ok(self.scan()? || lost)
+    }
+
+    /// Loses the vehicles whose process the supervisor reported dead; true when one was.
+    fn supervisor_reports(&mut self) -> Result<bool> {
+        let mut lost = false;
+        for e in std::mem::take(&mut self.live.agent_exits) {
+            let v = e.vehicle;
+            let Some(peer) = self.inbox.peers.get(v as usize) else {
+                continue;
+            };
+            // The process we know for this vehicle (or, never heard of, one that died since
+            // we started); a report of an older process is old news.
+            let ours = peer.pid == e.pid || (peer.pid == 0 && e.died_ns >= self.live.since_ns);
+            if !self.fleet.is_alive(v) || !ours {
+                continue;
+            }
+            let ms = wall_ns().saturating_sub(e.died_ns) as f64 / 1e6;
+            let cause = if e.signal != 0 {
+                "process died"
+            } else {
+                "process ended"
+            };
+            self.lose(v, Loss::found(cause, "supervisor", e.pid, Some(ms)))?;
+            lost = true;
+        }
+        Ok(lost)
+    }
+
+    /// A new process asked to join for a vehicle still believed alive: the old one is gone
+    /// (admitted at the start of the next tick). True when a vehicle was lost.
+    fn restarted_unseen(&mut self) -> Result<bool> {
+        let mut lost = false;
+        for v in self.inbox.joins.clone() {
+            if !self.fleet.is_alive(v) || self.faults.restart_pending(v, self.k) {
+                continue;
+            }
+            let peer = &mut self.inbox.peers[v as usize];
+            let ms = peer.restart_gap_ms.take();
+            let pid = peer.pid;
+            self.lose(v, Loss::found("process restarted", "join", pid, ms))?;
+            lost = true;
+        }
+        Ok(lost)
+    }
+
+    /// Scans the node list once for every alive vehicle: a node listed dead, or gone after
+    /// a process of it was known, is a death (`scan`); in a paced run a vehicle whose
+    /// process is alive but silent for [`SILENCE_LIMIT`] is lost as `silent`. True when a
+    /// vehicle was lost.
+    fn scan(&mut self) -> Result<bool> {
+        self.live.last_scan = Instant::now();
+        let states = self.ports.domain.node_states();
+        self.live.scan_cost = self.live.last_scan.elapsed();
+        let alive: Vec<u32> = self.fleet.alive().collect();
+        let (mut lost, mut any_dead) = (false, false);
+        for v in alive {
+            let peer = self.inbox.peers[v as usize];
+            // A vehicle still starting up has no node yet.
+            let heard = peer.last_recv.is_some() || self.live.resumed;
+            let node = states.get(&topics::agent_node_name(v));
+            let verdict = match node {
+                Some(true) => None,
+                Some(false) => Some("process died"),
+                None => heard.then_some("process gone"),
+            };
+            if let Some(cause) = verdict {
+                let ms = peer.last_recv.map(|t| t.elapsed().as_secs_f64() * 1e3);
+                self.lose(v, Loss::found(cause, "scan", peer.pid, ms))?;
+                any_dead = true;
+            } else if self.paced.is_some() && node == Some(&true) {
+                let quiet = self.live.silence(&peer);
+                if quiet >= SILENCE_LIMIT {
+                    self.inbox.peers[v as usize].pid = 0; // its next word is a join request
+                    let ms = Some(quiet.as_secs_f64() * 1e3);
+                    self.lose(v, Loss::found("silent", "silence", peer.pid, ms))?;
+                    lost = true;
+                }
+            }
+        }
+        if any_dead {
+            self.ports.domain.cleanup_dead_nodes();
+        }
+        Ok(lost || any_dead)
+    }
+}

@@ -1,0 +1,167 @@
+//! The coordinator's iceoryx2 ports: every vehicle's state subscriber and wake notifier,
+//! the body publisher, the field server's request-response client, the supervisor's
+//! process exits, and the wake listener with its WaitSet (the one place the coordinator
+//! blocks).
+
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use iceoryx2::prelude::*;
+use vbap_ipc::msg::agent_to_coordinator::VehicleState;
+use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
+use vbap_ipc::msg::coordinator_to_field::SampleBatch;
+use vbap_ipc::msg::wall_ns;
+use vbap_ipc::topics::{self, wait_for_wake_ids, Domain, Limits, Wake};
+use vbap_mission::config::Mission;
+
+use super::liveness::Liveness;
+use super::sensors::SensorReads;
+
+/// A vehicle's state subscriber.
+pub(super) type StateSubscriber =
+    iceoryx2::port::subscriber::Subscriber<ipc::Service, VehicleState, ()>;
+
+/// The ports the tick loop uses without changing them.
+pub(super) struct Ports {
+    pub domain: Domain,
+    /// Vehicle `id`'s states, at index `id`.
+    pub subscribers: Vec<StateSubscriber>,
+    /// Vehicle `id`'s wake-up, at index `id`.
+    notifiers: Vec<iceoryx2::port::notifier::Notifier<ipc::Service>>,
+    body: iceoryx2::port::publisher::Publisher<ipc::Service, BodyCommand, ()>,
+    wake: iceoryx2::port::listener::Listener<ipc::Service>,
+    waitset: iceoryx2::waitset::WaitSet<ipc::Service>,
+    /// Dropped last: every port above belongs to it.
+    _node: Node<ipc::Service>,
+}
+
+/// Every port of the coordinator: the fixed ones, the sensor reads, the liveness watch.
+pub(super) struct Opened {
+    pub ports: Ports,
+    pub sensors: SensorReads,
+    pub live: Liveness,
+}
+
+/// Wraps an iceoryx2 port error with what was being created.
+fn port_err<E: std::fmt::Debug>(what: impl std::fmt::Display) -> impl FnOnce(E) -> anyhow::Error {
+    move |e| anyhow::anyhow!("{what}: {e:?}")
+}
+
+impl Ports {
+    /// Opens every port of the coordinator of `mission`.
+    pub fn open(mission: &Mission) -> Result<Opened> {
+        let n = mission.vehicles.count;
+        let domain = Domain::new(&mission.mission.name)?;
+        let limits = Limits::for_fleet(n);
+        let node = domain.node(topics::COORDINATOR_NODE)?;
+        let mut subscribers = Vec::with_capacity(n);
+        let mut notifiers = Vec::with_capacity(n);
+        for id in 0..n as u32 {
+            subscribers.push(
+                domain
+                    .state_service(&node, id, &limits)?
+                    .subscriber_builder()
+                    .create()
+                    .map_err(port_err(format_args!(
+                        "subscribing to {}",
+                        domain.state_name(id)
+                    )))?,
+            );
+            notifiers.push(
+                domain
+                    .vehicle_wake(&node, id, &limits)?
+                    .notifier_builder()
+                    .default_event_id(topics::EVENT_BODY)
+                    .create()
+                    .map_err(port_err(format_args!("notifier of vehicle {id}")))?,
+            );
+        }
+        let body = domain
+            .body_service(&node, &limits)?
+            .publisher_builder()
+            .create()
+            .map_err(port_err(
+                "publishing the body (is another coordinator running?)",
+            ))?;
+        let sensors = SensorReads::new(
+            domain
+                .sample_service(&node, &limits)?
+                .client_builder()
+                .create()
+                .map_err(port_err("creating the sensor-read client"))?,
+            domain
+                .field_wake(&node, &limits)?
+                .notifier_builder()
+                .default_event_id(topics::EVENT_DATA)
+                .create()
+                .map_err(port_err("field notifier"))?,
+            Box::new(SampleBatch::empty()),
+        );
+        let live = Liveness {
+            exits: domain
+                .exits_service(&node, &limits)?
+                .subscriber_builder()
+                .create()
+                .map_err(port_err("subscribing to the supervisor's process exits"))?,
+            agent_exits: Vec::new(),
+            last_scan: Instant::now(),
+            scan_cost: Duration::ZERO,
+            since: Instant::now(),
+            since_ns: wall_ns(),
+            resumed: false,
+        };
+        let wake = domain
+            .coordinator_wake(&node, &limits)?
+            .listener_builder()
+            .create()
+            .map_err(port_err("coordinator wake listener"))?;
+        let waitset = WaitSetBuilder::new()
+            .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+            .create::<ipc::Service>()
+            .map_err(port_err("creating the waitset"))?;
+        let ports = Ports {
+            domain,
+            subscribers,
+            notifiers,
+            body,
+            wake,
+            waitset,
+            _node: node,
+        };
+        Ok(Opened {
+            ports,
+            sensors,
+            live,
+        })
+    }
+
+    /// Attaches the wake listener to the WaitSet (for as long as the guard lives).
+    pub fn attach(&self) -> Result<iceoryx2::waitset::WaitSetGuard<'_, '_, ipc::Service>> {
+        self.waitset
+            .attach_notification(&self.wake)
+            .map_err(port_err("attaching"))
+    }
+
+    /// Waits at most `timeout` for a wake-up; the ids of the events that arrived go into
+    /// `ids`.
+    pub fn wait(&self, timeout: Duration, ids: &mut Vec<usize>) -> Result<Wake> {
+        Ok(wait_for_wake_ids(&self.waitset, &self.wake, timeout, ids)?)
+    }
+
+    /// Publishes `body` (copied into the subscribers' shared memory), its `sent_ns` stamped
+    /// now.
+    pub fn publish(&self, body: &mut BodyCommand) -> Result<()> {
+        body.header.sent_ns = wall_ns();
+        self.body
+            .send_copy(*body)
+            .map_err(port_err("publishing the body"))?;
+        Ok(())
+    }
+
+    /// Wakes every agent (best effort: an agent that is gone has no listener).
+    pub fn wake_agents(&self) {
+        for notifier in &self.notifiers {
+            let _ = notifier.notify();
+        }
+    }
+}

@@ -1,0 +1,243 @@
+//! The client side of the field server's batched sensor reads (one request-response per
+//! tick), with read-ahead: the states of later ticks already in (agents that ran ahead)
+//! are read while the coordinator computes, so with lookahead a tick seldom waits for the
+//! field server at all.
+
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use iceoryx2::prelude::*;
+use tracing::{info, warn};
+use vbap_ipc::msg::agent_to_coordinator::VehicleState;
+use vbap_ipc::msg::coordinator_to_field::{SampleBatch, SensorRead};
+use vbap_ipc::msg::field_to_coordinator::ReadingBatch;
+use vbap_ipc::msg::{wall_ns, Header, MAX_VEHICLES};
+use vbap_ipc::msglog::MsgLog;
+use vbap_ipc::topics::{self, Wake};
+
+use super::liveness::Liveness;
+use super::ports::Ports;
+
+/// How long the coordinator waits for the readings of a tick before it wakes the field
+/// server again (a lost wake-up must not stall the mission).
+const RENOTIFY_AFTER: Duration = Duration::from_millis(500);
+/// How long the coordinator waits for the readings of a tick before it sends the request
+/// again (a field server restarted unseen: without a supervisor, or its start-up event
+/// missed). A restart the supervisor reports is acted on at once.
+const RESEND_AFTER: Duration = Duration::from_secs(1);
+/// How long the coordinator waits for the readings of a tick before it gives up.
+const SAMPLE_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// The request-response types of the sensor reads.
+type SampleResponse =
+    iceoryx2::pending_response::PendingResponse<ipc::Service, SampleBatch, (), ReadingBatch, ()>;
+type SampleClient = iceoryx2::port::client::Client<ipc::Service, SampleBatch, (), ReadingBatch, ()>;
+
+/// The sensor reads of the states of a tick, by request-response to the field server.
+pub(super) struct SensorReads {
+    client: SampleClient,
+    field: iceoryx2::port::notifier::Notifier<ipc::Service>,
+    batch: Box<SampleBatch>,
+    seq: u64,
+    /// The request in flight and the (vehicle, tick) of its entries.
+    pending: Option<(SampleResponse, Vec<(u32, u64)>)>,
+    /// When the request in flight was sent.
+    sent_at: Instant,
+    /// Readings received and not used yet: (vehicle, tick) → reading (None: rejected).
+    readings: BTreeMap<(u32, u64), Option<f64>>,
+}
+
+/// The key of a state's sensor read.
+fn read_key(s: &VehicleState) -> (u32, u64) {
+    (s.header.sender, s.header.tick)
+}
+
+impl SensorReads {
+    /// The sensor reads through `client`, waking the field server with `field`; `batch` is
+    /// the reused request buffer.
+    pub fn new(
+        client: SampleClient,
+        field: iceoryx2::port::notifier::Notifier<ipc::Service>,
+        batch: Box<SampleBatch>,
+    ) -> Self {
+        Self {
+            client,
+            field,
+            batch,
+            seq: 0,
+            pending: None,
+            sent_at: Instant::now(),
+            readings: BTreeMap::new(),
+        }
+    }
+
+    /// Asks for the readings of the states in `wanted` (in order) that are neither in
+    /// nor asked for, unless a request is in flight (one at a time).
+    pub fn request(&mut self, k: u64, dt: f64, wanted: &[VehicleState]) -> Result<()> {
+        if self.pending.is_some() {
+            return Ok(());
+        }
+        let mut keys = Vec::new();
+        for s in wanted {
+            if keys.len() == MAX_VEHICLES {
+                break;
+            }
+            let key = read_key(s);
+            if self.readings.contains_key(&key) || keys.contains(&key) {
+                continue;
+            }
+            self.batch.reads[keys.len()] = SensorRead {
+                vehicle: s.header.sender,
+                _pad: 0,
+                tick: s.header.tick,
+                t: s.header.t,
+                position: s.position,
+            };
+            keys.push(key);
+        }
+        if keys.is_empty() {
+            return Ok(());
+        }
+        self.seq += 1;
+        self.batch.n = keys.len() as u32;
+        self.batch.header = Header {
+            sender: Header::COORDINATOR,
+            flags: 0,
+            tick: k,
+            t: k as f64 * dt,
+            seq: self.seq,
+            sent_ns: wall_ns(),
+        };
+        let pending = self
+            .client
+            .send_copy(*self.batch)
+            .map_err(|e| anyhow::anyhow!("sending the sensor reads of tick {k}: {e:?}"))?;
+        self.notify_field()?;
+        self.pending = Some((pending, keys));
+        self.sent_at = Instant::now();
+        Ok(())
+    }
+
+    /// Wakes the field server.
+    pub fn notify_field(&self) -> Result<()> {
+        self.field
+            .notify()
+            .map_err(|e| anyhow::anyhow!("waking the field server: {e:?}"))?;
+        Ok(())
+    }
+
+    /// Forgets the request in flight (its server died, or a new server started: a request
+    /// reaches only the servers connected when it was sent); the next wait sends it again.
+    pub fn forget_pending(&mut self, why: &str) {
+        if let Some((_, keys)) = self.pending.take() {
+            info!(
+                reads = keys.len(),
+                why, "sending the pending sensor request again"
+            );
+        }
+    }
+
+    /// Acts on the events of a wake-up: a (re)started field server gets the pending
+    /// request again.
+    pub fn note_events(&mut self, ids: &[usize]) {
+        if ids.contains(&topics::EVENT_FIELD_UP.as_value()) {
+            self.forget_pending("a field server started");
+        }
+    }
+
+    /// Takes in the answer to the request in flight, if it has come.
+    fn poll(&mut self, msgs: &mut MsgLog) -> Result<()> {
+        let Some((pending, keys)) = &self.pending else {
+            return Ok(());
+        };
+        let Some(reply) = pending
+            .receive()
+            .map_err(|e| anyhow::anyhow!("receiving sensor readings: {e:?}"))?
+        else {
+            return Ok(());
+        };
+        let h = reply.header;
+        msgs.recv_now("field_reply", &h, Header::COORDINATOR);
+        let readings = reply.readings();
+        anyhow::ensure!(
+            h.sender == Header::FIELD_SERVER
+                && reply.request_seq == self.seq
+                && readings.len() == keys.len(),
+            "the field server answered sensor reads out of turn (sender {}, request {} of {}, \
+             {} readings for {})",
+            h.sender,
+            reply.request_seq,
+            self.seq,
+            readings.len(),
+            keys.len()
+        );
+        for (r, key) in readings.iter().zip(keys) {
+            let good = (r.vehicle, r.tick) == *key && r.rejected == 0 && r.value.is_finite();
+            self.readings.insert(*key, good.then_some(r.value));
+        }
+        drop(reply);
+        self.pending = None;
+        Ok(())
+    }
+
+    /// Blocks until the readings of every state in `needed` are in (asking for them when
+    /// no request is in flight). None on a termination signal. Vehicle events consumed
+    /// meanwhile are harmless (every tick starts with a full drain); the supervisor's
+    /// process exits are kept in `live` for the tick's liveness check.
+    pub fn wait_for(
+        &mut self,
+        k: u64,
+        dt: f64,
+        needed: &[VehicleState],
+        ports: &Ports,
+        msgs: &mut MsgLog,
+        live: &mut Liveness,
+    ) -> Result<Option<()>> {
+        let started = Instant::now();
+        loop {
+            if live.hear()? {
+                self.forget_pending("the field server died");
+            }
+            self.poll(msgs)?;
+            if needed
+                .iter()
+                .all(|s| self.readings.contains_key(&read_key(s)))
+            {
+                return Ok(Some(()));
+            }
+            if self.pending.is_some() && self.sent_at.elapsed() >= RESEND_AFTER {
+                self.forget_pending("no answer");
+            }
+            self.request(k, dt, needed)?;
+            let left = SAMPLE_TIMEOUT.saturating_sub(started.elapsed());
+            anyhow::ensure!(
+                !left.is_zero(),
+                "no sensor readings from the field server within {SAMPLE_TIMEOUT:?} (tick {k})"
+            );
+            let mut ids = Vec::new();
+            match ports.wait(left.min(RENOTIFY_AFTER), &mut ids)? {
+                Wake::Stop => return Ok(None),
+                Wake::Timeout => {
+                    warn!(
+                        tick = k,
+                        "no sensor readings yet: waking the field server again"
+                    );
+                    self.notify_field()?;
+                }
+                Wake::Events => self.note_events(&ids),
+            }
+        }
+    }
+
+    /// The reading of state `s` (None: rejected, or never asked for), forgotten here.
+    pub fn take(&mut self, s: &VehicleState) -> Option<f64> {
+        self.readings.remove(&read_key(s)).flatten()
+    }
+
+    /// Forgets the readings of ticks up to `k` that were never used (their vehicle was
+    /// lost).
+    pub fn forget_through(&mut self, k: u64) {
+        self.readings.retain(|(_, tick), _| *tick > k);
+    }
+}
