@@ -1,4 +1,7 @@
-//! `coordinator --mission FILE --run-dir DIR [--log FILE]`: the coordinator of a mission.
+//! `coordinator --mission FILE --run-dir DIR [--log FILE] [--parent PID
+//! [--summary-to-parent]]`: the coordinator of a mission. It writes `summary.json` at the
+//! end, or, asked by its supervisor, hands the summary over on standard output
+//! (`coordinator::handover`) for the supervisor to complete and write once.
 
 use std::path::PathBuf;
 
