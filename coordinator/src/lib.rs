@@ -8,6 +8,7 @@
 //! coordinator process run it. [`run`] wires the ports.
 
 pub mod checkpoint;
+pub mod cli;
 pub mod fleet;
 pub mod planner;
 pub mod record;

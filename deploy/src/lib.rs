@@ -8,6 +8,7 @@
 //! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).
 //! - [`truth_plots`]: the contact timeline and the true formation in the run's pictures.
 //! - [`cli`]: the command line.
+//! - [`custom`]: a user's own vbap, over its own field and control law.
 //! - [`lock`]: one supervisor per mission name on a host.
 
 pub mod analyze;
@@ -15,6 +16,7 @@ pub mod batch;
 pub mod bench;
 pub mod chaos;
 pub mod cli;
+pub mod custom;
 pub mod lock;
 pub mod progress;
 pub mod replay;

@@ -7,12 +7,13 @@
 
 use std::time::Instant;
 
+use crate::custom::Plugins;
 use anyhow::{Context, Result};
 use coordinator::fleet::Fleet;
 use coordinator::planner::{Planner, PlannerParams, Report};
 use coordinator::record::Recorder;
 use coordinator::tick::{plan_tick, TickOutcome};
-use field_server::Sensors;
+use field_server::{Sensors, World};
 use shared::config::Mission;
 use shared::faults::FaultPlan;
 use shared::rundir::{RunDir, Summary};
@@ -29,7 +30,20 @@ pub type Progress<'a> = &'a mut dyn FnMut(u64, u64, f64, Option<f64>);
 
 /// Runs `mission` in process, writing the run directory `dir`. Returns the summary.
 pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Result<Summary> {
+    simulate_with(mission, dir, &Plugins::default(), progress)
+}
+
+/// [`simulate`] with a user's own parts (`plugins`): the field sampled and judged by, the
+/// vehicles' control law.
+pub fn simulate_with(
+    mission: &Mission,
+    dir: &RunDir,
+    plugins: &Plugins,
+    progress: Progress<'_>,
+) -> Result<Summary> {
     let wall = Instant::now();
+    let field = plugins.field_of(mission);
+    let law = plugins.law_of();
     let dt = mission.mission.dt;
     let ticks = mission.ticks();
     let dim = mission.mission.dim;
@@ -42,19 +56,20 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
         .map(|&id| {
             (
                 id,
-                Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0),
+                Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0)
+                    .with_law(law.clone()),
             )
         })
         .collect();
-    let mut sensors = Sensors::new(mission);
-    let field = mission.field();
+    let mut sensors = Sensors::in_world(mission, World::with_field(mission, field.clone()));
     let mut fleet = Fleet::new(mission, &ids);
     let mut planner = Planner::new(
         PlannerParams::from_mission(mission),
         mission.start_vec(),
         &ids,
     )?;
-    let mut recorder = Recorder::open(mission, dir).context("opening the run directory files")?;
+    let mut recorder = Recorder::open_with(mission, dir, field.clone())
+        .context("opening the run directory files")?;
     let every = (ticks / 200).max(1);
     let mut downlink = DownlinkCounts::default();
     for k in 0..ticks {
@@ -80,7 +95,10 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
                     position: restore.position,
                     velocity: restore.velocity,
                 };
-                vehicles.insert(v, Vehicle::new(agent, initial.clone(), k));
+                vehicles.insert(
+                    v,
+                    Vehicle::new(agent, initial.clone(), k).with_law(law.clone()),
+                );
                 recorder.rejoined(k, v)?;
             }
         }

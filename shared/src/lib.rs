@@ -6,6 +6,8 @@
 //! - [`faults`], [`link`]: the scheduled faults and the emulated link model.
 //! - [`rng`]: random streams keyed by (seed, stream, id, tick).
 //! - [`msg`], [`topics`]: zero-copy payloads and every service name and limit.
+//! - [`ports`], [`wait`]: the ports of a process (publisher + notifier, subscriber +
+//!   listener) and the one wait loop, with typed wake-up events.
 //! - [`telemetry`]: the one tracing setup of every process.
 //! - [`process`]: ending with the supervisor, exit codes.
 //! - [`msglog`]: the per-message records, `logs/<process>.msgs.csv` (writer and parser).
@@ -20,8 +22,10 @@ pub mod math;
 pub mod msg;
 pub mod msglog;
 pub mod plot;
+pub mod ports;
 pub mod process;
 pub mod rng;
 pub mod rundir;
 pub mod telemetry;
 pub mod topics;
+pub mod wait;
