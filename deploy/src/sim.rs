@@ -102,23 +102,7 @@ pub fn simulate_with(
                 recorder.rejoined(k, v)?;
             }
         }
-        let admitted: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
-        let truth: Vec<Report> = vehicles
-            .iter_mut()
-            .filter(|(id, _)| !admitted.contains(id))
-            .map(|(&id, veh)| {
-                let measurement = sensors
-                    .read(id, k, t, &veh.agent.position)
-                    .unwrap_or(f64::NAN);
-                Report {
-                    id,
-                    tick: k,
-                    position: veh.agent.position,
-                    velocity: veh.agent.velocity,
-                    measurement,
-                }
-            })
-            .collect();
+        let truth = read_sensors(&vehicles, &fleet, &mut sensors, k, t);
         let TickOutcome {
             command, snapshot, ..
         } = plan_tick(k, dt, &truth, &mut fleet, &mut planner, &mut recorder)?;
@@ -149,6 +133,44 @@ pub fn simulate_with(
     }
     recorder.flush()?;
     let mut summary = recorder.summary(&planner, "in-process");
+    count_messages(&mut summary, &fleet, &downlink);
+    summary.wall_time_s = wall.elapsed().as_secs_f64();
+    summary.write(dir).context("writing summary.json")?;
+    recorder.write_plot().context("writing plot.svg")?;
+    crate::report_plots::write_run_plots(dir).context("writing the time-series plots")?;
+    Ok(summary)
+}
+
+/// The true state and sensor reading at tick `k` (time `t`, s) of every vehicle not
+/// waiting for admission: what each would report.
+fn read_sensors(
+    vehicles: &BTreeMap<u32, Vehicle>,
+    fleet: &Fleet,
+    sensors: &mut Sensors,
+    k: u64,
+    t: f64,
+) -> Vec<Report> {
+    let admitted: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
+    vehicles
+        .iter()
+        .filter(|(id, _)| !admitted.contains(id))
+        .map(|(&id, veh)| {
+            let measurement = sensors
+                .read(id, k, t, &veh.agent.position)
+                .unwrap_or(f64::NAN);
+            Report {
+                id,
+                tick: k,
+                position: veh.agent.position,
+                velocity: veh.agent.velocity,
+                measurement,
+            }
+        })
+        .collect()
+}
+
+/// The message counts of `summary.json`: the uplink's (the fleet's) and the downlink's.
+fn count_messages(summary: &mut Summary, fleet: &Fleet, downlink: &DownlinkCounts) {
     // Reports still held by the uplink when the mission ends were let through by the link
     // model (as the commands' fates count them), their delivery time lies after the end.
     let in_flight = fleet.held_reports().0.len() as u64;
@@ -159,9 +181,4 @@ pub fn simulate_with(
         + downlink.dropped;
     summary.messages.delivered = fleet.counts.delivered + in_flight + downlink.delivered;
     summary.messages.dropped_injected = fleet.counts.dropped_injected + downlink.dropped;
-    summary.wall_time_s = wall.elapsed().as_secs_f64();
-    summary.write(dir).context("writing summary.json")?;
-    recorder.write_plot().context("writing plot.svg")?;
-    crate::report_plots::write_run_plots(dir).context("writing the time-series plots")?;
-    Ok(summary)
 }

@@ -7,6 +7,8 @@
 
 pub mod cli;
 pub mod run;
+#[cfg(test)]
+mod tests;
 
 use std::sync::Arc;
 

@@ -1050,6 +1050,26 @@ mod tests {
     }
 
     #[test]
+    fn every_shipped_kind_is_the_same_field_through_the_trait() {
+        for dim in [2, 3] {
+            for f in zoo(dim) {
+                let dynamic: &dyn ScalarField = &f;
+                let p = Vec3::new(0.7, -0.3, if dim == 3 { 0.4 } else { 0.0 });
+                for t in [0.0, 2.5] {
+                    assert_eq!(dynamic.dim(), f.dim());
+                    assert_eq!(dynamic.value(&p, t), f.value(&p, t));
+                    assert_eq!(dynamic.gradient(&p, t), f.gradient(&p, t));
+                    assert_eq!(dynamic.hessian(&p, t), f.hessian(&p, t));
+                    for goal in [Goal::Min, Goal::Max] {
+                        assert_eq!(dynamic.optimum(t, goal), f.optimum(t, goal));
+                    }
+                }
+                assert_eq!(dynamic.bounds_hint(), f.bounds_hint());
+            }
+        }
+    }
+
+    #[test]
     fn measure_is_value_plus_keyed_noise() {
         let f = &zoo(2)[1];
         let p = Vec3::new(0.5, 0.5, 0.0);

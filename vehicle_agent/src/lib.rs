@@ -8,6 +8,8 @@
 
 pub mod cli;
 pub mod run;
+#[cfg(test)]
+mod tests;
 
 use std::collections::BTreeMap;
 use std::sync::Arc;

@@ -10,6 +10,10 @@
 //! and waits again. Its sensor reading is taken by the field server where and when that
 //! state says, in the coordinator's batched read of the tick (see
 //! `shared::msg::coordinator_to_field`).
+//!
+//! [`run_with`] waits; a `Pilot` (the vehicle, its clock, what it has read and reported)
+//! acts on what a wake-up brings: the `CommandFilter` (`run/commands.rs`) reads and checks
+//! the body commands, the `Outbox` (`run/outbox.rs`) numbers and publishes the states.
 
 mod commands;
 mod outbox;
