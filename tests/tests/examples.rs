@@ -102,7 +102,7 @@ fn a_users_field_and_law_run_alike_in_process_and_as_processes() {
     // Judged by the user's field: its bottom (18, 12), not the mission's quadratic (20, 10).
     assert_eq!(s_sim["optimum"], serde_json::json!([18.0, 12.0, 0.0]));
     // The body's true gradient in body.csv is the user's: at the start (0, 0) the log
-    // bowl's ∇T = d / (w² (1 + q)) with d = (−18, −12), w = 6.
+    // bowl's ∇T = A d / (w² (1 + q)), q = ½‖d‖²/w², with d = (−18, −12), w = 4, A = 10.
     let body = read(&sim.join("body.csv"));
     let first: Vec<&str> = body
         .lines()
@@ -110,12 +110,12 @@ fn a_users_field_and_law_run_alike_in_process_and_as_processes() {
         .expect("a first row")
         .split(',')
         .collect();
-    let q = 0.5 * (18.0f64 * 18.0 + 12.0 * 12.0) / 36.0;
-    let expected = -18.0 / (36.0 * (1.0 + q));
+    let q = 0.5 * (18.0f64 * 18.0 + 12.0 * 12.0) / 16.0;
+    let expected = 10.0 * -18.0 / (16.0 * (1.0 + q));
     let true_grad_x: f64 = first[14].parse().unwrap();
     assert!(
-        (true_grad_x - expected).abs() <= 1e-12,
-        "true_grad_x {true_grad_x}"
+        (true_grad_x - expected).abs() <= 1e-12 * expected.abs(),
+        "true_grad_x {true_grad_x}, the log bowl's {expected}"
     );
 
     // Flown by the user's law: never more than U_MAX, in both runs; the paper's law over
