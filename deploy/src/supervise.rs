@@ -61,6 +61,18 @@ struct Proc {
     restarts: VecDeque<Instant>,
 }
 
+impl Proc {
+    /// The slot of `role`, nothing started yet.
+    fn new(role: Role) -> Self {
+        Self {
+            role,
+            pid: None,
+            generation: 0,
+            restarts: VecDeque::new(),
+        }
+    }
+}
+
 /// A process ended.
 struct Exit {
     slot: usize,
@@ -371,6 +383,45 @@ impl<'a> ProcessSet<'a> {
         (exe, args)
     }
 
+    /// Starts the whole set: field server, then coordinator, each ready before the next;
+    /// then every agent at once (they start in parallel), each awaited.
+    async fn start_all(&mut self) -> Result<()> {
+        self.start(0).await?;
+        self.start(1).await?;
+        let mut launched = Vec::new();
+        for slot in 2..self.procs.len() {
+            launched.push((slot, self.launch(slot).await?));
+        }
+        let mut first_error = None;
+        for (slot, (name, mut child)) in launched {
+            if let Err(e) = await_ready(&name, &mut child).await {
+                first_error.get_or_insert(e);
+            }
+            self.watch(slot, child);
+        }
+        match first_error {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// The backoff before the next restart of `slot` (`restart.backoff` doubled per restart
+    /// inside the policy window), the restart counted; None past `restart.max_restarts`.
+    fn next_restart(&mut self, slot: usize) -> Option<Duration> {
+        let r = &self.mission.restart;
+        let window = Duration::from_secs_f64(r.window);
+        let p = &mut self.procs[slot];
+        while p.restarts.front().is_some_and(|t| t.elapsed() > window) {
+            p.restarts.pop_front();
+        }
+        if p.restarts.len() >= r.max_restarts as usize {
+            return None;
+        }
+        let backoff = Duration::from_secs_f64(r.backoff * 2f64.powi(p.restarts.len() as i32));
+        p.restarts.push_back(Instant::now());
+        Some(backoff)
+    }
+
     /// Starts the process of `slot` (first start or restart) and waits until it is ready.
     async fn start(&mut self, slot: usize) -> Result<()> {
         let (name, mut child) = self.launch(slot).await?;
@@ -515,42 +566,13 @@ pub async fn run_with(
         mission,
         mission_file: dir.mission().to_string_lossy().to_string(),
         dir,
-        procs: roles
-            .into_iter()
-            .map(|role| Proc {
-                role,
-                pid: None,
-                generation: 0,
-                restarts: VecDeque::new(),
-            })
-            .collect(),
+        procs: roles.into_iter().map(Proc::new).collect(),
         exits: tx,
         notices: notices.tx.clone(),
     };
     let mut interrupted = false;
-    let start = async {
-        // Field server, then coordinator, each ready before the next; then every agent
-        // at once (they start in parallel), each awaited.
-        set.start(0).await?;
-        set.start(1).await?;
-        let mut launched = Vec::new();
-        for slot in 2..set.procs.len() {
-            launched.push((slot, set.launch(slot).await?));
-        }
-        let mut first_error = None;
-        for (slot, (name, mut child)) in launched {
-            if let Err(e) = await_ready(&name, &mut child).await {
-                first_error.get_or_insert(e);
-            }
-            set.watch(slot, child);
-        }
-        match first_error {
-            Some(e) => Err(e),
-            None => anyhow::Ok(()),
-        }
-    };
     let started = tokio::select! {
-        r = start => r,
+        r = set.start_all() => r,
         _ = shutdown_signal() => { interrupted = true; Ok(()) }
     };
     let startup_s = wall.elapsed().as_secs_f64();
@@ -606,21 +628,13 @@ pub async fn run_with(
             continue;
         }
         // Restart with backoff, at most max_restarts per window.
-        let r = &mission.restart;
-        let window = Duration::from_secs_f64(r.window);
-        let p = &mut set.procs[slot];
-        while p.restarts.front().is_some_and(|t| t.elapsed() > window) {
-            p.restarts.pop_front();
-        }
-        if p.restarts.len() >= r.max_restarts as usize {
+        let Some(backoff) = set.next_restart(slot) else {
             warn!(process = %role.name(), "restart limit reached: not restarting");
             if role == Role::Coordinator || role == Role::FieldServer {
                 break;
             }
             continue;
-        }
-        let backoff = Duration::from_secs_f64(r.backoff * 2f64.powi(p.restarts.len() as i32));
-        p.restarts.push_back(Instant::now());
+        };
         tokio::select! {
             _ = tokio::time::sleep(backoff) => {}
             _ = shutdown_signal() => { interrupted = true; break; }
@@ -638,21 +652,38 @@ pub async fn run_with(
     view.finish();
     if !interrupted {
         // The mission is over: the others end on FINISHED; stragglers get SIGTERM.
-        let deadline = tokio::time::Instant::now() + GRACE;
-        while set.running() > 0 {
-            match tokio::time::timeout_at(deadline, exits.recv()).await {
-                Ok(Some(e)) if set.procs[e.slot].generation == e.generation => {
-                    set.procs[e.slot].pid = None
-                }
-                Ok(Some(_)) => {}
-                _ => break,
-            }
-        }
+        await_the_rest(&mut set, &mut exits).await;
     }
     stop_all(&mut set, &mut exits).await;
     notices.stop();
     let _ = clean_domain(&domain);
+    let summary = complete_summary(dir, wall, interrupted)?;
+    Ok(RunOutcome {
+        summary,
+        interrupted,
+        coordinator_ok,
+        startup_s,
+    })
+}
 
+/// Waits, at most [`GRACE`], for the processes still running to end by themselves.
+async fn await_the_rest(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedReceiver<Exit>) {
+    let deadline = tokio::time::Instant::now() + GRACE;
+    while set.running() > 0 {
+        match tokio::time::timeout_at(deadline, exits.recv()).await {
+            Ok(Some(e)) if set.procs[e.slot].generation == e.generation => {
+                set.procs[e.slot].pid = None
+            }
+            Ok(Some(_)) => {}
+            _ => break,
+        }
+    }
+}
+
+/// The coordinator's `summary.json` completed with the supervisor's figures (wall time
+/// since `wall`, the message analysis, the agents' rejections; the verdict `interrupted`
+/// after a signal), written back, with the time-series plots; None without a summary.
+fn complete_summary(dir: &RunDir, wall: Instant, interrupted: bool) -> Result<Option<Summary>> {
     let mut summary = Summary::read(dir).ok();
     if let Some(s) = summary.as_mut() {
         s.wall_time_s = wall.elapsed().as_secs_f64();
@@ -673,12 +704,7 @@ pub async fn run_with(
             warn!(error = %e, "time-series plots failed");
         }
     }
-    Ok(RunOutcome {
-        summary,
-        interrupted,
-        coordinator_ok,
-        startup_s,
-    })
+    Ok(summary)
 }
 
 fn policy_is_not_always(p: RestartPolicy) -> bool {
