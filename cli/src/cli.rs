@@ -111,6 +111,12 @@ pub struct InvalidInput(pub String);
 
 /// Runs the command line; returns the exit code.
 pub fn main() -> i32 {
+    main_with(None)
+}
+
+/// Runs the command line of a user's own vbap (`plugins`: its field and law,
+/// [`crate::custom`]); `None`: `vbap` itself. Returns the exit code.
+pub fn main_with(plugins: Option<&crate::custom::Plugins>) -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
@@ -124,7 +130,7 @@ pub fn main() -> i32 {
         }
     };
     let _log = vbap_ipc::telemetry::init_with("vbap", None, "warn");
-    match dispatch(cli.command) {
+    match dispatch(cli.command, plugins) {
         Ok(code) => code,
         Err(e) => {
             if let Some(inv) = e.downcast_ref::<InvalidInput>() {
@@ -144,7 +150,16 @@ pub fn main() -> i32 {
     }
 }
 
-fn dispatch(cmd: Cmd) -> Result<i32> {
+fn dispatch(cmd: Cmd, plugins: Option<&crate::custom::Plugins>) -> Result<i32> {
+    if let (Some(_), Cmd::Replay(_) | Cmd::Batch(_) | Cmd::Chaos(_) | Cmd::Bench(_)) =
+        (plugins, &cmd)
+    {
+        return Err(InvalidInput(
+            "replay, batch, chaos and bench run the shipped field and control law: use `vbap`"
+                .into(),
+        )
+        .into());
+    }
     match cmd {
         Cmd::Check { mission } => {
             let m = Mission::load(&mission)?;
@@ -190,7 +205,10 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
                     crate::sim::STOP.store(true, std::sync::atomic::Ordering::Relaxed);
                 }
             });
-            let summary = crate::sim::simulate(&mission, &dir, &mut progress)?;
+            let summary = match plugins {
+                Some(p) => crate::sim::simulate_plugins(&mission, &dir, p, &mut progress)?,
+                None => crate::sim::simulate(&mission, &dir, &mut progress)?,
+            };
             bar.finish_and_clear();
             print_summary(&summary, &dir, args.json)?;
             if summary.verdict == "interrupted" {
@@ -229,7 +247,16 @@ fn dispatch(cmd: Cmd) -> Result<i32> {
             let runtime = tokio::runtime::Builder::new_current_thread()
                 .enable_all()
                 .build()?;
-            let outcome = runtime.block_on(crate::supervise::run(&mission, &dir, !args.quiet))?;
+            let outcome = match plugins {
+                Some(p) => runtime.block_on(crate::supervise::run_with(
+                    &mission,
+                    &dir,
+                    !args.quiet,
+                    &crate::supervise::Executables::this_exe_as_roles()?,
+                    Some(p.field_of(&mission)),
+                ))?,
+                None => runtime.block_on(crate::supervise::run(&mission, &dir, !args.quiet))?,
+            };
             match (&outcome.summary, outcome.interrupted) {
                 (s, true) => {
                     if let Some(s) = s {

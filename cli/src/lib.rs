@@ -6,6 +6,7 @@
 //! - [`replay`], [`batch`], [`bench`]: study a run, many runs, the speed.
 //! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).
 //! - [`cli`]: the command line.
+//! - [`custom`]: a user's own vbap, over its own field and control law.
 //! - [`lock`]: one supervisor per mission name on a host.
 //!
 //! Pictures and timing analyses are `vbap-report`'s; the steps of the processes are the
@@ -15,6 +16,7 @@ pub mod batch;
 pub mod bench;
 pub mod chaos;
 pub mod cli;
+pub mod custom;
 pub mod lock;
 pub mod progress;
 pub mod replay;

@@ -10,11 +10,12 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use iceoryx2::prelude::*;
 use indicatif::{ProgressBar, ProgressStyle};
 use vbap_ipc::msg::to_vec3;
 use vbap_ipc::topics::{Domain, Limits};
+use vbap_ipc::{ports, wait};
 use vbap_mission::config::Mission;
+use vbap_mission::field::ScalarField;
 
 /// A running progress display.
 pub struct ProgressView {
@@ -23,8 +24,9 @@ pub struct ProgressView {
 }
 
 impl ProgressView {
-    /// Starts the display for `mission` (a no-op when `show` is false).
-    pub fn start(mission: &Mission, show: bool) -> Self {
+    /// Starts the display for `mission`, distances measured in `field` (a no-op when `show`
+    /// is false).
+    pub fn start(mission: &Mission, field: Arc<dyn ScalarField>, show: bool) -> Self {
         let stop = Arc::new(AtomicBool::new(false));
         if !show || !std::io::stderr().is_terminal() {
             return Self { stop, thread: None };
@@ -32,7 +34,7 @@ impl ProgressView {
         let mission = mission.clone();
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
-            let _ = watch(&mission, &flag);
+            let _ = watch(&mission, field.as_ref(), &flag);
         });
         Self {
             stop,
@@ -55,23 +57,11 @@ impl Drop for ProgressView {
     }
 }
 
-fn watch(mission: &Mission, stop: &AtomicBool) -> anyhow::Result<()> {
+fn watch(mission: &Mission, field: &dyn ScalarField, stop: &AtomicBool) -> anyhow::Result<()> {
     let domain = Domain::new(&mission.mission.name)?;
     let limits = Limits::for_fleet(mission.vehicles.count);
     let node = domain.node("supervisor_progress")?;
-    let sub = domain
-        .body_service(&node, &limits)?
-        .subscriber_builder()
-        .create()
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    let waitset = WaitSetBuilder::new()
-        .signal_handling_mode(SignalHandlingMode::Disabled)
-        .create::<ipc::Service>()
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    let _tick = waitset
-        .attach_interval(Duration::from_millis(250))
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    let field = mission.field();
+    let sub = ports::subscriber(&domain.body_service(&node, &limits)?)?;
     let ticks = mission.ticks();
     let bar = ProgressBar::new(ticks);
     bar.set_style(
@@ -80,8 +70,7 @@ fn watch(mission: &Mission, stop: &AtomicBool) -> anyhow::Result<()> {
         )
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    while !stop.load(Ordering::SeqCst) {
-        let _ = waitset.wait_and_process_once(|_| CallbackProgression::Continue);
+    let show = || {
         let mut newest = None;
         while let Ok(Some(sample)) = sub.receive() {
             newest = Some((
@@ -101,7 +90,12 @@ fn watch(mission: &Mission, stop: &AtomicBool) -> anyhow::Result<()> {
                 "t = {t:.1} s, vehicles {n}, distance to optimum {distance}"
             ));
         }
-    }
+    };
+    wait::every(
+        Duration::from_millis(250),
+        || !stop.load(Ordering::SeqCst),
+        show,
+    )?;
     bar.finish_and_clear();
     Ok(())
 }

@@ -7,6 +7,7 @@
 
 use std::time::Instant;
 
+use crate::custom::Plugins;
 use anyhow::{Context, Result};
 use coordinator::fleet::Fleet;
 use coordinator::membership::{self, Loss};
@@ -15,7 +16,7 @@ use coordinator::planner::{Planner, PlannerParams, Report};
 use coordinator::record::Recorder;
 use coordinator::tally::LinkTally;
 use coordinator::tick::{plan_tick, TickOutcome};
-use field_server::Sensors;
+use field_server::{Sensors, World};
 use std::collections::BTreeMap;
 use vbap_mission::config::Mission;
 use vbap_mission::faults::FaultPlan;
@@ -33,23 +34,37 @@ pub type Progress<'a> = &'a mut dyn FnMut(u64, u64, f64, Option<f64>);
 /// Runs `mission` in process with the paper's planner, writing the run directory `dir`.
 /// Returns the summary.
 pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Result<Summary> {
+    simulate_plugins(mission, dir, &Plugins::default(), progress)
+}
+
+/// [`simulate`] with a user's own field and control law (`plugins`) and the paper's planner.
+pub fn simulate_plugins(
+    mission: &Mission,
+    dir: &RunDir,
+    plugins: &Plugins,
+    progress: Progress<'_>,
+) -> Result<Summary> {
     let ids: Vec<u32> = (0..mission.vehicles.count as u32).collect();
     let planner = Planner::new(
         PlannerParams::from_mission(mission),
         mission.start_vec(),
         &ids,
     )?;
-    simulate_with(mission, dir, planner, progress)
+    simulate_with(mission, dir, planner, plugins, progress)
 }
 
-/// [`simulate`] with any planner (`planner`: for every vehicle of the mission).
+/// [`simulate`] with any planner (`planner`: for every vehicle of the mission) and a user's
+/// own parts (`plugins`): the field sampled and judged by, the vehicles' control law.
 pub fn simulate_with(
     mission: &Mission,
     dir: &RunDir,
     mut planner: impl Plan,
+    plugins: &Plugins,
     progress: Progress<'_>,
 ) -> Result<Summary> {
     let wall = Instant::now();
+    let field = plugins.field_of(mission);
+    let law = plugins.law_of();
     let dt = mission.mission.dt;
     let ticks = mission.ticks();
     let dim = mission.mission.dim;
@@ -62,14 +77,15 @@ pub fn simulate_with(
         .map(|&id| {
             (
                 id,
-                Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0),
+                Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0)
+                    .with_law(law.clone()),
             )
         })
         .collect();
-    let mut sensors = Sensors::new(mission);
-    let field = mission.field();
+    let mut sensors = Sensors::in_world(mission, World::with_field(mission, field.clone()));
     let mut fleet = Fleet::new(mission, &ids);
-    let mut recorder = Recorder::open(mission, dir).context("opening the run directory files")?;
+    let mut recorder = Recorder::open_with(mission, dir, field.clone())
+        .context("opening the run directory files")?;
     let every = (ticks / 200).max(1);
     let mut tally = LinkTally::default();
     for k in 0..ticks {
@@ -94,27 +110,14 @@ pub fn simulate_with(
                     position: restore.position,
                     velocity: restore.velocity,
                 };
-                vehicles.insert(v, Vehicle::new(agent, initial.clone(), k));
+                vehicles.insert(
+                    v,
+                    Vehicle::new(agent, initial.clone(), k).with_law(law.clone()),
+                );
                 recorder.event(event)?;
             }
         }
-        let admitted: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
-        let truth: Vec<Report> = vehicles
-            .iter_mut()
-            .filter(|(id, _)| !admitted.contains(id))
-            .map(|(&id, veh)| {
-                let measurement = sensors
-                    .read(id, k, t, &veh.agent.position)
-                    .unwrap_or(f64::NAN);
-                Report {
-                    id,
-                    tick: k,
-                    position: veh.agent.position,
-                    velocity: veh.agent.velocity,
-                    measurement,
-                }
-            })
-            .collect();
+        let truth = read_sensors(&vehicles, &fleet, &mut sensors, k, t);
         let TickOutcome {
             command, snapshot, ..
         } = plan_tick(k, dt, &truth, &mut fleet, &mut planner, &mut recorder)?;
@@ -150,4 +153,32 @@ pub fn simulate_with(
     recorder.write_plot().context("writing plot.svg")?;
     vbap_report::report_plots::write_run_plots(dir).context("writing the time-series plots")?;
     Ok(summary)
+}
+
+/// The true state and sensor reading at tick `k` (time `t`, s) of every vehicle not
+/// waiting for admission: what each would report.
+fn read_sensors(
+    vehicles: &BTreeMap<u32, Vehicle>,
+    fleet: &Fleet,
+    sensors: &mut Sensors,
+    k: u64,
+    t: f64,
+) -> Vec<Report> {
+    let admitted: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
+    vehicles
+        .iter()
+        .filter(|(id, _)| !admitted.contains(id))
+        .map(|(&id, veh)| {
+            let measurement = sensors
+                .read(id, k, t, &veh.agent.position)
+                .unwrap_or(f64::NAN);
+            Report {
+                id,
+                tick: k,
+                position: veh.agent.position,
+                velocity: veh.agent.velocity,
+                measurement,
+            }
+        })
+        .collect()
 }

@@ -6,7 +6,7 @@
 //! period, SIGKILL for stragglers, then the mission's iceoryx2 resources are cleaned.
 
 use std::collections::VecDeque;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
@@ -18,7 +18,9 @@ use tracing::{info, warn};
 use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
 use vbap_ipc::msg::supervisor_to_coordinator::ProcessExit;
 use vbap_ipc::msg::{wall_ns, Header};
-use vbap_ipc::topics::{self, Domain, Limits};
+use vbap_ipc::ports;
+use vbap_ipc::topics::{Domain, Limits};
+use vbap_ipc::wait::Event;
 use vbap_mission::config::{Mission, RestartPolicy};
 use vbap_mission::rundir::{RunDir, Summary};
 
@@ -59,6 +61,18 @@ struct Proc {
     restarts: VecDeque<Instant>,
 }
 
+impl Proc {
+    /// The slot of `role`, nothing started yet.
+    fn new(role: Role) -> Self {
+        Self {
+            role,
+            pid: None,
+            generation: 0,
+            restarts: VecDeque::new(),
+        }
+    }
+}
+
 /// A process ended.
 struct Exit {
     slot: usize,
@@ -96,23 +110,14 @@ impl Notices {
             let ports = (|| -> Result<_> {
                 let limits = Limits::for_fleet(vehicles);
                 let node = domain.supervisor_node()?;
-                let exits = domain
-                    .exits_service(&node, &limits)?
-                    .publisher_builder()
-                    .create()
-                    .map_err(|e| anyhow::anyhow!("publishing process exits: {e:?}"))?;
-                let wake = domain
-                    .coordinator_wake(&node, &limits)?
-                    .notifier_builder()
-                    .default_event_id(topics::EVENT_EXIT)
-                    .create()
-                    .map_err(|e| anyhow::anyhow!("notifying the coordinator: {e:?}"))?;
-                let body = domain
-                    .body_service(&node, &limits)?
-                    .subscriber_builder()
-                    .create()
-                    .map_err(|e| anyhow::anyhow!("subscribing to the body: {e:?}"))?;
-                Ok((exits, wake, body, node))
+                // Process exits, each waking the coordinator with `Event::Exit`.
+                let exits = ports::Sender::new(
+                    ports::publisher(&domain.exits_service(&node, &limits)?)?,
+                    ports::notifier(&domain.coordinator_wake(&node, &limits)?, Event::Exit)?,
+                    Event::Exit,
+                );
+                let body = ports::subscriber(&domain.body_service(&node, &limits)?)?;
+                Ok((exits, body, node))
             })();
             if let Err(e) = &ports {
                 warn!(error = %e, "no process-exit reports to the coordinator");
@@ -122,14 +127,13 @@ impl Notices {
             while let Ok(notice) = rx.recv() {
                 match (notice, &ports) {
                     (Notice::Stop, _) => break,
-                    (Notice::Exit(mut e), Ok((exits, wake, _, _))) => {
+                    (Notice::Exit(mut e), Ok((exits, _, _))) => {
                         seq += 1;
-                        e.header.seq = seq;
-                        e.header.sent_ns = wall_ns();
-                        let _ = exits.send_copy(e);
-                        let _ = wake.notify();
+                        e.header = e.header.resent(seq);
+                        let _ = exits.publish(e);
+                        let _ = exits.notify();
                     }
-                    (Notice::Finished(reply), Ok((_, _, body, _))) => {
+                    (Notice::Finished(reply), Ok((_, body, _))) => {
                         while let Ok(Some(sample)) = body.receive() {
                             let h = sample.header;
                             finished |= h.sender == Header::COORDINATOR
@@ -182,15 +186,71 @@ fn exit_report(
         Role::Agent(id) => (ProcessExit::AGENT, id),
     };
     ProcessExit {
-        header: Header {
-            sender: Header::SUPERVISOR,
-            ..Header::default()
-        },
+        header: Header::from_sender(Header::SUPERVISOR),
         role,
         vehicle,
         pid,
         signal: status.as_ref().ok().and_then(|s| s.signal()).unwrap_or(0) as u32,
         died_ns,
+    }
+}
+
+/// A program the supervisor starts for a role, with the arguments that come first (the
+/// role's own arguments follow: `--mission FILE`, `--id I`, `--rejoin`, `--run-dir DIR`,
+/// `--log FILE`, `--parent PID`, as the shipped binaries take them).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Executable {
+    /// The program.
+    pub program: PathBuf,
+    /// Its leading arguments (e.g. the role of a program that plays several).
+    pub args: Vec<String>,
+}
+
+impl Executable {
+    /// `program` with no leading arguments.
+    pub fn at(program: impl Into<PathBuf>) -> Self {
+        Self {
+            program: program.into(),
+            args: Vec::new(),
+        }
+    }
+}
+
+/// The programs of a process set: which executable plays each role.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Executables {
+    /// The field server.
+    pub field_server: Executable,
+    /// The coordinator.
+    pub coordinator: Executable,
+    /// Every vehicle agent.
+    pub vehicle_agent: Executable,
+}
+
+impl Executables {
+    /// The shipped binaries, next to this executable ([`bin_dir`]).
+    pub fn installed() -> Result<Self> {
+        let bin = bin_dir()?;
+        Ok(Self {
+            field_server: Executable::at(bin.join("field_server")),
+            coordinator: Executable::at(bin.join("coordinator")),
+            vehicle_agent: Executable::at(bin.join("vehicle_agent")),
+        })
+    }
+
+    /// This executable in every role, as `THIS role field-server|coordinator|agent ...`
+    /// (what [`crate::custom::main`] answers to).
+    pub fn this_exe_as_roles() -> Result<Self> {
+        let exe = std::env::current_exe().context("locating this executable")?;
+        let role = |name: &str| Executable {
+            program: exe.clone(),
+            args: vec![crate::custom::ROLE_COMMAND.to_string(), name.to_string()],
+        };
+        Ok(Self {
+            field_server: role("field-server"),
+            coordinator: role("coordinator"),
+            vehicle_agent: role("agent"),
+        })
     }
 }
 
@@ -255,13 +315,14 @@ pub fn leftover_files(domain: &Domain) -> Vec<PathBuf> {
     domain.files()
 }
 
-async fn spawn(bin: &Path, name: &str, args: &[String], dir: &RunDir) -> Result<Child> {
+async fn spawn(exe: &Executable, name: &str, args: &[String], dir: &RunDir) -> Result<Child> {
     let stderr = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
         .open(dir.root.join("logs").join(format!("{name}.stderr.log")))
         .with_context(|| format!("creating the stderr log of {name}"))?;
-    Command::new(bin)
+    Command::new(&exe.program)
+        .args(&exe.args)
         .args(args)
         .arg("--log")
         .arg(dir.log(name))
@@ -272,7 +333,7 @@ async fn spawn(bin: &Path, name: &str, args: &[String], dir: &RunDir) -> Result<
         .stderr(Stdio::from(stderr))
         .kill_on_drop(true)
         .spawn()
-        .with_context(|| format!("starting {}", bin.display()))
+        .with_context(|| format!("starting {}", exe.program.display()))
 }
 
 /// A child's standard output, read line by line.
@@ -309,7 +370,7 @@ async fn read_handover(mut lines: StdoutLines) -> Option<Summary> {
 
 /// The process set of one run.
 struct ProcessSet<'a> {
-    bin: PathBuf,
+    exes: &'a Executables,
     mission: &'a Mission,
     mission_file: String,
     dir: &'a RunDir,
@@ -320,28 +381,70 @@ struct ProcessSet<'a> {
     handed: std::sync::Arc<std::sync::Mutex<Option<Summary>>>,
 }
 
-impl ProcessSet<'_> {
-    fn args(&self, role: Role, restart: bool) -> (PathBuf, Vec<String>) {
+impl<'a> ProcessSet<'a> {
+    fn args(&self, role: Role, restart: bool) -> (&'a Executable, Vec<String>) {
         let mut args = vec!["--mission".to_string(), self.mission_file.clone()];
         let exe = match role {
-            Role::FieldServer => "field_server",
+            Role::FieldServer => &self.exes.field_server,
             Role::Coordinator => {
                 args.extend([
                     "--run-dir".to_string(),
                     self.dir.root.to_string_lossy().to_string(),
                     "--summary-to-parent".to_string(),
                 ]);
-                "coordinator"
+                &self.exes.coordinator
             }
             Role::Agent(id) => {
                 args.extend(["--id".to_string(), id.to_string()]);
                 if restart {
                     args.push("--rejoin".to_string());
                 }
-                "vehicle_agent"
+                &self.exes.vehicle_agent
             }
         };
-        (self.bin.join(exe), args)
+        (exe, args)
+    }
+
+    /// Starts the whole set: field server, then coordinator, each ready before the next;
+    /// then every agent at once (they start in parallel), each awaited.
+    async fn start_all(&mut self) -> Result<()> {
+        self.start(0).await?;
+        self.start(1).await?;
+        let mut launched = Vec::new();
+        for slot in 2..self.procs.len() {
+            launched.push((slot, self.launch(slot).await?));
+        }
+        let mut first_error = None;
+        for (slot, (name, mut child)) in launched {
+            match await_ready(&name, &mut child).await {
+                Ok(lines) => self.watch(slot, child, Some(lines)),
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                    self.watch(slot, child, None);
+                }
+            }
+        }
+        match first_error {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// The backoff before the next restart of `slot` (`restart.backoff` doubled per restart
+    /// inside the policy window), the restart counted; None past `restart.max_restarts`.
+    fn next_restart(&mut self, slot: usize) -> Option<Duration> {
+        let r = &self.mission.restart;
+        let window = Duration::from_secs_f64(r.window);
+        let p = &mut self.procs[slot];
+        while p.restarts.front().is_some_and(|t| t.elapsed() > window) {
+            p.restarts.pop_front();
+        }
+        if p.restarts.len() >= r.max_restarts as usize {
+            return None;
+        }
+        let backoff = Duration::from_secs_f64(r.backoff * 2f64.powi(p.restarts.len() as i32));
+        p.restarts.push_back(Instant::now());
+        Some(backoff)
     }
 
     /// Starts the process of `slot` (first start or restart) and waits until it is ready.
@@ -365,7 +468,7 @@ impl ProcessSet<'_> {
         let role = self.procs[slot].role;
         let (exe, args) = self.args(role, self.procs[slot].generation > 0);
         let name = role.name();
-        let child = spawn(&exe, &name, &args, self.dir).await?;
+        let child = spawn(exe, &name, &args, self.dir).await?;
         self.procs[slot].pid = child.id();
         self.procs[slot].generation += 1;
         Ok((name, child))
@@ -473,6 +576,20 @@ pub struct RunOutcome {
 
 /// Runs `mission` as a process set writing `dir`.
 pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result<RunOutcome> {
+    let exes = Executables::installed()?;
+    run_with(mission, dir, show_progress, &exes, None).await
+}
+
+/// [`run`] with the roles played by `exes` (e.g. a user's own agent and field server,
+/// [`Executables::this_exe_as_roles`]); `field`: the field the progress display measures
+/// the distance to the optimum in (None: the mission's).
+pub async fn run_with(
+    mission: &Mission,
+    dir: &RunDir,
+    show_progress: bool,
+    exes: &Executables,
+    field: Option<std::sync::Arc<dyn vbap_mission::field::ScalarField>>,
+) -> Result<RunOutcome> {
     let wall = Instant::now();
     let domain = Domain::new(&mission.mission.name)?;
     let cleaned = clean_domain(&domain)?;
@@ -483,55 +600,22 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
         );
     }
     let (tx, mut exits) = mpsc::unbounded_channel();
-    let bin = bin_dir()?;
     let mut notices = Notices::start(&domain, mission.vehicles.count);
     let mut roles = vec![Role::FieldServer, Role::Coordinator];
     roles.extend((0..mission.vehicles.count as u32).map(Role::Agent));
     let mut set = ProcessSet {
-        bin,
+        exes,
         mission,
         mission_file: dir.mission().to_string_lossy().to_string(),
         dir,
-        procs: roles
-            .into_iter()
-            .map(|role| Proc {
-                role,
-                pid: None,
-                generation: 0,
-                restarts: VecDeque::new(),
-            })
-            .collect(),
+        procs: roles.into_iter().map(Proc::new).collect(),
         exits: tx,
         notices: notices.tx.clone(),
         handed: Default::default(),
     };
     let mut interrupted = false;
-    let start = async {
-        // Field server, then coordinator, each ready before the next; then every agent
-        // at once (they start in parallel), each awaited.
-        set.start(0).await?;
-        set.start(1).await?;
-        let mut launched = Vec::new();
-        for slot in 2..set.procs.len() {
-            launched.push((slot, set.launch(slot).await?));
-        }
-        let mut first_error = None;
-        for (slot, (name, mut child)) in launched {
-            match await_ready(&name, &mut child).await {
-                Ok(lines) => set.watch(slot, child, Some(lines)),
-                Err(e) => {
-                    first_error.get_or_insert(e);
-                    set.watch(slot, child, None);
-                }
-            }
-        }
-        match first_error {
-            Some(e) => Err(e),
-            None => anyhow::Ok(()),
-        }
-    };
     let started = tokio::select! {
-        r = start => r,
+        r = set.start_all() => r,
         _ = shutdown_signal() => { interrupted = true; Ok(()) }
     };
     let startup_s = wall.elapsed().as_secs_f64();
@@ -543,7 +627,8 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
     }
     info!(startup_s, processes = set.procs.len(), "process set up");
 
-    let mut view = ProgressView::start(mission, show_progress && !interrupted);
+    let field = field.unwrap_or_else(|| std::sync::Arc::new(mission.field()));
+    let mut view = ProgressView::start(mission, field, show_progress && !interrupted);
     let mut coordinator_ok = false;
     let mut restarts_done = 0u32;
     while !interrupted {
@@ -586,21 +671,13 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
             continue;
         }
         // Restart with backoff, at most max_restarts per window.
-        let r = &mission.restart;
-        let window = Duration::from_secs_f64(r.window);
-        let p = &mut set.procs[slot];
-        while p.restarts.front().is_some_and(|t| t.elapsed() > window) {
-            p.restarts.pop_front();
-        }
-        if p.restarts.len() >= r.max_restarts as usize {
+        let Some(backoff) = set.next_restart(slot) else {
             warn!(process = %role.name(), "restart limit reached: not restarting");
             if role == Role::Coordinator || role == Role::FieldServer {
                 break;
             }
             continue;
-        }
-        let backoff = Duration::from_secs_f64(r.backoff * 2f64.powi(p.restarts.len() as i32));
-        p.restarts.push_back(Instant::now());
+        };
         tokio::select! {
             _ = tokio::time::sleep(backoff) => {}
             _ = shutdown_signal() => { interrupted = true; break; }
@@ -618,34 +695,48 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
     view.finish();
     if !interrupted {
         // The mission is over: the others end on FINISHED; stragglers get SIGTERM.
-        let deadline = tokio::time::Instant::now() + GRACE;
-        while set.running() > 0 {
-            match tokio::time::timeout_at(deadline, exits.recv()).await {
-                Ok(Some(e)) if set.procs[e.slot].generation == e.generation => {
-                    set.procs[e.slot].pid = None
-                }
-                Ok(Some(_)) => {}
-                _ => break,
-            }
-        }
+        await_the_rest(&mut set, &mut exits).await;
     }
     stop_all(&mut set, &mut exits).await;
     notices.stop();
     let _ = clean_domain(&domain);
-
-    // The coordinator's summary (handed over; read back if it had to write it itself),
-    // completed with what only the supervisor knows and written once.
-    let handed = set.handed.lock().unwrap_or_else(|e| e.into_inner()).take();
-    let mut summary = handed.or_else(|| Summary::read(dir).ok());
-    if let Some(s) = summary.as_mut() {
-        complete_summary(s, dir, wall.elapsed().as_secs_f64(), interrupted)?;
-    }
+    let summary = final_summary(&set, dir, wall, interrupted)?;
     Ok(RunOutcome {
         summary,
         interrupted,
         coordinator_ok,
         startup_s,
     })
+}
+
+/// Waits, at most [`GRACE`], for the processes still running to end by themselves.
+async fn await_the_rest(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedReceiver<Exit>) {
+    let deadline = tokio::time::Instant::now() + GRACE;
+    while set.running() > 0 {
+        match tokio::time::timeout_at(deadline, exits.recv()).await {
+            Ok(Some(e)) if set.procs[e.slot].generation == e.generation => {
+                set.procs[e.slot].pid = None
+            }
+            Ok(Some(_)) => {}
+            _ => break,
+        }
+    }
+}
+
+/// The coordinator's summary (handed over; read back if it had to write it itself),
+/// completed with what only the supervisor knows and written once; None without one.
+fn final_summary(
+    set: &ProcessSet<'_>,
+    dir: &RunDir,
+    wall: Instant,
+    interrupted: bool,
+) -> Result<Option<Summary>> {
+    let handed = set.handed.lock().unwrap_or_else(|e| e.into_inner()).take();
+    let mut summary = handed.or_else(|| Summary::read(dir).ok());
+    if let Some(s) = summary.as_mut() {
+        complete_summary(s, dir, wall.elapsed().as_secs_f64(), interrupted)?;
+    }
+    Ok(summary)
 }
 
 /// Completes the coordinator's summary `s` with what the supervisor knows once every

@@ -10,6 +10,7 @@
 //! both share. [`run`] wires the ports; [`handover`] passes the summary to `vbap run`.
 
 pub mod checkpoint;
+pub mod cli;
 pub mod command;
 pub mod fleet;
 pub mod handover;

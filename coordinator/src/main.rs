@@ -1,69 +1,9 @@
 //! `coordinator --mission FILE --run-dir DIR [--log FILE] [--parent PID
-//! [--summary-to-parent]]`: the coordinator of a mission. It writes `summary.json` at the
-//! end, or, asked by its supervisor, hands the summary over on standard output
-//! (`coordinator::handover`) for the supervisor to complete and write once.
+//! [--summary-to-parent]]`: the coordinator of a mission (`coordinator::cli`).
 
-use std::path::PathBuf;
-
-use anyhow::Context;
 use clap::Parser;
-use vbap_ipc::process::{
-    announce_ready, die_with_parent, finish, load_mission_or_exit, orphaned, EXIT_INVALID,
-};
-use vbap_mission::rundir::{RunDir, Summary};
-
-/// The coordinator of a vbap mission (normally started by `vbap run`).
-#[derive(Parser, Debug)]
-#[command(version, about)]
-struct Args {
-    /// The mission file.
-    #[arg(long)]
-    mission: PathBuf,
-    /// The run directory to write into.
-    #[arg(long)]
-    run_dir: PathBuf,
-    /// JSON-lines log file (default: stderr).
-    #[arg(long)]
-    log: Option<PathBuf>,
-    /// Exit when this process (the supervisor) is no longer our parent.
-    #[arg(long)]
-    parent: Option<u32>,
-    /// Hand the summary to the supervisor (`--parent`) on standard output instead of
-    /// writing `summary.json`: it completes the summary and writes the file once. Written
-    /// here all the same when the supervisor is gone.
-    #[arg(long, requires = "parent")]
-    summary_to_parent: bool,
-}
 
 fn main() {
-    let args = Args::parse();
-    die_with_parent(args.parent);
-    let mission = load_mission_or_exit("coordinator", &args.mission);
-    let dir = RunDir::create(&args.run_dir).unwrap_or_else(|e| {
-        eprintln!("coordinator: --run-dir {}: {e}", args.run_dir.display());
-        std::process::exit(EXIT_INVALID);
-    });
-    let log = vbap_ipc::telemetry::init("coordinator", args.log.as_deref());
-    let msgs = vbap_ipc::process::message_log(args.log.as_deref());
-    let result = coordinator::run::run(&mission, &dir, msgs, announce_ready).and_then(|summary| {
-        let parent = args.parent.filter(|_| args.summary_to_parent);
-        deliver(&summary, &dir, parent)
-    });
-    vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
-    finish("coordinator", result.err().map(|e| format!("{e:#}")), log);
-}
-
-/// Hands `summary` to the supervisor `parent` (one line on standard output), or, without
-/// one (none asked for, or it died: the line cannot be written), writes `summary.json`.
-fn deliver(summary: &Summary, dir: &RunDir, parent: Option<u32>) -> anyhow::Result<()> {
-    use std::io::Write;
-    if parent.is_some() && !orphaned(parent) {
-        let line = coordinator::handover::summary_line(summary)?;
-        let mut out = std::io::stdout().lock();
-        match writeln!(out, "{line}").and_then(|()| out.flush()) {
-            Ok(()) => return Ok(()),
-            Err(e) => tracing::warn!(error = %e, "the supervisor is gone: writing summary.json"),
-        }
-    }
-    summary.write(dir).context("writing summary.json")
+    let args = coordinator::cli::Args::parse();
+    coordinator::cli::main_with(&args, None)
 }

@@ -5,12 +5,13 @@
 //! coordinator process both use it, so their files are written by the same code.
 
 use std::io;
+use std::sync::{Arc, OnceLock};
 
 use vbap_math::convergence::{default_delta_m, theorem_5_1_bound};
 use vbap_math::formation::FormationDesign;
 use vbap_math::Vec3;
 use vbap_mission::config::Mission;
-use vbap_mission::field::Field;
+use vbap_mission::field::ScalarField;
 use vbap_mission::rundir::{
     BodyRow, Event, EventLog, InputRow, RunDir, Summary, TrackWriter, TruthWriter, VehicleRow,
 };
@@ -51,7 +52,7 @@ pub struct RecorderStats {
 /// Records ticks, accumulates the figures of `summary.json`.
 pub struct Recorder {
     mission: Mission,
-    field: Field,
+    field: Arc<dyn ScalarField>,
     dir: RunDir,
     tracks: TrackWriter,
     truth_files: TruthWriter,
@@ -59,9 +60,40 @@ pub struct Recorder {
     stats: RecorderStats,
 }
 
+/// The field the recorders of this process judge by when none is given: set once by a
+/// process that runs the coordinator over a user's own field.
+static PROCESS_TRUTH: OnceLock<Arc<dyn ScalarField>> = OnceLock::new();
+
+/// Makes `field` the ground truth of every [`Recorder::open`] / [`Recorder::resume`] of
+/// this process (instead of the mission's `[field]`): a coordinator process that serves a
+/// user's own field calls it once, before `coordinator::run::run`, so its `truth.csv`,
+/// `body.csv` and verdict judge the field the field server samples. False when a truth
+/// was set already (the first stays).
+pub fn set_process_truth(field: Arc<dyn ScalarField>) -> bool {
+    PROCESS_TRUTH.set(field).is_ok()
+}
+
+/// The ground truth of `mission` in this process: [`set_process_truth`]'s field, or the
+/// mission's own.
+pub fn process_truth(mission: &Mission) -> Arc<dyn ScalarField> {
+    PROCESS_TRUTH
+        .get()
+        .cloned()
+        .unwrap_or_else(|| Arc::new(mission.field()))
+}
+
 impl Recorder {
-    /// Opens the CSV and event files of `dir` (appending).
+    /// Opens the CSV and event files of `dir` (appending), judging by [`process_truth`].
     pub fn open(mission: &Mission, dir: &RunDir) -> io::Result<Self> {
+        Self::open_with(mission, dir, process_truth(mission))
+    }
+
+    /// [`Recorder::open`] judging by `field` (the field the sensors sample).
+    pub fn open_with(
+        mission: &Mission,
+        dir: &RunDir,
+        field: Arc<dyn ScalarField>,
+    ) -> io::Result<Self> {
         let stats = RecorderStats {
             max_v_over_vu: 0.0,
             last_outside: None,
@@ -77,14 +109,25 @@ impl Recorder {
             was_holding: false,
             truth: TruthStats::new(mission),
         };
-        Self::resume(mission, dir, stats)
+        Self::resume_with(mission, dir, stats, field)
     }
 
-    /// Opens the files of `dir` (appending) with running figures `stats` (a checkpoint's).
+    /// Opens the files of `dir` (appending) with running figures `stats` (a checkpoint's),
+    /// judging by [`process_truth`].
     pub fn resume(mission: &Mission, dir: &RunDir, stats: RecorderStats) -> io::Result<Self> {
+        Self::resume_with(mission, dir, stats, process_truth(mission))
+    }
+
+    /// [`Recorder::resume`] judging by `field`.
+    pub fn resume_with(
+        mission: &Mission,
+        dir: &RunDir,
+        stats: RecorderStats,
+        field: Arc<dyn ScalarField>,
+    ) -> io::Result<Self> {
         Ok(Self {
             mission: mission.clone(),
-            field: mission.field(),
+            field,
             dir: dir.clone(),
             tracks: TrackWriter::open(dir)?,
             truth_files: TruthWriter::open(dir)?,

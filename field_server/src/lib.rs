@@ -5,29 +5,45 @@
 //! mission's sensor faults. [`run`] serves the coordinator's batched reads over iceoryx2
 //! request-response.
 
+pub mod cli;
 pub mod run;
+#[cfg(test)]
+mod tests;
+
+use std::sync::Arc;
 
 use vbap_math::Vec3;
 use vbap_mission::config::Mission;
 use vbap_mission::faults::{FaultPlan, SensorState};
-use vbap_mission::field::{measure, Field};
+use vbap_mission::field::{measure, ScalarField};
 
 /// The environment of a mission.
 #[derive(Clone, Debug)]
 pub struct World {
-    field: Field,
+    field: Arc<dyn ScalarField>,
     seed: u64,
     noise_std: f64,
 }
 
 impl World {
-    /// The world of `mission`.
+    /// The world of `mission`: the field of its `[field]` section.
     pub fn new(mission: &Mission) -> Self {
+        Self::with_field(mission, Arc::new(mission.field()))
+    }
+
+    /// The world of `mission` over `field` instead of the mission's own (a user's field;
+    /// the seed and the noise σ_M are still the mission's).
+    pub fn with_field(mission: &Mission, field: Arc<dyn ScalarField>) -> Self {
         Self {
-            field: mission.field(),
+            field,
             seed: mission.mission.seed,
             noise_std: mission.field.noise_std,
         }
+    }
+
+    /// The field sampled.
+    pub fn field(&self) -> &Arc<dyn ScalarField> {
+        &self.field
     }
 
     /// The reading of vehicle `vehicle`'s sensor at `position`, tick `tick`, time `t` (s):
@@ -38,7 +54,7 @@ impl World {
             return None;
         }
         let v = measure(
-            &self.field,
+            self.field.as_ref(),
             position,
             t,
             self.seed,
@@ -60,8 +76,13 @@ pub struct Sensors {
 impl Sensors {
     /// The sensors of `mission`'s vehicles.
     pub fn new(mission: &Mission) -> Self {
+        Self::in_world(mission, World::new(mission))
+    }
+
+    /// The sensors of `mission`'s vehicles in `world` (e.g. [`World::with_field`]).
+    pub fn in_world(mission: &Mission, world: World) -> Self {
         Self {
-            world: World::new(mission),
+            world,
             plan: FaultPlan::new(mission),
             memory: vec![SensorState::default(); mission.vehicles.count],
         }

@@ -1,13 +1,17 @@
 //! `vbap-ipc`: everything the vbap processes exchange, and how.
 //!
 //! - [`msg`]: the zero-copy payloads (one `#[repr(C)]` type per service).
-//! - [`topics`]: every iceoryx2 service name and limit, and the wait for a wake-up.
+//! - [`topics`]: every iceoryx2 service name and limit.
+//! - [`ports`], [`wait`]: the ports of a process (publisher + notifier, subscriber +
+//!   listener) and the one wait loop, with typed wake-up events.
 //! - [`msglog`]: the per-message records, `logs/<process>.msgs.csv` (writer and parser).
 //! - [`telemetry`]: the one tracing set-up of every process.
 //! - [`process`]: a process's life: start-up, ending with the supervisor, exit codes.
 
 pub mod msg;
 pub mod msglog;
+pub mod ports;
 pub mod process;
 pub mod telemetry;
 pub mod topics;
+pub mod wait;

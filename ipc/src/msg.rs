@@ -49,6 +49,43 @@ impl Header {
     pub const FIELD_SERVER: u32 = u32::MAX - 2;
     /// Sender id of the supervisor (`vbap run`).
     pub const SUPERVISOR: u32 = u32::MAX - 3;
+
+    /// The header of message `seq` of `sender` for tick `tick` at mission time `t` (s), no
+    /// flags, stamped with the wall clock now ([`wall_ns`]): call it just before sending.
+    pub fn new(sender: u32, tick: u64, t: f64, seq: u64) -> Self {
+        Self {
+            sender,
+            flags: 0,
+            tick,
+            t,
+            seq,
+            sent_ns: wall_ns(),
+        }
+    }
+
+    /// A header naming only its sender (no tick, sequence or stamp): messages outside the
+    /// tick's clock, such as the supervisor's process exits.
+    pub fn from_sender(sender: u32) -> Self {
+        Self {
+            sender,
+            ..Self::default()
+        }
+    }
+
+    /// This header with flags `flags`.
+    pub fn with_flags(self, flags: u32) -> Self {
+        Self { flags, ..self }
+    }
+
+    /// This header sent again as message `seq`, stamped with the wall clock now (tick,
+    /// time, sender and flags kept).
+    pub fn resent(self, seq: u64) -> Self {
+        Self {
+            seq,
+            sent_ns: wall_ns(),
+            ..self
+        }
+    }
 }
 
 /// Converts a payload array to a vector.

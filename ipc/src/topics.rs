@@ -26,6 +26,7 @@ use iceoryx2::prelude::{
     ipc, CallbackProgression, FileName, NodeName, SemanticString, ServiceName,
 };
 use iceoryx2::service::port_factory::{event, publish_subscribe, request_response};
+
 use iceoryx2::signal_handling_mode::SignalHandlingMode;
 
 use crate::msg::agent_to_coordinator::VehicleState;
@@ -287,7 +288,8 @@ impl Domain {
         names
     }
 
-    fn name(&self, path: &str) -> Result<ServiceName, TopicError> {
+    /// The service name `<mission>/<path>`.
+    pub(crate) fn service_name(&self, path: &str) -> Result<ServiceName, TopicError> {
         let full = format!("{}/{}", self.mission, path);
         ServiceName::new(&full).map_err(|e| TopicError::Name {
             name: full,
@@ -307,17 +309,7 @@ impl Domain {
         id: u32,
         limits: &Limits,
     ) -> Result<publish_subscribe::PortFactory<ipc::Service, VehicleState, ()>, TopicError> {
-        let name = self.name(&format!("vehicle/{id}/state"))?;
-        node.service_builder(&name)
-            .publish_subscribe::<VehicleState>()
-            .max_publishers(1)
-            .max_subscribers(3)
-            .max_nodes(limits.max_nodes())
-            .history_size(1)
-            .subscriber_max_buffer_size(Limits::STATE_BUFFER)
-            .enable_safe_overflow(true)
-            .open_or_create()
-            .map_err(|e| service_err(&name, e))
+        self.state_like_service(node, &format!("vehicle/{id}/state"), limits)
     }
 
     /// `<m>/body`.
@@ -326,7 +318,7 @@ impl Domain {
         node: &Node<ipc::Service>,
         limits: &Limits,
     ) -> Result<publish_subscribe::PortFactory<ipc::Service, BodyCommand, ()>, TopicError> {
-        let name = self.name("body")?;
+        let name = self.service_name("body")?;
         node.service_builder(&name)
             .publish_subscribe::<BodyCommand>()
             .max_publishers(2)
@@ -349,7 +341,7 @@ impl Domain {
         request_response::PortFactory<ipc::Service, SampleBatch, (), ReadingBatch, ()>,
         TopicError,
     > {
-        let name = self.name("field/sample")?;
+        let name = self.service_name("field/sample")?;
         node.service_builder(&name)
             .request_response::<SampleBatch, ReadingBatch>()
             .max_servers(2)
@@ -371,7 +363,7 @@ impl Domain {
         node: &Node<ipc::Service>,
         limits: &Limits,
     ) -> Result<publish_subscribe::PortFactory<ipc::Service, ProcessExit, ()>, TopicError> {
-        let name = self.name("supervisor/exits")?;
+        let name = self.service_name("supervisor/exits")?;
         node.service_builder(&name)
             .publish_subscribe::<ProcessExit>()
             .max_publishers(2)
@@ -393,7 +385,7 @@ impl Domain {
         limits: &Limits,
         max_event_id: usize,
     ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
-        let name = self.name(path)?;
+        let name = self.service_name(path)?;
         node.service_builder(&name)
             .event()
             .max_listeners(listeners)
@@ -486,63 +478,17 @@ pub const FIELD_SERVER_NODE: &str = "field_server";
 /// Node name of the supervisor (`vbap run`).
 pub const SUPERVISOR_NODE: &str = "supervisor";
 
-/// What ended a wait.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Wake {
-    /// At least one event arrived (all pending events were drained).
-    Events,
-    /// The timeout passed with no event.
-    Timeout,
-    /// SIGINT or SIGTERM: flush and exit cleanly.
-    Stop,
-}
+pub use crate::wait::Wake;
 
-/// [`wait_for_wake`] that also collects the ids of the events that arrived into `ids`.
+/// [`wait_for_wake`] that also collects the ids of the events that arrived into `ids`
+/// ([`crate::wait::wait_once`]; prefer [`crate::wait::Waiter`] in new code).
 pub fn wait_for_wake_ids(
     waitset: &iceoryx2::waitset::WaitSet<ipc::Service>,
     listener: &iceoryx2::port::listener::Listener<ipc::Service>,
     timeout: std::time::Duration,
     ids: &mut Vec<usize>,
 ) -> Result<Wake, TopicError> {
-    use iceoryx2::waitset::WaitSetRunResult;
-    let mut woke = false;
-    let result = waitset
-        .wait_and_process_once_with_timeout(
-            |_| {
-                woke = true;
-                CallbackProgression::Continue
-            },
-            timeout,
-        )
-        .map_err(|e| TopicError::Service {
-            service: "waitset".into(),
-            reason: format!("{e:?}"),
-        })?;
-    let spurious = match result {
-        WaitSetRunResult::TerminationRequest => return Ok(Wake::Stop),
-        // SIGINT/SIGTERM during the wait end it with an interrupt; so does any other
-        // signal, e.g. a debugger or `strace -p` attaching: that one is no stop request.
-        WaitSetRunResult::Interrupt => {
-            if iceoryx2_bb_posix::signal::SignalHandler::termination_requested() {
-                return Ok(Wake::Stop);
-            }
-            true
-        }
-        _ => false,
-    };
-    let drained = listener
-        .try_wait(|a| ids.push(a.id.as_value()))
-        .map_err(|e| TopicError::Service {
-            service: "listener".into(),
-            reason: format!("{e:?}"),
-        })?;
-    // A spurious interrupt is reported as events: callers look and wait again (a timeout
-    // would make a paced agent hold station before its time).
-    Ok(if woke || drained > 0 || spurious {
-        Wake::Events
-    } else {
-        Wake::Timeout
-    })
+    crate::wait::wait_once(waitset, listener, timeout, |id| ids.push(id))
 }
 
 /// Blocks in `waitset` (which has `listener` attached) until an event, the timeout or a

@@ -3,7 +3,8 @@
 //! Positions are always [`Vec3`] (metres or the mission's length unit); in 2-D missions the
 //! z component is zero and stays zero. Equation numbers are those of the paper (Ögren, Fiorelli and Leonard, IEEE TAC 2004).
 //!
-//! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`],
+//! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`] (and
+//! [`law`], the control law as an extension point),
 //! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design;
 //! bringing a vehicle back from anywhere: [`rejoin`].
 //! Gradient estimation (Section V): [`estimate`], [`optimal`], [`kalman`], [`convergence`],
@@ -22,6 +23,7 @@ pub mod estimate;
 pub mod fit;
 pub mod formation;
 pub mod kalman;
+pub mod law;
 pub mod lyapunov;
 pub mod optimal;
 pub mod potential;

@@ -504,6 +504,60 @@ impl Field {
     }
 }
 
+/// A scalar field T(x, t) with analytic derivatives: the extension point for the sensed
+/// environment. The field server samples it ([`measure`]), the recorder judges the run by
+/// it (true gradient, true optimum, the plot's contours); every shipped kind ([`Field`],
+/// from a mission's `[field]`) implements it, and so can a user's own (a gridded data set,
+/// a model's output): hand it to the simulator, the field server and the recorder instead
+/// of the mission's.
+///
+/// Units: positions in the mission's length unit, `t` mission time in s, values in the
+/// field's unit. A 2-D field ignores z and returns zero z components.
+pub trait ScalarField: Send + Sync + std::fmt::Debug {
+    /// 2 or 3: the number of spatial dimensions the field depends on.
+    fn dim(&self) -> usize;
+    /// T(p, t) (field unit).
+    fn value(&self, p: &Vec3, t: f64) -> f64;
+    /// ∇T(p, t) (field unit per length unit).
+    fn gradient(&self, p: &Vec3, t: f64) -> Vec3;
+    /// ∇²T(p, t) (field unit per length unit²), symmetric.
+    fn hessian(&self, p: &Vec3, t: f64) -> Mat3;
+    /// The true optimum at time `t` (the maximum for `Goal::Max`, the minimum for
+    /// `Goal::Min`), or `None` if there is none (or it is not known): the verdict then
+    /// judges the formation only.
+    fn optimum(&self, t: f64, goal: Goal) -> Option<Vec3> {
+        let _ = (t, goal);
+        None
+    }
+    /// A box (lower, upper corner; length unit) around the interesting part of the field
+    /// at t = 0, for plots (they union it with the tracks). Default: ±10 around the origin.
+    fn bounds_hint(&self) -> (Vec3, Vec3) {
+        let half = Vec3::new(10.0, 10.0, if self.dim() == 3 { 10.0 } else { 0.0 });
+        (-half, half)
+    }
+}
+
+impl ScalarField for Field {
+    fn dim(&self) -> usize {
+        Field::dim(self)
+    }
+    fn value(&self, p: &Vec3, t: f64) -> f64 {
+        Field::value(self, p, t)
+    }
+    fn gradient(&self, p: &Vec3, t: f64) -> Vec3 {
+        Field::gradient(self, p, t)
+    }
+    fn hessian(&self, p: &Vec3, t: f64) -> Mat3 {
+        Field::hessian(self, p, t)
+    }
+    fn optimum(&self, t: f64, goal: Goal) -> Option<Vec3> {
+        Field::optimum(self, t, goal)
+    }
+    fn bounds_hint(&self) -> (Vec3, Vec3) {
+        Field::bounds_hint(self)
+    }
+}
+
 /// Sensor noise ε ~ N(0, σ²) of `vehicle` at `tick` (field unit), drawn from
 /// `rng::keyed(seed, Stream::SensorNoise, vehicle, tick)`: the same key gives the same number.
 ///
@@ -521,7 +575,7 @@ pub fn sensor_noise(seed: u64, vehicle: u32, tick: u64, sigma: f64) -> f64 {
 
 /// One sensor reading T_m = T(p, t) + ε (Lemma 5.1), with ε from [`sensor_noise`].
 pub fn measure(
-    field: &Field,
+    field: &(impl ScalarField + ?Sized),
     p: &Vec3,
     t: f64,
     seed: u64,
@@ -993,6 +1047,26 @@ mod tests {
         assert!((var.sqrt() - sigma).abs() < 5.0 * sigma / (2.0 * n as f64).sqrt());
         assert_eq!(sensor_noise(42, 1, 5, 0.0), 0.0);
         assert_eq!(sensor_noise(42, 1, 5, f64::NAN), 0.0);
+    }
+
+    #[test]
+    fn every_shipped_kind_is_the_same_field_through_the_trait() {
+        for dim in [2, 3] {
+            for f in zoo(dim) {
+                let dynamic: &dyn ScalarField = &f;
+                let p = Vec3::new(0.7, -0.3, if dim == 3 { 0.4 } else { 0.0 });
+                for t in [0.0, 2.5] {
+                    assert_eq!(dynamic.dim(), f.dim());
+                    assert_eq!(dynamic.value(&p, t), f.value(&p, t));
+                    assert_eq!(dynamic.gradient(&p, t), f.gradient(&p, t));
+                    assert_eq!(dynamic.hessian(&p, t), f.hessian(&p, t));
+                    for goal in [Goal::Min, Goal::Max] {
+                        assert_eq!(dynamic.optimum(t, goal), f.optimum(t, goal));
+                    }
+                }
+                assert_eq!(dynamic.bounds_hint(), f.bounds_hint());
+            }
+        }
     }
 
     #[test]

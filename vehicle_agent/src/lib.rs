@@ -6,43 +6,29 @@
 //! calls exactly this function, which is why the multi-process system can reproduce it
 //! bit for bit. [`run`] wires the ports.
 
+pub mod cli;
 pub mod run;
+#[cfg(test)]
+mod tests;
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use rand::Rng;
 use vbap_math::body::VirtualBody;
-use vbap_math::control::{control_law, integrate};
+use vbap_math::control::integrate;
 use vbap_math::formation::FormationDesign;
+pub use vbap_math::law::{ControlInputs, ControlLaw, PaperLaw};
 use vbap_math::potential::PairPotential;
-use vbap_math::rejoin::{blended_control_law, homing_weight, Homing, Neighbour};
+use vbap_math::rejoin::{homing_weight, Homing};
 use vbap_math::rng::{keyed, Stream};
 use vbap_math::Vec3;
 use vbap_mission::config::Mission;
 use vbap_mission::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
 
-/// What an agent needs from the coordinator for one step.
-#[derive(Clone, Copy, Debug)]
-pub struct AgentInputs<'a> {
-    /// Virtual leader positions b_l(s), length unit.
-    pub leaders: &'a [Vec3],
-    /// Positions of the other vehicles (swarm snapshot, ordered by id, self excluded).
-    pub neighbours: &'a [Vec3],
-    /// Scaled inter-vehicle potential V_I (III.3).
-    pub inter: PairPotential,
-    /// Scaled vehicle–leader potential V_h (III.3).
-    pub leader: PairPotential,
-    /// Damping gain, K = damping·I in (II.1), 1/s.
-    pub damping: f64,
-    /// Homing weight σ_j of each neighbour (same order; 0 for a vehicle not rejoining;
-    /// empty: all 0), `vbap_math::rejoin`.
-    pub neighbour_sigmas: &'a [f64],
-    /// The slot of each neighbour that rejoins (its ghost, same order; ignored where
-    /// σ_j = 0), length unit.
-    pub neighbour_slots: &'a [Vec3],
-    /// This vehicle's own homing while it rejoins (None: it flies (II.1)).
-    pub homing: Option<Homing>,
-}
+/// What an agent needs from the coordinator for one step (the inputs of a
+/// [`ControlLaw`]).
+pub type AgentInputs<'a> = ControlInputs<'a>;
 
 /// One vehicle: its own state and dynamics.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,43 +44,17 @@ pub struct Agent {
 }
 
 impl Agent {
-    /// One control step of length `dt` (s): u_i from (II.1) — blended with the homing law
-    /// of `vbap_math::rejoin` while this vehicle or a neighbour rejoins — then
-    /// ẍ_i = u_i integrated (semi-implicit Euler). Returns u_i.
+    /// One control step of length `dt` (s) under the paper's law ([`PaperLaw`]): u_i from
+    /// (II.1) — blended with the homing law of `vbap_math::rejoin` while this vehicle or
+    /// a neighbour rejoins — then ẍ_i = u_i integrated (semi-implicit Euler). Returns u_i.
     pub fn step(&mut self, inputs: &AgentInputs<'_>, dt: f64) -> Vec3 {
-        let rejoin = inputs.homing.is_some() || inputs.neighbour_sigmas.iter().any(|s| *s > 0.0);
-        let u = if rejoin {
-            let weighted: Vec<Neighbour> = inputs
-                .neighbours
-                .iter()
-                .enumerate()
-                .map(|(j, p)| Neighbour {
-                    position: *p,
-                    sigma: inputs.neighbour_sigmas.get(j).copied().unwrap_or(0.0),
-                    slot: inputs.neighbour_slots.get(j).copied().unwrap_or(*p),
-                })
-                .collect();
-            blended_control_law(
-                &self.position,
-                &self.velocity,
-                inputs.homing.as_ref(),
-                &weighted,
-                inputs.leaders,
-                &inputs.inter,
-                &inputs.leader,
-                inputs.damping,
-            )
-        } else {
-            control_law(
-                &self.position,
-                &self.velocity,
-                inputs.neighbours,
-                inputs.leaders,
-                &inputs.inter,
-                &inputs.leader,
-                inputs.damping,
-            )
-        };
+        self.step_with(&PaperLaw, inputs, dt)
+    }
+
+    /// One control step of length `dt` (s) under `law`: u_i = `law.control(..)`, then
+    /// ẍ_i = u_i integrated (semi-implicit Euler); in 2-D z stays 0. Returns u_i.
+    pub fn step_with(&mut self, law: &dyn ControlLaw, inputs: &AgentInputs<'_>, dt: f64) -> Vec3 {
+        let u = law.control(&self.position, &self.velocity, inputs);
         let (x, v) = integrate(&self.position, &self.velocity, &u, dt);
         self.position = x;
         self.velocity = v;
@@ -114,6 +74,18 @@ impl Agent {
         damping: f64,
         dt: f64,
     ) -> Vec3 {
+        self.hold_station_with(&PaperLaw, last_leaders, leader, damping, dt)
+    }
+
+    /// [`Agent::hold_station`] under `law`.
+    pub fn hold_station_with(
+        &mut self,
+        law: &dyn ControlLaw,
+        last_leaders: &[Vec3],
+        leader: &PairPotential,
+        damping: f64,
+        dt: f64,
+    ) -> Vec3 {
         let inputs = AgentInputs {
             leaders: last_leaders,
             neighbours: &[],
@@ -128,7 +100,7 @@ impl Agent {
             neighbour_slots: &[],
             homing: None,
         };
-        self.step(&inputs, dt)
+        self.step_with(law, &inputs, dt)
     }
 }
 
@@ -350,6 +322,8 @@ pub struct Vehicle {
     drawn: Vec<(u64, Fate)>,
     /// Downlink counters.
     pub counts: DownlinkCounts,
+    /// The control law it flies ([`PaperLaw`] unless [`Vehicle::with_law`]).
+    law: Arc<dyn ControlLaw>,
 }
 
 impl Vehicle {
@@ -366,7 +340,19 @@ impl Vehicle {
             ahead: BTreeMap::new(),
             drawn: Vec::new(),
             counts: DownlinkCounts::default(),
+            law: Arc::new(PaperLaw),
         }
+    }
+
+    /// This vehicle flying `law` instead of the paper's.
+    pub fn with_law(mut self, law: Arc<dyn ControlLaw>) -> Self {
+        self.law = law;
+        self
+    }
+
+    /// The control law this vehicle flies.
+    pub fn law(&self) -> &Arc<dyn ControlLaw> {
+        &self.law
     }
 
     /// Nothing heard from the coordinator: hold station around the last visible leaders
@@ -374,7 +360,7 @@ impl Vehicle {
     pub fn hold_station(&mut self, dt: f64) {
         let g = &self.current;
         self.agent
-            .hold_station(&g.leaders, &g.leader, g.damping, dt);
+            .hold_station_with(self.law.as_ref(), &g.leaders, &g.leader, g.damping, dt);
     }
 
     /// Draws the fates of the commands up to tick `c` that have none yet, in order.
@@ -484,7 +470,7 @@ impl Vehicle {
                 neighbour_slots: &slots,
                 homing,
             };
-            self.agent.step(&inputs, dt);
+            self.agent.step_with(self.law.as_ref(), &inputs, dt);
         } else {
             let inputs = AgentInputs {
                 leaders: &g.leaders,
@@ -496,7 +482,7 @@ impl Vehicle {
                 neighbour_slots: &g.neighbour_slots,
                 homing,
             };
-            self.agent.step(&inputs, dt);
+            self.agent.step_with(self.law.as_ref(), &inputs, dt);
         }
     }
 }

@@ -10,376 +10,349 @@
 //! and waits again. Its sensor reading is taken by the field server where and when that
 //! state says, in the coordinator's batched read of the tick (see
 //! `vbap_ipc::msg::coordinator_to_field`).
+//!
+//! [`run_with`] waits; a `Pilot` (the vehicle, its clock, what it has read and reported)
+//! acts on what a wake-up brings: the `CommandFilter` (`run/commands.rs`) reads and checks
+//! the body commands, the `Outbox` (`run/outbox.rs`) numbers and publishes the states.
 
-use std::cell::RefCell;
-use std::collections::VecDeque;
+mod commands;
+mod outbox;
+
+use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{Context, Result};
-use iceoryx2::prelude::*;
 use tracing::{info, warn};
 use vbap_ipc::msg::agent_to_coordinator::VehicleState;
-use vbap_ipc::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
-use vbap_ipc::msg::{from_vec3, to_vec3, wall_ns, Header};
+use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+use vbap_ipc::msg::Header;
 use vbap_ipc::msglog::MsgLog;
-use vbap_ipc::topics::{self, wait_for_wake, Domain, Limits, Wake};
+use vbap_ipc::topics::{self, Domain, Limits};
+use vbap_ipc::wait::Wake;
+use vbap_math::law::{ControlLaw, PaperLaw};
 use vbap_mission::config::{Mission, Pace};
 use vbap_mission::link::{Fate, LinkModel};
 
+use self::commands::{CommandFilter, NewCommand};
+use self::outbox::Outbox;
 use crate::{initial_agent, initial_design, Agent, Guidance, Vehicle};
 
-/// Runs vehicle `id` of `mission` until the mission ends or a termination signal.
-/// `rejoin`: the process is a restart (the supervisor says so) and asks to join the
-/// mission under way instead of starting at tick 0. `msgs` receives the message records;
-/// `on_ready` is called once every port exists.
+/// Runs vehicle `id` of `mission` under the paper's control law until the mission ends or
+/// a termination signal. `rejoin`: the process is a restart (the supervisor says so) and
+/// asks to join the mission under way instead of starting at tick 0. `msgs` receives the
+/// message records; `on_ready` is called once every port exists.
 pub fn run(
     mission: &Mission,
     id: u32,
     rejoin: bool,
-    mut msgs: MsgLog,
+    msgs: MsgLog,
     on_ready: impl FnOnce(),
 ) -> Result<()> {
-    let name = &mission.mission.name;
-    let dt = mission.mission.dt;
-    let domain = Domain::new(name)?;
+    run_with(mission, id, rejoin, Arc::new(PaperLaw), msgs, on_ready)
+}
+
+/// [`run`] with the vehicle flying `law` (a user's own control law).
+pub fn run_with(
+    mission: &Mission,
+    id: u32,
+    rejoin: bool,
+    law: Arc<dyn ControlLaw>,
+    msgs: MsgLog,
+    on_ready: impl FnOnce(),
+) -> Result<()> {
+    let domain = Domain::new(&mission.mission.name)?;
     let limits = Limits::for_fleet(mission.vehicles.count);
     let node = domain.agent_node(&topics::agent_node_name(id))?;
+    let state = domain
+        .state_sender(&node, id, &limits)
+        .map_err(|e| anyhow::anyhow!("vehicle {id}: cannot publish its state: {e}"))?;
+    let body = domain.body_receiver(&node, id, &limits)?;
+    let waiter = body.wake().attach()?;
 
-    let state_service = domain.state_service(&node, id, &limits)?;
-    let state_pub = state_service.publisher_builder().create().map_err(|e| {
-        anyhow::anyhow!(
-            "vehicle {id}: cannot publish on {}: {e:?} (is another agent running with this id?)",
-            domain.state_name(id)
-        )
-    })?;
-    let body_sub = domain
-        .body_service(&node, &limits)?
-        .subscriber_builder()
-        .create()
-        .map_err(|e| anyhow::anyhow!("subscribing to the body service: {e:?}"))?;
-    let wake = domain
-        .vehicle_wake(&node, id, &limits)?
-        .listener_builder()
-        .create()
-        .map_err(|e| anyhow::anyhow!("creating the wake listener: {e:?}"))?;
-    let coordinator_notifier = domain
-        .coordinator_wake(&node, &limits)?
-        .notifier_builder()
-        .default_event_id(topics::EVENT_DATA)
-        .create()
-        .map_err(|e| anyhow::anyhow!("creating the coordinator notifier: {e:?}"))?;
-    let waitset = WaitSetBuilder::new()
-        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
-        .create::<ipc::Service>()
-        .map_err(|e| anyhow::anyhow!("creating the waitset: {e:?}"))?;
-    let _guard = waitset
-        .attach_notification(&wake)
-        .map_err(|e| anyhow::anyhow!("attaching the wake listener: {e:?}"))?;
-
-    let design = initial_design(mission).context("initial formation design")?;
-    let initial = Guidance::initial(mission, &design);
-    let model = LinkModel::new(mission);
-    let mut vehicle = Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0);
-    let ticks = mission.ticks();
-    // Paced runs hold station when the coordinator is silent for a few ticks.
-    let hold_after = match mission.mission.pace {
-        Pace::Lockstep => None,
-        Pace::Factor(f) => Some(Duration::from_secs_f64((4.0 * dt / f).max(0.5))),
-    };
-    let pid = std::process::id();
-    let mut seq: u64 = 0;
-    let mut last_body_seq: Option<u64> = None;
-    let mut rejected: u64 = 0;
-
-    // The states published lately: a restarted coordinator asks for them again.
-    let recent: RefCell<VecDeque<VehicleState>> = RefCell::new(VecDeque::new());
-    let send = |state: VehicleState| -> Result<()> {
-        state_pub
-            .send_copy(state)
-            .map_err(|e| anyhow::anyhow!("publishing the state: {e:?}"))?;
-        coordinator_notifier
-            .notify_with_custom_event_id(topics::vehicle_event(id))
-            .map_err(|e| anyhow::anyhow!("waking the coordinator: {e:?}"))?;
-        Ok(())
-    };
-    // `read`: the commands read so far (`VehicleState::commands_read`).
-    let publish = |agent: &Agent, k: u64, flags: u32, seq: &mut u64, read: u64| -> Result<()> {
-        *seq += 1;
-        let state = VehicleState {
-            header: Header {
-                sender: id,
-                flags,
-                tick: k,
-                t: k as f64 * dt,
-                seq: *seq,
-                sent_ns: wall_ns(),
-            },
-            pid,
-            _pad: 0,
-            position: from_vec3(&agent.position),
-            velocity: from_vec3(&agent.velocity),
-            commands_read: read,
-        };
-        send(state)?;
-        let mut recent = recent.borrow_mut();
-        recent.push_back(state);
-        while recent.len() > Limits::LOOKAHEAD_TICKS as usize + 2 {
-            recent.pop_front();
-        }
-        Ok(())
-    };
-    // The link model's verdicts on commands, for the message records.
-    let log_fates = |vehicle: &mut Vehicle, msgs: &mut MsgLog| {
-        for (tick, fate) in vehicle.take_drawn() {
-            match fate {
-                Fate::Deliver { injected, .. } if injected > 0.0 => {
-                    msgs.held("body", Header::COORDINATOR, id, tick, injected)
-                }
-                Fate::Drop(reason) => {
-                    msgs.drop("body", Header::COORDINATOR, id, tick, reason.as_str())
-                }
-                _ => {}
-            }
-        }
-    };
-
-    // A restarted process asks to join the mission under way; the coordinator admits it
-    // by handing its last known state back in the snapshot.
-    let mut joining = rejoin;
-    let mut k: u64 = 0;
+    let mut pilot = Pilot::new(
+        mission,
+        id,
+        rejoin,
+        law,
+        Outbox::new(state, id, mission.mission.dt),
+        msgs,
+    )?;
     info!(
         vehicle = id,
-        joining,
-        tick = k,
-        x = vehicle.agent.position.x,
-        y = vehicle.agent.position.y,
-        z = vehicle.agent.position.z,
+        joining = pilot.joining,
+        tick = pilot.k,
+        x = pilot.vehicle.agent.position.x,
+        y = pilot.vehicle.agent.position.y,
+        z = pilot.vehicle.agent.position.z,
         "agent up"
     );
     on_ready();
-    let flags = if joining { VehicleState::JOINING } else { 0 };
-    publish(&vehicle.agent, k, flags, &mut seq, 0)?;
+    let flags = if pilot.joining {
+        VehicleState::JOINING
+    } else {
+        0
+    };
+    pilot.out.publish(&pilot.vehicle.agent, 0, flags, 0)?;
 
-    // Lockstep: the newest command received bounds how far the vehicle may run ahead.
-    let mut newest_command: Option<u64> = None;
-    let read = |newest: Option<u64>| newest.map_or(0, |c| c + 1);
-    // The commands read as last reported to the coordinator.
-    let mut reported_read = 0;
     // Check for commands first, wait only when there is nothing to act on.
     let mut idle = false;
     loop {
         if idle {
             // Lockstep: a deadline as a safety net, so a lost wake-up costs a second, not the
             // mission (on a timeout the body subscriber is read once).
-            let timeout = hold_after.unwrap_or(Duration::from_secs(1));
+            let timeout = pilot.hold_after.unwrap_or(Duration::from_secs(1));
             // The records so far reach the file before every wait (at least once a tick):
             // a SIGKILL loses at most those of the tick under way.
-            msgs.flush();
-            match wait_for_wake(&waitset, &wake, timeout)? {
+            pilot.msgs.flush();
+            match waiter.wait(timeout, |_| {})? {
                 Wake::Stop => {
-                    info!(vehicle = id, tick = k, "stopped by signal");
+                    info!(vehicle = id, tick = pilot.k, "stopped by signal");
                     return Ok(());
                 }
-                Wake::Timeout => {
-                    // Hold station only once the mission is under way: before its first
-                    // command a vehicle waits where it was deployed (the set may still be
-                    // starting up).
-                    if hold_after.is_some() && !joining && last_body_seq.is_some() {
-                        // Nothing heard (paced runs): fly the last visible guidance.
-                        vehicle.hold_station(dt);
-                        k += 1;
-                        warn!(
-                            vehicle = id,
-                            tick = k,
-                            "coordinator silent: holding station"
-                        );
-                        publish(
-                            &vehicle.agent,
-                            k,
-                            VehicleState::HOLDING,
-                            &mut seq,
-                            read(newest_command),
-                        )?;
-                        continue;
-                    }
+                Wake::Timeout if pilot.may_hold_station() => {
+                    pilot.hold_station()?;
+                    continue;
                 }
-                Wake::Events => {}
+                Wake::Timeout | Wake::Events => {}
             }
         }
-        idle = true;
-        // Every new valid body command, in order, read in place.
-        let mut commands: Vec<(u64, Guidance, Option<SnapshotEntry>)> = Vec::new();
-        let mut finished = false;
-        let mut resend_after: Option<u64> = None;
-        while let Some(sample) = body_sub
-            .receive()
-            .map_err(|e| anyhow::anyhow!("receiving the body: {e:?}"))?
-        {
-            let body: &BodyCommand = &sample;
-            let h = body.header;
-            msgs.recv_now("body", &h, id);
-            if h.sender == Header::COORDINATOR && last_body_seq == Some(h.seq) {
-                // A duplicate: a restarted coordinator re-sends its last command. Send it
-                // our states since again (a new subscriber's history arrives only with
-                // the publisher's next sample).
-                resend_after = Some(h.tick);
-                continue;
-            }
-            let replay = last_body_seq.is_some_and(|s| h.seq < s);
-            if h.sender != Header::COORDINATOR || replay || !body.is_valid() {
-                rejected += 1;
-                warn!(
-                    vehicle = id,
-                    tick = h.tick,
-                    seq = h.seq,
-                    sender = h.sender,
-                    rejected,
-                    replay,
-                    "rejected a body command"
-                );
-                continue;
-            }
-            last_body_seq = Some(h.seq);
-            if h.flags & BodyCommand::FINISHED != 0 {
-                finished = true;
-                break;
-            }
-            let n_l = body.n_leaders as usize;
-            let n_v = body.n_vehicles as usize;
-            let snapshot = &body.snapshot[..n_v];
-            let pot = |p: &[f64; 3]| vbap_math::potential::PairPotential {
-                alpha: p[0],
-                d0: p[1],
-                d1: p[2],
-            };
-            let guidance = Guidance::of_command(
-                h.tick,
-                body.leaders[..n_l].iter().map(to_vec3).collect(),
-                pot(&body.inter),
-                pot(&body.leader),
-                body.damping,
-                to_vec3(&body.velocity),
-                mission.body.v0,
-            )
-            .with_neighbours(id, snapshot);
-            let own = snapshot.iter().find(|e| e.id == id).copied();
-            commands.push((h.tick, guidance, own));
-        }
-        if finished {
-            // Commands read in the same drain as the end (a slow agent finds both in its
-            // buffer) still had their link fates: draw them (up to the newest, in order),
-            // so the downlink counts equal the simulator's, which draws every command's.
-            if !joining {
-                if let Some((tick, guidance, _)) = commands.pop() {
-                    vehicle.receive(&model, guidance, tick, dt);
-                }
-            }
-            log_fates(&mut vehicle, &mut msgs);
-            info!(
-                vehicle = id,
-                tick = k,
-                rejected,
-                delivered = vehicle.counts.delivered,
-                dropped = vehicle.counts.dropped,
-                "mission finished"
-            );
+        let drained = pilot.filter.drain(&body, &mut pilot.msgs)?;
+        if drained.finished {
+            pilot.finish(drained.commands);
             return Ok(());
         }
-        if let (Some(after), true) = (resend_after, commands.is_empty()) {
-            for last in recent.borrow().iter().filter(|s| s.header.tick > after) {
-                seq += 1;
-                send(VehicleState {
-                    header: Header {
-                        seq,
-                        sent_ns: wall_ns(),
-                        ..last.header
-                    },
-                    commands_read: read(newest_command),
-                    ..*last
-                })?;
-                info!(
-                    vehicle = id,
-                    tick = last.header.tick,
-                    "re-sent a state to a restarted coordinator"
-                );
+        if let (Some(after), true) = (drained.resend_after, drained.commands.is_empty()) {
+            pilot.resend_after(after)?;
+        }
+        let stepped = pilot.apply(drained.commands)?;
+        let ran_ahead = pilot.lockstep_step()?;
+        idle = !(stepped || ran_ahead);
+        pilot.log_fates();
+    }
+}
+
+/// One vehicle agent between two waits: the vehicle, its clock and what it has read and
+/// reported.
+struct Pilot<'m> {
+    mission: &'m Mission,
+    id: u32,
+    dt: f64,
+    ticks: u64,
+    model: LinkModel,
+    /// The guidance a (re)admitted vehicle starts from.
+    initial: Guidance,
+    law: Arc<dyn ControlLaw>,
+    vehicle: Vehicle,
+    /// Paced runs hold station when the coordinator is silent this long (lockstep: None).
+    hold_after: Option<Duration>,
+    /// A restarted process waits to be admitted back.
+    joining: bool,
+    /// The vehicle's tick: its state is that of t = k·dt.
+    k: u64,
+    /// Lockstep: the newest command received bounds how far the vehicle may run ahead.
+    newest_command: Option<u64>,
+    /// The commands read as last reported to the coordinator.
+    reported_read: u64,
+    filter: CommandFilter,
+    out: Outbox,
+    msgs: MsgLog,
+}
+
+impl<'m> Pilot<'m> {
+    fn new(
+        mission: &'m Mission,
+        id: u32,
+        rejoin: bool,
+        law: Arc<dyn ControlLaw>,
+        out: Outbox,
+        msgs: MsgLog,
+    ) -> Result<Self> {
+        let dt = mission.mission.dt;
+        let design = initial_design(mission).context("initial formation design")?;
+        let initial = Guidance::initial(mission, &design);
+        let vehicle = Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0)
+            .with_law(law.clone());
+        Ok(Self {
+            mission,
+            id,
+            dt,
+            ticks: mission.ticks(),
+            model: LinkModel::new(mission),
+            initial,
+            law,
+            vehicle,
+            hold_after: match mission.mission.pace {
+                Pace::Lockstep => None,
+                Pace::Factor(f) => Some(Duration::from_secs_f64((4.0 * dt / f).max(0.5))),
+            },
+            // A restarted process asks to join the mission under way; the coordinator
+            // admits it by handing its last known state back in the snapshot.
+            joining: rejoin,
+            k: 0,
+            newest_command: None,
+            reported_read: 0,
+            filter: CommandFilter::new(id, mission.body.v0),
+            out,
+            msgs,
+        })
+    }
+
+    /// The commands read so far (`VehicleState::commands_read`).
+    fn read(&self) -> u64 {
+        self.newest_command.map_or(0, |c| c + 1)
+    }
+
+    /// A paced run with nothing heard may hold station; only once the mission is under
+    /// way: before its first command a vehicle waits where it was deployed (the set may
+    /// still be starting up).
+    fn may_hold_station(&self) -> bool {
+        self.hold_after.is_some() && !self.joining && self.filter.last_seq.is_some()
+    }
+
+    /// Nothing heard (paced runs): one step flying the last visible guidance.
+    fn hold_station(&mut self) -> Result<()> {
+        self.vehicle.hold_station(self.dt);
+        self.k += 1;
+        warn!(
+            vehicle = self.id,
+            tick = self.k,
+            "coordinator silent: holding station"
+        );
+        self.out.publish(
+            &self.vehicle.agent,
+            self.k,
+            VehicleState::HOLDING,
+            self.read(),
+        )
+    }
+
+    /// The end of the mission. Commands read in the same drain as the end (a slow agent
+    /// finds both in its buffer) still had their link fates: draw them (up to the newest,
+    /// in order), so the downlink counts equal the simulator's, which draws every
+    /// command's.
+    fn finish(&mut self, mut commands: Vec<NewCommand>) {
+        if !self.joining {
+            if let Some((tick, guidance, _)) = commands.pop() {
+                self.vehicle.receive(&self.model, guidance, tick, self.dt);
             }
         }
-        if hold_after.is_some() && commands.len() > 1 {
+        self.log_fates();
+        info!(
+            vehicle = self.id,
+            tick = self.k,
+            rejected = self.filter.rejected,
+            delivered = self.vehicle.counts.delivered,
+            dropped = self.vehicle.counts.dropped,
+            "mission finished"
+        );
+    }
+
+    /// A restarted coordinator re-sent its last command (of tick `after`): our states
+    /// since, again.
+    fn resend_after(&mut self, after: u64) -> Result<()> {
+        for tick in self.out.resend_after(after, self.read())? {
+            info!(
+                vehicle = self.id,
+                tick, "re-sent a state to a restarted coordinator"
+            );
+        }
+        Ok(())
+    }
+
+    /// Takes the new commands in: admission of a joining vehicle, the link's verdicts, and
+    /// in a paced run a step on each. True when the vehicle stepped.
+    fn apply(&mut self, mut commands: Vec<NewCommand>) -> Result<bool> {
+        let paced = self.hold_after.is_some();
+        if paced && commands.len() > 1 {
             // Paced: only the newest command counts (the older ones are late).
             commands.drain(..commands.len() - 1);
         }
+        let mut stepped = false;
         for (tick, guidance, own) in commands {
-            newest_command = Some(tick);
+            self.newest_command = Some(tick);
             let admitted = own.is_some_and(|e| e.alive == SnapshotEntry::ADMITTED);
-            if joining || admitted {
+            if self.joining || admitted {
                 // Admitted when the coordinator hands our state back in the snapshot.
                 match own {
-                    Some(e) if admitted => {
-                        vehicle = Vehicle::new(
-                            Agent {
-                                id,
-                                dim: mission.mission.dim,
-                                position: to_vec3(&e.position),
-                                velocity: to_vec3(&e.velocity),
-                            },
-                            initial.clone(),
-                            tick,
-                        );
-                        joining = false;
-                        k = tick;
-                        info!(vehicle = id, tick, "admitted back into the formation");
-                    }
+                    Some(e) if admitted => self.admit(&e, tick),
                     _ => continue,
                 }
-            } else if hold_after.is_some() {
-                if tick < k {
+            } else if paced {
+                if tick < self.k {
                     continue; // an old command (paced runs): we already stepped past it
                 }
-                k = tick;
+                self.k = tick;
             }
-            vehicle.receive(&model, guidance, tick, dt);
-            if hold_after.is_some() {
+            self.vehicle.receive(&self.model, guidance, tick, self.dt);
+            if paced {
                 // Paced: step on every command, from its tick (late ones are skipped).
-                vehicle.forget_before(tick);
-                vehicle.step(k, dt);
-                k += 1;
-                idle = false;
-                if k < ticks {
-                    publish(&vehicle.agent, k, 0, &mut seq, read(newest_command))?;
-                    reported_read = read(newest_command);
+                self.vehicle.forget_before(tick);
+                self.vehicle.step(self.k, self.dt);
+                self.k += 1;
+                stepped = true;
+                if self.k < self.ticks {
+                    self.out
+                        .publish(&self.vehicle.agent, self.k, 0, self.read())?;
+                    self.reported_read = self.read();
                 }
             }
         }
-        // Lockstep: step whenever every command the step needs is in; a submerged glider
-        // (or a long link delay) needs none, and runs ahead (up to LOOKAHEAD_TICKS).
-        if hold_after.is_none() && !joining {
-            let limit = newest_command.map_or(0, |c| c + 1) + Limits::LOOKAHEAD_TICKS;
-            if k + 1 < ticks && k < limit && vehicle.ready_to_step(&model, k, dt) {
-                vehicle.step(k, dt);
-                k += 1;
-                idle = false;
-                publish(&vehicle.agent, k, 0, &mut seq, read(newest_command))?;
-                reported_read = read(newest_command);
-            } else if read(newest_command) >= reported_read + 2 {
-                // Waiting, but still reading commands: say so, so the coordinator may go on
-                // publishing without overflowing our command buffer.
-                let last = recent.borrow().back().copied();
-                if let Some(last) = last {
-                    seq += 1;
-                    send(VehicleState {
-                        header: Header {
-                            flags: VehicleState::ACK,
-                            seq,
-                            sent_ns: wall_ns(),
-                            ..last.header
-                        },
-                        commands_read: read(newest_command),
-                        ..last
-                    })?;
-                    reported_read = read(newest_command);
+        Ok(stepped)
+    }
+
+    /// Admitted back at tick `tick` from the state of snapshot entry `e`.
+    fn admit(&mut self, e: &SnapshotEntry, tick: u64) {
+        let agent = Agent {
+            id: self.id,
+            dim: self.mission.mission.dim,
+            position: vbap_ipc::msg::to_vec3(&e.position),
+            velocity: vbap_ipc::msg::to_vec3(&e.velocity),
+        };
+        self.vehicle = Vehicle::new(agent, self.initial.clone(), tick).with_law(self.law.clone());
+        self.joining = false;
+        self.k = tick;
+        info!(vehicle = self.id, tick, "admitted back into the formation");
+    }
+
+    /// Lockstep: steps whenever every command the step needs is in; a submerged glider (or
+    /// a long link delay) needs none, and runs ahead (up to `Limits::LOOKAHEAD_TICKS`).
+    /// Otherwise, still reading commands, says so. True when the vehicle stepped.
+    fn lockstep_step(&mut self) -> Result<bool> {
+        if self.hold_after.is_some() || self.joining {
+            return Ok(false);
+        }
+        let limit = self.read() + Limits::LOOKAHEAD_TICKS;
+        let k = self.k;
+        if k + 1 < self.ticks && k < limit && self.vehicle.ready_to_step(&self.model, k, self.dt) {
+            self.vehicle.step(k, self.dt);
+            self.k += 1;
+            self.out
+                .publish(&self.vehicle.agent, self.k, 0, self.read())?;
+            self.reported_read = self.read();
+            return Ok(true);
+        }
+        if self.read() >= self.reported_read + 2 && self.out.acknowledge(self.read())? {
+            // Waiting, but still reading commands: said so, so the coordinator may go on
+            // publishing without overflowing our command buffer.
+            self.reported_read = self.read();
+        }
+        Ok(false)
+    }
+
+    /// The link model's verdicts on commands, for the message records.
+    fn log_fates(&mut self) {
+        for (tick, fate) in self.vehicle.take_drawn() {
+            match fate {
+                Fate::Deliver { injected, .. } if injected > 0.0 => {
+                    self.msgs
+                        .held("body", Header::COORDINATOR, self.id, tick, injected)
                 }
+                Fate::Drop(reason) => {
+                    self.msgs
+                        .drop("body", Header::COORDINATOR, self.id, tick, reason.as_str())
+                }
+                _ => {}
             }
         }
-        log_fates(&mut vehicle, &mut msgs);
     }
 }

@@ -23,17 +23,14 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
 use iceoryx2::node::Node;
-use iceoryx2::port::listener::Listener;
-use iceoryx2::port::notifier::Notifier;
-use iceoryx2::prelude::{
-    ipc, CallbackProgression, EventId, ServiceName, SignalHandlingMode, WaitSet, WaitSetBuilder,
-};
+use iceoryx2::prelude::{ipc, ServiceName};
 use iceoryx2::service::port_factory::{event, publish_subscribe};
-use iceoryx2::waitset::WaitSetRunResult;
 use serde::Serialize;
 use vbap_ipc::msg::agent_to_coordinator::VehicleState;
 use vbap_ipc::msg::{wall_ns, Header};
-use vbap_ipc::topics::{Domain, Limits, Wake};
+use vbap_ipc::ports::{self, Receiver, Sender};
+use vbap_ipc::topics::{Domain, Limits, EVENT_VEHICLE_BASE};
+use vbap_ipc::wait::{Event, Waiter, Wake, WakeListener};
 use vbap_mission::rundir::Percentiles;
 
 use super::{unique_name, BenchArgs, Interrupted, StopFlag};
@@ -59,10 +56,10 @@ pub enum Role {
 
 /// `header.flags` of the last ping: the peer exits.
 const STOP_FLAG: u32 = 1 << 31;
-/// Event id of the wake-up floor: a tick.
-const TICK: EventId = EventId::new(1);
-/// Event id of the wake-up floor: exit.
-const QUIT: EventId = EventId::new(2);
+/// Wake-up of a peer: a ping was sent / a round begins (the agents' body event).
+const TICK: Event = Event::Body;
+/// Wake-up of the wake-up floor's agents: exit.
+const QUIT: Event = Event::Exit;
 /// How long a measurement waits for its peer before it gives up.
 const PEER_TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -172,23 +169,14 @@ fn service_name(domain: &Domain, path: &str) -> Result<ServiceName> {
     ServiceName::new(&full).map_err(|e| anyhow!("service name {full:?}: {e:?}"))
 }
 
-/// A pub-sub service of [`VehicleState`] with the settings of `<m>/vehicle/<id>/state`.
+/// A pub-sub service of [`VehicleState`] with the settings of `<m>/vehicle/<id>/state`
+/// (those of the mission's own, for a fleet of none: 8 nodes), at `<m>/bench/<path>`.
 fn state_like(
     node: &Node<ipc::Service>,
     domain: &Domain,
     path: &str,
 ) -> Result<publish_subscribe::PortFactory<ipc::Service, VehicleState, ()>> {
-    let name = service_name(domain, path)?;
-    node.service_builder(&name)
-        .publish_subscribe::<VehicleState>()
-        .max_publishers(1)
-        .max_subscribers(3)
-        .max_nodes(8)
-        .history_size(1)
-        .subscriber_max_buffer_size(Limits::STATE_BUFFER)
-        .enable_safe_overflow(true)
-        .open_or_create()
-        .map_err(|e| anyhow!("opening service {name}: {e:?}"))
+    Ok(domain.state_like_service(node, &format!("bench/{path}"), &Limits::for_fleet(0))?)
 }
 
 /// An event service for `notifiers` notifiers and ids up to `id_max`.
@@ -210,76 +198,49 @@ fn event_service(
         .map_err(|e| anyhow!("opening service {name}: {e:?}"))
 }
 
-fn listener(factory: &event::PortFactory<ipc::Service>) -> Result<Listener<ipc::Service>> {
-    factory
-        .listener_builder()
-        .create()
-        .map_err(|e| anyhow!("creating a listener: {e:?}"))
+/// The ping sender (`ping` and its wake `ping_wake`) or the pong sender.
+fn sender(node: &Node<ipc::Service>, domain: &Domain, path: &str) -> Result<Sender<VehicleState>> {
+    Ok(Sender::new(
+        ports::publisher(&state_like(node, domain, path)?)?,
+        ports::notifier(
+            &event_service(node, domain, &format!("{path}_wake"), 4, 8)?,
+            TICK,
+        )?,
+        TICK,
+    ))
 }
 
-fn notifier(
-    factory: &event::PortFactory<ipc::Service>,
-    id: EventId,
-) -> Result<Notifier<ipc::Service>> {
-    factory
-        .notifier_builder()
-        .default_event_id(id)
-        .create()
-        .map_err(|e| anyhow!("creating a notifier: {e:?}"))
+/// The receiver of `path` (its subscriber and the listener of `<path>_wake`).
+fn receiver(
+    node: &Node<ipc::Service>,
+    domain: &Domain,
+    path: &str,
+) -> Result<Receiver<VehicleState>> {
+    Ok(Receiver::new(
+        ports::subscriber(&state_like(node, domain, path)?)?,
+        WakeListener::new(&event_service(node, domain, &format!("{path}_wake"), 4, 8)?)?,
+    ))
 }
 
-fn waitset() -> Result<WaitSet<ipc::Service>> {
-    WaitSetBuilder::new()
-        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
-        .create::<ipc::Service>()
-        .map_err(|e| anyhow!("creating a waitset: {e:?}"))
-}
-
-/// Blocks until `listener` has events, the timeout passes or a signal arrives; calls
-/// `on_id` with every event id received. A wake-up of the WaitSet that finds no event (its
-/// events were drained by an earlier call) waits again.
-fn wait_ids(
-    waitset: &WaitSet<ipc::Service>,
-    listener: &Listener<ipc::Service>,
+/// Blocks until the waiter's listener has events, the timeout passes or SIGINT/SIGTERM
+/// (then the bench's stop flag is set); calls `on_event` with every event received. A
+/// wake-up that finds no event waits again ([`Waiter::wait_for_event`]).
+fn wait_events(
+    waiter: &Waiter<'_>,
     timeout: Duration,
-    mut on_id: impl FnMut(usize),
+    on_event: impl FnMut(Event),
 ) -> Result<Wake> {
-    let deadline = Instant::now() + timeout;
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        if left.is_zero() {
-            return Ok(Wake::Timeout);
-        }
-        let result = waitset
-            .wait_and_process_once_with_timeout(|_| CallbackProgression::Continue, left)
-            .map_err(|e| anyhow!("waiting: {e:?}"))?;
-        if matches!(
-            result,
-            WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt
-        ) {
-            StopFlag::set();
-            return Ok(Wake::Stop);
-        }
-        let got = listener
-            .try_wait(|a| on_id(a.id.as_value()))
-            .map_err(|e| anyhow!("reading events: {e:?}"))?;
-        if got > 0 {
-            return Ok(Wake::Events);
-        }
+    let wake = waiter.wait_for_event(timeout, on_event)?;
+    if wake == Wake::Stop {
+        StopFlag::set();
     }
+    Ok(wake)
 }
 
 /// The ping of round `i`.
 fn ping(i: u64, flags: u32) -> VehicleState {
     VehicleState {
-        header: Header {
-            sender: 0,
-            flags,
-            tick: i,
-            t: i as f64 * 0.05,
-            seq: i + 1,
-            sent_ns: wall_ns(),
-        },
+        header: Header::new(0, i, i as f64 * 0.05, i + 1).with_flags(flags),
         pid: std::process::id(),
         position: [1.0 + i as f64, 2.0, 0.0],
         velocity: [0.5, -0.25, 0.0],
@@ -345,20 +306,9 @@ pub fn iceoryx2_ping_pong(
 ) -> Result<HopFloor> {
     in_private_domain("i", |domain| {
         let node = domain.node("bench_ping")?;
-        let publisher = state_like(&node, domain, "ping")?
-            .publisher_builder()
-            .create()
-            .map_err(|e| anyhow!("ping publisher: {e:?}"))?;
-        let subscriber = state_like(&node, domain, "pong")?
-            .subscriber_builder()
-            .create()
-            .map_err(|e| anyhow!("pong subscriber: {e:?}"))?;
-        let wake_peer = notifier(&event_service(&node, domain, "ping_wake", 4, 8)?, TICK)?;
-        let wake = listener(&event_service(&node, domain, "pong_wake", 4, 8)?)?;
-        let ws = waitset()?;
-        let _guard = ws
-            .attach_notification(&wake)
-            .map_err(|e| anyhow!("attaching: {e:?}"))?;
+        let pings = sender(&node, domain, "ping")?;
+        let pongs = receiver(&node, domain, "pong")?;
+        let waiter = pongs.wake().attach()?;
         let role = if poll { "iox-pong-poll" } else { "iox-pong" };
         let mut helper = Helper::spawn(
             work,
@@ -377,19 +327,12 @@ pub fn iceoryx2_ping_pong(
                 stop.check()?;
             }
             let t0 = Instant::now();
-            publisher
-                .send_copy(ping(i, 0))
-                .map_err(|e| anyhow!("sending a ping: {e:?}"))?;
+            pings.publish(ping(i, 0)).context("sending a ping")?;
             if !poll {
-                wake_peer
-                    .notify()
-                    .map_err(|e| anyhow!("waking the peer: {e:?}"))?;
+                pings.notify().context("waking the peer")?;
             }
             let (reply, recv_ns) = loop {
-                if let Some(sample) = subscriber
-                    .receive()
-                    .map_err(|e| anyhow!("receiving a pong: {e:?}"))?
-                {
+                if let Some(sample) = pongs.receive().context("receiving a pong")? {
                     let recv_ns = wall_ns();
                     let reply: VehicleState = *sample;
                     if reply.header.tick == i {
@@ -404,7 +347,7 @@ pub fn iceoryx2_ping_pong(
                     );
                     continue;
                 }
-                match wait_ids(&ws, &wake, PEER_TIMEOUT, |_| {})? {
+                match wait_events(&waiter, PEER_TIMEOUT, |_| {})? {
                     Wake::Stop => return Err(Interrupted.into()),
                     Wake::Timeout => bail!("iceoryx2 ping-pong: no pong within {PEER_TIMEOUT:?}"),
                     Wake::Events => {}
@@ -415,8 +358,7 @@ pub fn iceoryx2_ping_pong(
                 out.push(&reply, recv_ns, rtt);
             }
         }
-        let _ = publisher.send_copy(ping(u64::MAX, STOP_FLAG));
-        let _ = wake_peer.notify();
+        let _ = pings.send(ping(u64::MAX, STOP_FLAG));
         helper.reap(Duration::from_secs(5));
         Ok(out.floor())
     })
@@ -424,46 +366,28 @@ pub fn iceoryx2_ping_pong(
 
 fn iox_pong(domain: &Domain, poll: bool) -> Result<i32> {
     let node = domain.node("bench_pong")?;
-    let subscriber = state_like(&node, domain, "ping")?
-        .subscriber_builder()
-        .create()
-        .map_err(|e| anyhow!("ping subscriber: {e:?}"))?;
-    let publisher = state_like(&node, domain, "pong")?
-        .publisher_builder()
-        .create()
-        .map_err(|e| anyhow!("pong publisher: {e:?}"))?;
-    let wake = listener(&event_service(&node, domain, "ping_wake", 4, 8)?)?;
-    let wake_peer = notifier(&event_service(&node, domain, "pong_wake", 4, 8)?, TICK)?;
-    let ws = waitset()?;
-    let _guard = ws
-        .attach_notification(&wake)
-        .map_err(|e| anyhow!("attaching: {e:?}"))?;
+    let pings = receiver(&node, domain, "ping")?;
+    let pongs = sender(&node, domain, "pong")?;
+    let waiter = pings.wake().attach()?;
     say_ready("");
     let mut last = Instant::now();
     loop {
-        if !poll && wait_ids(&ws, &wake, Duration::from_secs(3600), |_| {})? == Wake::Stop {
+        if !poll && wait_events(&waiter, Duration::from_secs(3600), |_| {})? == Wake::Stop {
             return Ok(0);
         }
         if poll && last.elapsed() > PEER_TIMEOUT {
             bail!("iceoryx2 pong (polling): no ping within {PEER_TIMEOUT:?}");
         }
-        while let Some(sample) = subscriber
-            .receive()
-            .map_err(|e| anyhow!("receiving a ping: {e:?}"))?
-        {
+        while let Some(sample) = pings.receive().context("receiving a ping")? {
             let recv_ns = wall_ns();
             let p: VehicleState = *sample;
             if p.header.flags & STOP_FLAG != 0 {
                 return Ok(0);
             }
-            publisher
-                .send_copy(pong(&p, recv_ns))
-                .map_err(|e| anyhow!("sending a pong: {e:?}"))?;
+            pongs.publish(pong(&p, recv_ns)).context("sending a pong")?;
             last = Instant::now();
             if !poll {
-                wake_peer
-                    .notify()
-                    .map_err(|e| anyhow!("waking the pinger: {e:?}"))?;
+                pongs.notify().context("waking the pinger")?;
             }
         }
     }
@@ -501,15 +425,11 @@ fn decode(b: &[u8; WIRE]) -> VehicleState {
     let u64_at = |at: usize| u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"));
     let f64_at = |at: usize| f64::from_bits(u64_at(at));
     // Padding bytes are not read back: they carry nothing.
+    let mut header =
+        Header::new(u32_at(0), u64_at(8), f64_at(16), u64_at(24)).with_flags(u32_at(4));
+    header.sent_ns = u64_at(32);
     VehicleState {
-        header: Header {
-            sender: u32_at(0),
-            flags: u32_at(4),
-            tick: u64_at(8),
-            t: f64_at(16),
-            seq: u64_at(24),
-            sent_ns: u64_at(32),
-        },
+        header,
         pid: u32_at(40),
         position: [f64_at(48), f64_at(56), f64_at(64)],
         velocity: [f64_at(72), f64_at(80), f64_at(88)],
@@ -608,13 +528,20 @@ fn udp_pong(poll: bool) -> Result<i32> {
     }
 }
 
-/// The coordinator's event service of the wake-up floor (agents notify with id + 1).
+/// The coordinator's event service of the wake-up floor (agent `id` notifies with
+/// [`Event::Vehicle`]`(id)`, as in a mission).
 fn coordinator_wake(
     node: &Node<ipc::Service>,
     domain: &Domain,
     agents: usize,
 ) -> Result<event::PortFactory<ipc::Service>> {
-    event_service(node, domain, "wake/coordinator", agents + 2, agents + 2)
+    event_service(
+        node,
+        domain,
+        "wake/coordinator",
+        agents + 2,
+        EVENT_VEHICLE_BASE + agents + 2,
+    )
 }
 
 /// Agent `id`'s event service of the wake-up floor.
@@ -631,14 +558,11 @@ fn agent_wake(
 pub fn wake_floor(work: &Path, agents: usize, rounds: usize, stop: &StopFlag) -> Result<f64> {
     in_private_domain("w", |domain| {
         let node = domain.node("bench_coordinator")?;
-        let wake = listener(&coordinator_wake(&node, domain, agents)?)?;
+        let wake = WakeListener::new(&coordinator_wake(&node, domain, agents)?)?;
+        let waiter = wake.attach()?;
         let notifiers = (0..agents)
-            .map(|id| notifier(&agent_wake(&node, domain, id)?, TICK))
+            .map(|id| Ok(ports::notifier(&agent_wake(&node, domain, id)?, TICK)?))
             .collect::<Result<Vec<_>>>()?;
-        let ws = waitset()?;
-        let _guard = ws
-            .attach_notification(&wake)
-            .map_err(|e| anyhow!("attaching: {e:?}"))?;
         let mut helpers = (0..agents)
             .map(|id| {
                 Helper::spawn(
@@ -662,7 +586,7 @@ pub fn wake_floor(work: &Path, agents: usize, rounds: usize, stop: &StopFlag) ->
             stop.check()?;
         }
         let warmup = (rounds / 5).max(10);
-        let mut seen = vec![usize::MAX; agents + 3];
+        let mut seen = vec![usize::MAX; agents];
         let mut t0 = Instant::now();
         for round in 0..warmup + rounds {
             if round == warmup {
@@ -673,10 +597,13 @@ pub fn wake_floor(work: &Path, agents: usize, rounds: usize, stop: &StopFlag) ->
             }
             let mut answered = 0;
             while answered < agents {
-                let wake_result = wait_ids(&ws, &wake, PEER_TIMEOUT, |id| {
-                    if (1..=agents).contains(&id) && seen[id] != round {
-                        seen[id] = round;
-                        answered += 1;
+                let wake_result = wait_events(&waiter, PEER_TIMEOUT, |e| {
+                    if let Event::Vehicle(id) = e {
+                        let id = id as usize;
+                        if id < agents && seen[id] != round {
+                            seen[id] = round;
+                            answered += 1;
+                        }
                     }
                 })?;
                 match wake_result {
@@ -690,7 +617,7 @@ pub fn wake_floor(work: &Path, agents: usize, rounds: usize, stop: &StopFlag) ->
         }
         let rate = rounds as f64 / t0.elapsed().as_secs_f64();
         for n in &notifiers {
-            let _ = n.notify_with_custom_event_id(QUIT);
+            let _ = n.notify_with_custom_event_id(QUIT.id());
         }
         for h in helpers {
             h.reap(Duration::from_secs(5));
@@ -701,20 +628,17 @@ pub fn wake_floor(work: &Path, agents: usize, rounds: usize, stop: &StopFlag) ->
 
 fn wake_agent(domain: &Domain, id: usize, agents: usize) -> Result<i32> {
     let node = domain.node(&format!("bench_agent_{id}"))?;
-    let wake = listener(&agent_wake(&node, domain, id)?)?;
-    let answer = notifier(
+    let wake = WakeListener::new(&agent_wake(&node, domain, id)?)?;
+    let waiter = wake.attach()?;
+    let answer = ports::notifier(
         &coordinator_wake(&node, domain, agents)?,
-        EventId::new(id + 1),
+        Event::Vehicle(id as u32),
     )?;
-    let ws = waitset()?;
-    let _guard = ws
-        .attach_notification(&wake)
-        .map_err(|e| anyhow!("attaching: {e:?}"))?;
     say_ready("");
     loop {
         let (mut tick, mut quit) = (false, false);
-        let woke = wait_ids(&ws, &wake, Duration::from_secs(3600), |e| {
-            if e == QUIT.as_value() {
+        let woke = wait_events(&waiter, Duration::from_secs(3600), |e| {
+            if e == QUIT {
                 quit = true;
             } else {
                 tick = true;

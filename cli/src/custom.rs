@@ -1,0 +1,108 @@
+//! A user's own vbap: the same commands over the user's own field and control law.
+//!
+//! The extension points are traits: [`ScalarField`] (the sensed field, with its ground
+//! truth) and [`ControlLaw`] (a vehicle's u_i). A user's crate implements them and hands
+//! them to [`main`] in its own binary; that binary is then a `vbap` of its own:
+//!
+//! - `my_vbap sim MISSION ...`: the in-process simulator ([`crate::sim::simulate_plugins`]);
+//! - `my_vbap run MISSION ...`: the multi-process system, this same executable started
+//!   again in each role (`my_vbap role field-server|coordinator|agent ...`,
+//!   [`crate::supervise::Executables::this_exe_as_roles`]), so the field server samples
+//!   the user's field, every agent flies the user's law and the coordinator judges the run
+//!   by the user's field; in lockstep it writes the same files as `sim`, byte for byte;
+//! - `check`, `formation`, `analyze` as in `vbap`.
+//!
+//! ```no_run
+//! use vbap_cli::custom::Plugins;
+//! use vbap_math::law::PaperLaw;
+//!
+//! fn main() {
+//!     // e.g. `.with_field(MyField { .. })` for a user's own `ScalarField`
+//!     let plugins = Plugins::default().with_law(PaperLaw);
+//!     std::process::exit(vbap_cli::custom::main(plugins));
+//! }
+//! ```
+
+use std::ffi::OsString;
+use std::sync::Arc;
+
+use clap::Parser;
+use field_server::{Sensors, World};
+use vbap_ipc::process::EXIT_INVALID;
+use vbap_math::law::{ControlLaw, PaperLaw};
+use vbap_mission::config::Mission;
+use vbap_mission::field::ScalarField;
+
+/// The first argument of this executable started in a role by its own supervisor.
+pub const ROLE_COMMAND: &str = "role";
+
+/// A user's own parts; `None`: the shipped one (the mission's `[field]`, the paper's law).
+#[derive(Clone, Debug, Default)]
+pub struct Plugins {
+    /// The field the sensors sample and the run is judged by.
+    pub field: Option<Arc<dyn ScalarField>>,
+    /// The vehicles' control law.
+    pub law: Option<Arc<dyn ControlLaw>>,
+}
+
+impl Plugins {
+    /// These plugins with the field `field`.
+    pub fn with_field(mut self, field: impl ScalarField + 'static) -> Self {
+        self.field = Some(Arc::new(field));
+        self
+    }
+
+    /// These plugins with the control law `law`.
+    pub fn with_law(mut self, law: impl ControlLaw + 'static) -> Self {
+        self.law = Some(Arc::new(law));
+        self
+    }
+
+    /// The field of `mission` under these plugins.
+    pub fn field_of(&self, mission: &Mission) -> Arc<dyn ScalarField> {
+        self.field
+            .clone()
+            .unwrap_or_else(|| Arc::new(mission.field()))
+    }
+
+    /// The control law under these plugins.
+    pub fn law_of(&self) -> Arc<dyn ControlLaw> {
+        self.law.clone().unwrap_or_else(|| Arc::new(PaperLaw))
+    }
+}
+
+/// This executable in a role (`THIS role ...`): the roles' own command lines.
+#[derive(Parser, Debug)]
+#[command(name = ROLE_COMMAND)]
+enum Role {
+    /// The field server, sampling the plugged field.
+    FieldServer(field_server::cli::Args),
+    /// The coordinator, judging by the plugged field.
+    Coordinator(coordinator::cli::Args),
+    /// A vehicle agent, flying the plugged law.
+    Agent(vehicle_agent::cli::Args),
+}
+
+/// The `main` of a user's own vbap (module documentation): plays a role when started as
+/// `THIS role ...` by its own supervisor (and never returns then), otherwise runs the
+/// command line with `plugins`. Returns the exit code.
+pub fn main(plugins: Plugins) -> i32 {
+    let args: Vec<OsString> = std::env::args_os().collect();
+    if args.get(1).is_some_and(|a| a == ROLE_COMMAND) {
+        let role = match Role::try_parse_from(&args[1..]) {
+            Ok(role) => role,
+            Err(e) => {
+                let _ = e.print();
+                return EXIT_INVALID;
+            }
+        };
+        match role {
+            Role::FieldServer(a) => field_server::cli::main_with(&a, |m| {
+                Sensors::in_world(m, World::with_field(m, plugins.field_of(m)))
+            }),
+            Role::Coordinator(a) => coordinator::cli::main_with(&a, plugins.field.clone()),
+            Role::Agent(a) => vehicle_agent::cli::main_with(&a, plugins.law_of()),
+        }
+    }
+    crate::cli::main_with(Some(&plugins))
+}

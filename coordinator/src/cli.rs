@@ -1,0 +1,73 @@
+//! The coordinator's command line (`coordinator --mission FILE --run-dir DIR [--log FILE]
+//! [--parent PID [--summary-to-parent]]`), as a library: the shipped binary and a user's own executable (judging
+//! the run by its own field) parse and run it alike.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use vbap_ipc::process::{
+    announce_ready, die_with_parent, finish, load_mission_or_exit, orphaned, EXIT_INVALID,
+};
+use vbap_mission::field::ScalarField;
+use vbap_mission::rundir::{RunDir, Summary};
+
+/// The coordinator of a vbap mission (normally started by `vbap run`).
+#[derive(clap::Parser, Debug)]
+#[command(version, about)]
+pub struct Args {
+    /// The mission file.
+    #[arg(long)]
+    pub mission: PathBuf,
+    /// The run directory to write into.
+    #[arg(long)]
+    pub run_dir: PathBuf,
+    /// JSON-lines log file (default: stderr).
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// Exit when this process (the supervisor) is no longer our parent.
+    #[arg(long)]
+    pub parent: Option<u32>,
+    /// Hand the summary to the supervisor (`--parent`) on standard output instead of
+    /// writing `summary.json`: it completes the summary and writes the file once. Written
+    /// here all the same when the supervisor is gone.
+    #[arg(long, requires = "parent")]
+    pub summary_to_parent: bool,
+}
+
+/// Runs the coordinator of `args`, its recorder judging by `truth` (None: the mission's
+/// own field; see [`crate::record::set_process_truth`]), then exits the process (code 0,
+/// or 1 with the error on stderr; 2 for an invalid mission or run directory).
+pub fn main_with(args: &Args, truth: Option<Arc<dyn ScalarField>>) -> ! {
+    die_with_parent(args.parent);
+    let mission = load_mission_or_exit("coordinator", &args.mission);
+    let dir = RunDir::create(&args.run_dir).unwrap_or_else(|e| {
+        eprintln!("coordinator: --run-dir {}: {e}", args.run_dir.display());
+        std::process::exit(EXIT_INVALID);
+    });
+    if let Some(field) = truth {
+        crate::record::set_process_truth(field);
+    }
+    let log = vbap_ipc::telemetry::init("coordinator", args.log.as_deref());
+    let msgs = vbap_ipc::process::message_log(args.log.as_deref());
+    let result = crate::run::run(&mission, &dir, msgs, announce_ready).and_then(|summary| {
+        let parent = args.parent.filter(|_| args.summary_to_parent);
+        deliver(&summary, &dir, parent)
+    });
+    vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
+    finish("coordinator", result.err().map(|e| format!("{e:#}")), log)
+}
+
+/// Hands `summary` to the supervisor `parent` (one line on standard output), or, without
+/// one (none asked for, or it died: the line cannot be written), writes `summary.json`.
+fn deliver(summary: &Summary, dir: &RunDir, parent: Option<u32>) -> anyhow::Result<()> {
+    use std::io::Write;
+    if parent.is_some() && !orphaned(parent) {
+        let line = crate::handover::summary_line(summary)?;
+        let mut out = std::io::stdout().lock();
+        match writeln!(out, "{line}").and_then(|()| out.flush()) {
+            Ok(()) => return Ok(()),
+            Err(e) => tracing::warn!(error = %e, "the supervisor is gone: writing summary.json"),
+        }
+    }
+    anyhow::Context::context(summary.write(dir), "writing summary.json")
+}

@@ -1,0 +1,153 @@
+//! End-to-end test of the extension points: the example crate (`examples/`, a user's own
+//! field and control law, no vbap crate edited) run through the in-process simulator
+//! (`my_vbap sim`) and through the multi-process system (`my_vbap run`, the executable
+//! started again in every role). Checks: both write the same run directory byte for byte;
+//! the run is judged by the user's field; every vehicle flies the user's law (its
+//! acceleration never exceeds the thrust limit, which the paper's law does), so the tracks
+//! differ from those of the paper's law over the same field.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+use tests::*;
+
+/// The thrust limit of the example's law (`vbap_examples::my_plugins`), length unit/s².
+const U_MAX: f64 = 4.0;
+
+/// Builds the example crate's binaries (release, once per test process); returns the
+/// directory holding `my_vbap` and `my_field_only`.
+fn example_bins() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = bin_dir().to_path_buf(); // builds vbap and the shipped roles too
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let status = Command::new(cargo)
+            .current_dir(workspace())
+            .args(["build", "--release", "--quiet", "-p", "vbap-examples"])
+            .status()
+            .expect("running cargo build");
+        assert!(status.success(), "building the example failed");
+        dir
+    })
+}
+
+/// The paper's mission (Table I) under the name `name`, `duration` s long.
+fn paper_mission(dir: &TempDir, name: &str, duration: f64) -> PathBuf {
+    let text = read(&workspace().join("deploy/missions/paper.toml"))
+        .replace("name = \"paper\"", &format!("name = \"{name}\""))
+        .replace("duration = 100.0", &format!("duration = {duration}"));
+    assert!(text.contains(name), "the mission was renamed");
+    write_mission(dir, "mission.toml", &text)
+}
+
+/// `bin sim|run mission --out out --quiet`, which must succeed.
+fn run_example(bin: &str, command: &str, mission: &Path, out: &Path) {
+    run_ok(
+        Command::new(example_bins().join(bin))
+            .arg(command)
+            .arg(mission)
+            .arg("--out")
+            .arg(out)
+            .arg("--quiet"),
+    );
+}
+
+/// The largest acceleration ‖Δv‖/dt of any vehicle between two consecutive ticks of
+/// `vehicles.csv` (semi-implicit Euler: exactly ‖u‖).
+fn max_acceleration(run: &Path, dt: f64) -> f64 {
+    let text = read(&run.join("vehicles.csv"));
+    let mut last: std::collections::BTreeMap<u64, [f64; 3]> = Default::default();
+    let mut max: f64 = 0.0;
+    for line in text.lines().skip(1) {
+        let cols: Vec<f64> = line
+            .split(',')
+            .map(|c| c.parse().expect("a number"))
+            .collect();
+        let (id, v) = (cols[2] as u64, [cols[6], cols[7], cols[8]]);
+        if let Some(prev) = last.insert(id, v) {
+            let dv =
+                ((v[0] - prev[0]).powi(2) + (v[1] - prev[1]).powi(2) + (v[2] - prev[2]).powi(2))
+                    .sqrt();
+            max = max.max(dv / dt);
+        }
+    }
+    max
+}
+
+#[test]
+fn a_users_field_and_law_run_alike_in_process_and_as_processes() {
+    let tmp = TempDir::new("examples");
+    let name = unique_name("ex");
+    let mission = paper_mission(&tmp, &name, 30.0);
+    let (sim, run) = (tmp.join("sim"), tmp.join("run"));
+    run_example("my_vbap", "sim", &mission, &sim);
+    run_example("my_vbap", "run", &mission, &run);
+
+    // (a) == (b), byte for byte.
+    assert_same_tracks(&sim, &run);
+    assert_eq!(
+        read(&sim.join("planner_inputs.csv")),
+        read(&run.join("planner_inputs.csv"))
+    );
+    let (s_sim, s_run) = (summary(&sim), summary(&run));
+    for key in ["verdict", "optimum", "final_body_position", "max_V_over_VU"] {
+        assert_eq!(s_sim[key], s_run[key], "summary.json {key}");
+    }
+    assert!(
+        leftover_files(&name).is_empty(),
+        "iceoryx2 files left behind"
+    );
+
+    // Judged by the user's field: its bottom (18, 12), not the mission's quadratic (20, 10).
+    assert_eq!(s_sim["optimum"], serde_json::json!([18.0, 12.0, 0.0]));
+    // The body's true gradient in body.csv is the user's: at the start (0, 0) the log
+    // bowl's ∇T = A d / (w² (1 + q)), q = ½‖d‖²/w², with d = (−18, −12), w = 4, A = 10.
+    let body = read(&sim.join("body.csv"));
+    let first: Vec<&str> = body
+        .lines()
+        .nth(1)
+        .expect("a first row")
+        .split(',')
+        .collect();
+    let q = 0.5 * (18.0f64 * 18.0 + 12.0 * 12.0) / 16.0;
+    let expected = 10.0 * -18.0 / (16.0 * (1.0 + q));
+    let true_grad_x: f64 = first[14].parse().unwrap();
+    assert!(
+        (true_grad_x - expected).abs() <= 1e-12 * expected.abs(),
+        "true_grad_x {true_grad_x}, the log bowl's {expected}"
+    );
+
+    // Flown by the user's law: never more than U_MAX, in both runs; the paper's law over
+    // the same field asks for more, and its tracks differ.
+    let dt = 0.05;
+    for dir in [&sim, &run] {
+        let a = max_acceleration(dir, dt);
+        assert!(
+            a <= U_MAX * (1.0 + 1e-9),
+            "{}: ‖u‖ up to {a}",
+            dir.display()
+        );
+    }
+    let paper = tmp.join("paper_law");
+    run_example("my_field_only", "sim", &mission, &paper);
+    let a = max_acceleration(&paper, dt);
+    assert!(a > 1.5 * U_MAX, "the paper's law peaks at {a}");
+    assert_ne!(
+        read(&paper.join("vehicles.csv")),
+        read(&sim.join("vehicles.csv")),
+        "the user's law changed nothing"
+    );
+    assert_eq!(summary(&paper)["optimum"], s_sim["optimum"], "same field");
+}
+
+#[test]
+fn a_custom_vbap_refuses_what_it_cannot_plug_into() {
+    // replay, batch, chaos and bench run the shipped parts: a custom binary says so, exit 2.
+    let out = Command::new(example_bins().join("my_vbap"))
+        .args(["replay", "/nonexistent"])
+        .output()
+        .expect("spawning my_vbap");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("use `vbap`"));
+}

@@ -1,0 +1,52 @@
+//! The vehicle agent's command line (`vehicle_agent --mission FILE --id I [--rejoin] [--log
+//! FILE] [--parent PID]`), as a library: the shipped binary and a user's own executable
+//! (flying its own control law) parse and run it alike.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use vbap_ipc::process::{
+    announce_ready, die_with_parent, finish, load_mission_or_exit, EXIT_INVALID,
+};
+use vbap_math::law::ControlLaw;
+
+/// One vehicle of a vbap mission (normally started by `vbap run`).
+#[derive(clap::Parser, Debug)]
+#[command(version, about)]
+pub struct Args {
+    /// The mission file.
+    #[arg(long)]
+    pub mission: PathBuf,
+    /// This vehicle's id (0-based, below vehicles.count).
+    #[arg(long)]
+    pub id: u32,
+    /// This process is a restart: ask to join the mission under way.
+    #[arg(long)]
+    pub rejoin: bool,
+    /// JSON-lines log file (default: stderr).
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// Exit when this process (the supervisor) is no longer our parent.
+    #[arg(long)]
+    pub parent: Option<u32>,
+}
+
+/// Runs the vehicle of `args` flying `law`, then exits the process (code 0, or 1 with the
+/// error on stderr; 2 for an invalid mission or id).
+pub fn main_with(args: &Args, law: Arc<dyn ControlLaw>) -> ! {
+    die_with_parent(args.parent);
+    let mission = load_mission_or_exit("vehicle_agent", &args.mission);
+    if args.id as usize >= mission.vehicles.count {
+        eprintln!(
+            "vehicle_agent: --id {}: must be below vehicles.count = {}",
+            args.id, mission.vehicles.count
+        );
+        std::process::exit(EXIT_INVALID);
+    }
+    let process = format!("vehicle_agent_{}", args.id);
+    let log = vbap_ipc::telemetry::init(&process, args.log.as_deref());
+    let msgs = vbap_ipc::process::message_log(args.log.as_deref());
+    let result = crate::run::run_with(&mission, args.id, args.rejoin, law, msgs, announce_ready);
+    vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
+    finish(&process, result.err().map(|e| format!("{e:#}")), log)
+}

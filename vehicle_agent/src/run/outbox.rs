@@ -1,0 +1,101 @@
+//! The agent's outgoing side: its state messages, numbered, and the recent ones kept for a
+//! restarted coordinator.
+
+use std::collections::VecDeque;
+
+use anyhow::Result;
+use vbap_ipc::msg::agent_to_coordinator::VehicleState;
+use vbap_ipc::msg::{from_vec3, Header};
+use vbap_ipc::ports::Sender;
+use vbap_ipc::topics::Limits;
+
+use crate::Agent;
+
+/// Publishes vehicle `id`'s states and wakes the coordinator with each.
+pub(super) struct Outbox {
+    sender: Sender<VehicleState>,
+    id: u32,
+    pid: u32,
+    /// Control period, s (a state of tick k is at t = k·dt).
+    dt: f64,
+    /// The sequence number of the last message sent.
+    seq: u64,
+    /// The states published lately: a restarted coordinator asks for them again.
+    recent: VecDeque<VehicleState>,
+}
+
+impl Outbox {
+    pub(super) fn new(sender: Sender<VehicleState>, id: u32, dt: f64) -> Self {
+        Self {
+            sender,
+            id,
+            pid: std::process::id(),
+            dt,
+            seq: 0,
+            recent: VecDeque::new(),
+        }
+    }
+
+    fn send(&self, state: VehicleState) -> Result<()> {
+        self.sender
+            .send(state)
+            .map_err(|e| anyhow::anyhow!("publishing the state: {e}"))
+    }
+
+    /// Publishes `agent`'s state at tick `k` with `flags`, having read `read` commands
+    /// (`VehicleState::commands_read`); keeps it among the recent states.
+    pub(super) fn publish(&mut self, agent: &Agent, k: u64, flags: u32, read: u64) -> Result<()> {
+        self.seq += 1;
+        let state = VehicleState {
+            header: Header::new(self.id, k, k as f64 * self.dt, self.seq).with_flags(flags),
+            pid: self.pid,
+            _pad: 0,
+            position: from_vec3(&agent.position),
+            velocity: from_vec3(&agent.velocity),
+            commands_read: read,
+        };
+        self.send(state)?;
+        self.recent.push_back(state);
+        while self.recent.len() > Limits::LOOKAHEAD_TICKS as usize + 2 {
+            self.recent.pop_front();
+        }
+        Ok(())
+    }
+
+    /// Sends the recent states of ticks after `after` again (to a restarted coordinator),
+    /// renumbered, with `read` commands read. Returns their ticks.
+    pub(super) fn resend_after(&mut self, after: u64, read: u64) -> Result<Vec<u64>> {
+        let again: Vec<VehicleState> = self
+            .recent
+            .iter()
+            .filter(|s| s.header.tick > after)
+            .copied()
+            .collect();
+        let mut ticks = Vec::with_capacity(again.len());
+        for last in again {
+            self.seq += 1;
+            self.send(VehicleState {
+                header: last.header.resent(self.seq),
+                commands_read: read,
+                ..last
+            })?;
+            ticks.push(last.header.tick);
+        }
+        Ok(ticks)
+    }
+
+    /// Acknowledges `read` commands read while waiting: the last state again, flagged
+    /// `ACK`. False when no state was published yet.
+    pub(super) fn acknowledge(&mut self, read: u64) -> Result<bool> {
+        let Some(last) = self.recent.back().copied() else {
+            return Ok(false);
+        };
+        self.seq += 1;
+        self.send(VehicleState {
+            header: last.header.resent(self.seq).with_flags(VehicleState::ACK),
+            commands_read: read,
+            ..last
+        })?;
+        Ok(true)
+    }
+}

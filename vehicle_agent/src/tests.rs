@@ -1,0 +1,226 @@
+//! Unit tests of the agent's pure steps: [`Agent::step`] against the control law (II.1),
+//! the equilibrium of a formation at rest, and the lookahead rule of
+//! [`Vehicle::ready_to_step`].
+
+use std::sync::Arc;
+
+use vbap_math::body::VirtualBody;
+use vbap_math::law::{ControlInputs, ControlLaw, PaperLaw};
+use vbap_math::potential::PairPotential;
+use vbap_math::Vec3;
+use vbap_mission::config::Mission;
+use vbap_mission::link::LinkModel;
+
+use crate::{initial_design, Agent, AgentInputs, Guidance, Vehicle};
+
+/// The paper's mission (Table I) shipped with the repository, with `links` in place of its
+/// ideal `[links]` table.
+fn paper_mission(links: Option<&str>) -> Mission {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../deploy/missions/paper.toml");
+    let mut text = std::fs::read_to_string(path).expect("deploy/missions/paper.toml");
+    if let Some(links) = links {
+        let at = text.find("[links]").expect("a [links] table");
+        text.truncate(at);
+        text.push_str(links);
+    }
+    Mission::from_toml_str(&text, "paper.toml").expect("a valid mission")
+}
+
+fn no_one<'a>(leaders: &'a [Vec3], leader: PairPotential, damping: f64) -> AgentInputs<'a> {
+    AgentInputs {
+        leaders,
+        neighbours: &[],
+        inter: PairPotential::new(1.0, 1.0, 1.5).unwrap(),
+        leader,
+        damping,
+        neighbour_sigmas: &[],
+        neighbour_slots: &[],
+        homing: None,
+    }
+}
+
+#[test]
+fn one_step_follows_ii_1_and_the_double_integrator() {
+    // One vehicle, one virtual leader: u = −∇_x V_h(|x − b|) − K ẋ (II.1), K = damping·I,
+    // the gradient of the potential taken by central differences (independent of the
+    // force the law uses), then v' = v + u dt, x' = x + v' dt.
+    let leader = PairPotential::new(60.0, 1.2, 6.0).unwrap();
+    let b = [Vec3::new(2.0, 1.0, 0.0)];
+    let damping = 5.0;
+    let dt = 0.05;
+    let x = Vec3::new(0.3, -0.4, 0.0);
+    let v = Vec3::new(0.2, 0.1, 0.0);
+    let mut agent = Agent {
+        id: 0,
+        dim: 2,
+        position: x,
+        velocity: v,
+    };
+    let u = agent.step(&no_one(&b, leader, damping), dt);
+
+    let potential = |p: &Vec3| leader.value((p - b[0]).norm());
+    let h = 1e-6;
+    let mut grad = Vec3::zeros();
+    for i in 0..2 {
+        let mut e = Vec3::zeros();
+        e[i] = h;
+        grad[i] = (potential(&(x + e)) - potential(&(x - e))) / (2.0 * h);
+    }
+    let expected = -grad - damping * v;
+    assert!(
+        (u - expected).norm() <= 1e-6 * expected.norm().max(1.0),
+        "u = {u:?}, (II.1) gives {expected:?}"
+    );
+    let v_next = v + u * dt;
+    assert!((agent.velocity - v_next).norm() <= 1e-12);
+    assert!((agent.position - (x + v_next * dt)).norm() <= 1e-12);
+    assert_eq!(agent.position.z, 0.0, "2-D stays in the plane");
+}
+
+#[test]
+fn a_formation_at_its_slots_with_a_still_body_stays() {
+    // The initial design of the paper's mission, every vehicle exactly at its slot around
+    // the body at rest: the slots are an equilibrium of (II.1), nobody moves.
+    let mission = paper_mission(None);
+    let design = initial_design(&mission).unwrap();
+    let body = VirtualBody {
+        s: 0.0,
+        r: mission.start_vec(),
+        rotation: nalgebra::Rotation3::identity(),
+        scale: 1.0,
+    };
+    let leaders = body.leader_positions(&design);
+    let slots: Vec<Vec3> = design.slots.iter().map(|s| body.r + s).collect();
+    let dt = mission.mission.dt;
+    for (i, slot) in slots.iter().enumerate() {
+        let neighbours: Vec<Vec3> = slots
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .map(|(_, p)| *p)
+            .collect();
+        let inputs = AgentInputs {
+            leaders: &leaders,
+            neighbours: &neighbours,
+            inter: body.scaled_inter(&design),
+            leader: body.scaled_leader(&design),
+            damping: mission.vehicles.damping,
+            neighbour_sigmas: &[],
+            neighbour_slots: &[],
+            homing: None,
+        };
+        let mut agent = Agent {
+            id: i as u32,
+            dim: 2,
+            position: *slot,
+            velocity: Vec3::zeros(),
+        };
+        for k in 0..20 {
+            let u = agent.step(&inputs, dt);
+            assert!(u.norm() <= 1e-9, "vehicle {i}, step {k}: u = {u:?}");
+        }
+        assert!(
+            (agent.position - slot).norm() <= 1e-9,
+            "vehicle {i} drifted to {:?} from {slot:?}",
+            agent.position
+        );
+    }
+}
+
+/// A law of our own: the paper's, with every acceleration doubled.
+#[derive(Debug)]
+struct Doubled;
+
+impl ControlLaw for Doubled {
+    fn control(&self, x: &Vec3, v: &Vec3, inputs: &ControlInputs<'_>) -> Vec3 {
+        2.0 * PaperLaw.control(x, v, inputs)
+    }
+}
+
+#[test]
+fn the_vehicle_flies_the_law_it_is_given() {
+    let leader = PairPotential::new(60.0, 1.2, 6.0).unwrap();
+    let b = [Vec3::new(2.0, 1.0, 0.0)];
+    let start = Agent {
+        id: 0,
+        dim: 2,
+        position: Vec3::new(0.3, -0.4, 0.0),
+        velocity: Vec3::zeros(),
+    };
+    let (mut paper, mut doubled) = (start, start);
+    let u = paper.step(&no_one(&b, leader, 5.0), 0.05);
+    let u2 = doubled.step_with(&Doubled, &no_one(&b, leader, 5.0), 0.05);
+    assert!(u.norm() > 1.0, "a real pull: {u:?}");
+    assert!((u2 - 2.0 * u).norm() <= 1e-12);
+    assert!((doubled.velocity - 2.0 * paper.velocity).norm() <= 1e-12);
+
+    // A Vehicle given the law steps by it; the default is the paper's.
+    let mission = paper_mission(None);
+    let design = initial_design(&mission).unwrap();
+    let initial = Guidance::initial(&mission, &design);
+    let mut by_paper = Vehicle::new(start, initial.clone(), 0);
+    let mut by_ours = Vehicle::new(start, initial, 0).with_law(Arc::new(Doubled));
+    by_paper.step(0, mission.mission.dt);
+    by_ours.step(0, mission.mission.dt);
+    let (dv, dv2) = (by_paper.agent.velocity, by_ours.agent.velocity);
+    assert!(dv.norm() > 0.0);
+    assert!((dv2 - 2.0 * dv).norm() <= 1e-12 * dv.norm().max(1.0));
+}
+
+/// Vehicle 0 with the commands of ticks 0..=`c` received, under `mission`'s links.
+fn received_up_to(mission: &Mission, model: &LinkModel, c: u64) -> Vehicle {
+    let design = initial_design(mission).unwrap();
+    let initial = Guidance::initial(mission, &design);
+    let agent = crate::initial_agent(mission, &design, 0);
+    let mut vehicle = Vehicle::new(agent, initial.clone(), 0);
+    for k in 0..=c {
+        let fate = vehicle.receive(model, initial.clone(), k, mission.mission.dt);
+        assert!(fate.is_some(), "command {k} is new");
+    }
+    vehicle
+}
+
+#[test]
+fn ideal_links_step_only_on_the_command_of_the_tick() {
+    // Delivered at once: the step from tick j needs command j itself.
+    let mission = paper_mission(None);
+    let model = LinkModel::new(&mission);
+    let dt = mission.mission.dt;
+    let mut vehicle = received_up_to(&mission, &model, 10);
+    for j in 0..=10 {
+        assert!(
+            vehicle.ready_to_step(&model, j, dt),
+            "tick {j}: its command is in"
+        );
+    }
+    assert!(
+        !vehicle.ready_to_step(&model, 11, dt),
+        "command 11 is due at t_11"
+    );
+}
+
+#[test]
+fn a_delayed_link_lets_the_vehicle_run_ahead_exactly_as_far_as_the_delay() {
+    // Every command arrives 0.21 s = 4.2 ticks after it is sent: the step from tick j
+    // cannot miss command i when t_i + 0.21 > t_j, i.e. j − i ≤ 4. With commands 0..=c
+    // in, the vehicle may step up to tick c + 5 and not beyond.
+    let links = "[links]\ndelay = 0.21\njitter = 0.0\nloss = 0.0\n";
+    let mission = paper_mission(Some(links));
+    let model = LinkModel::new(&mission);
+    let dt = mission.mission.dt;
+    for c in [0u64, 10, 37] {
+        let mut vehicle = received_up_to(&mission, &model, c);
+        for j in 0..=c + 5 {
+            assert!(vehicle.ready_to_step(&model, j, dt), "c = {c}, j = {j}");
+        }
+        assert!(
+            !vehicle.ready_to_step(&model, c + 6, dt),
+            "c = {c}: command {} is due",
+            c + 1
+        );
+        // The missing command arrives: the vehicle may go on.
+        let design = initial_design(&mission).unwrap();
+        vehicle.receive(&model, Guidance::initial(&mission, &design), c + 1, dt);
+        assert!(vehicle.ready_to_step(&model, c + 6, dt));
+    }
+}
