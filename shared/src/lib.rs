@@ -2,7 +2,8 @@
 //!
 //! - [`math`]: the paper's mathematics, pure (no IPC, clock, logging or files).
 //! - [`field`]: the sensed environments, with ground truth, and the keyed sensor noise.
-//! - [`config`]: the mission file (TOML), parsed and validated.
+//! - [`config`]: the mission file (TOML), parsed and validated; `Mission::field` builds
+//!   its environment (in `mission_field.rs`, so `config` does not depend on `field`).
 //! - [`faults`], [`link`]: the scheduled faults and the emulated link model.
 //! - [`rng`]: random streams keyed by (seed, stream, id, tick).
 //! - [`msg`], [`topics`]: zero-copy payloads and every service name and limit.
@@ -17,6 +18,7 @@ pub mod faults;
 pub mod field;
 pub mod link;
 pub mod math;
+mod mission_field;
 pub mod msg;
 pub mod msglog;
 pub mod plot;
