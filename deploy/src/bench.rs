@@ -38,8 +38,8 @@ use shared::config::{Mission, Pace};
 use shared::rundir::Percentiles;
 use shared::topics::Domain;
 
-use crate::cli::InvalidInput;
-use crate::supervise::clean_domain;
+use crate::domain::clean_domain;
+use crate::errors::InvalidInput;
 
 use floors::HopFloor;
 use system::{Footprint, SystemRun};

@@ -182,9 +182,8 @@ fn a_huge_or_endless_file_is_refused_without_reading_it_all() {
             .starts_with("/dev/zero: the mission file is larger than 1048576 bytes"),
         "{err}"
     );
-    let dir = std::env::temp_dir().join(format!("vbap-config-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let big = dir.join("big.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let big = dir.path().join("big.toml");
     let mut text = String::from(MINIMAL);
     while text.len() as u64 <= MAX_FILE_BYTES {
         text.push_str("# padding padding padding padding padding padding padding padding\n");
@@ -204,7 +203,6 @@ fn a_huge_or_endless_file_is_refused_without_reading_it_all() {
     std::fs::write(&big, [0xff, 0xfe, 0x00]).unwrap();
     let err = Mission::load(&big).unwrap_err();
     assert!(err.to_string().contains("not UTF-8"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
