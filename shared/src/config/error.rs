@@ -3,7 +3,7 @@
 /// Something wrong with a mission: the file, the key and why.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    /// The mission file is larger than [`MAX_FILE_BYTES`].
+    /// The mission file is larger than [`MAX_FILE_BYTES`](super::MAX_FILE_BYTES).
     #[error("{origin}: the mission file is larger than {limit} bytes: not a mission file (the limit keeps a wrong path, e.g. /dev/zero, from being read until memory runs out)")]
     TooLarge {
         /// The file.

@@ -110,7 +110,8 @@ pub struct MissionSection {
     /// control characters.
     pub field_label: String,
     /// Run even when the time step makes the integration of (II.1) unstable (ω·dt or
-    /// damping·dt above 2, see [`Mission::stiffness`]); false = such a mission is refused.
+    /// damping·dt above 2, see [`Mission::stiffness`](super::Mission::stiffness)); false =
+    /// such a mission is refused.
     pub allow_unstable: bool,
 }
 
