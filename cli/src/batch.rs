@@ -44,12 +44,12 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use vbap_ipc::process::{EXIT_FAILURE, EXIT_OK};
 use vbap_mission::config::{Mission, MAX_NAME_LEN};
 use vbap_mission::rundir::{Percentiles, RunDir, Summary};
 
-use crate::cli::InvalidInput;
+use crate::errors::InvalidInput;
 
 /// Arguments.
 #[derive(clap::Args, Debug)]
@@ -73,17 +73,19 @@ pub struct BatchArgs {
     pub quiet: bool,
 }
 
-/// The pass/fail criteria of the `[batch]` table.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+/// The pass/fail criteria of the `[batch]` table, each optional.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Criteria {
-    /// Smallest acceptable fraction of converged seeds.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// Smallest acceptable fraction of converged seeds, in [0, 1].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_convergence_rate: Option<f64>,
-    /// Largest acceptable final distance to the optimum of any completed run.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// Largest acceptable final distance to the optimum of any completed run (length
+    /// unit), ≥ 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_final_distance: Option<f64>,
-    /// Largest acceptable time to converge of any converged run, s.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// Largest acceptable time to converge of any converged run, s, ≥ 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_time_to_converge: Option<f64>,
 }
 
@@ -94,115 +96,54 @@ pub const CRITERIA_KEYS: [&str; 3] = [
     "max_time_to_converge",
 ];
 
-/// Splits the `[batch]` table off a mission file: returns the criteria and the text with
-/// the table's lines blanked (so line numbers of errors in the rest stay right).
-pub fn split_batch_table(text: &str, origin: &str) -> Result<(Criteria, String)> {
-    let mut criteria = Criteria::default();
-    let mut rest = String::with_capacity(text.len());
-    let mut in_batch = false;
-    let mut seen = false;
-    for (i, line) in text.lines().enumerate() {
-        let code = line.split('#').next().unwrap_or("").trim();
-        if let Some(header) = table_header(code) {
-            in_batch = header == "batch";
-            if in_batch {
-                if seen {
-                    return Err(InvalidInput(format!(
-                        "{origin}: line {}: a second [batch] table",
-                        i + 1
-                    ))
-                    .into());
-                }
-                seen = true;
-            }
-        }
-        if !in_batch {
-            rest.push_str(line);
-            rest.push('\n');
-            continue;
-        }
-        rest.push('\n');
-        if code.is_empty() || table_header(code).is_some() {
-            continue;
-        }
-        let Some((key, value)) = code.split_once('=') else {
-            return Err(InvalidInput(format!(
-                "{origin}: line {}: [batch] expects `key = number`, got {code:?}",
-                i + 1
-            ))
-            .into());
+impl Criteria {
+    /// The criteria of `mission`'s `[batch]` table (none without one), checked: every key
+    /// known, every value a finite number in its range. An error names the mission file and
+    /// the key (`batch.<key>`).
+    pub fn of(mission: &Mission) -> Result<Criteria, InvalidInput> {
+        let origin = &mission.origin;
+        let Some(table) = &mission.batch else {
+            return Ok(Criteria::default());
         };
-        let key = key.trim();
-        let raw = value.trim();
-        let number = raw
-            .replace('_', "")
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite());
-        let Some(v) = number else {
+        if let Some(key) = table.keys().find(|k| !CRITERIA_KEYS.contains(&k.as_str())) {
             return Err(InvalidInput(format!(
-                "{origin}: batch.{key} = {raw}: must be a finite number (line {})",
-                i + 1
-            ))
-            .into());
-        };
-        let slot = match key {
-            "min_convergence_rate" => {
-                if !(0.0..=1.0).contains(&v) {
-                    return Err(InvalidInput(format!(
-                        "{origin}: batch.min_convergence_rate = {raw}: must be between 0 and 1"
-                    ))
-                    .into());
-                }
-                &mut criteria.min_convergence_rate
-            }
-            "max_final_distance" | "max_time_to_converge" => {
-                if v < 0.0 {
-                    return Err(InvalidInput(format!(
-                        "{origin}: batch.{key} = {raw}: must be >= 0"
-                    ))
-                    .into());
-                }
-                if key == "max_final_distance" {
-                    &mut criteria.max_final_distance
-                } else {
-                    &mut criteria.max_time_to_converge
-                }
-            }
-            other => {
-                return Err(InvalidInput(format!(
-                    "{origin}: batch.{other}: unknown key (line {}); known: {}",
-                    i + 1,
-                    CRITERIA_KEYS.join(", ")
-                ))
-                .into())
-            }
-        };
-        if slot.replace(v).is_some() {
-            return Err(InvalidInput(format!(
-                "{origin}: batch.{key}: given twice (line {})",
-                i + 1
-            ))
-            .into());
+                "{origin}: batch.{key}: unknown key; known: {}",
+                CRITERIA_KEYS.join(", ")
+            )));
         }
+        // toml names the key of a value that is no number ("... in `max_final_distance`").
+        let criteria: Criteria =
+            toml::Value::Table(table.clone())
+                .try_into()
+                .map_err(|e: toml::de::Error| {
+                    let why = e.to_string().replace('\n', " ");
+                    InvalidInput(format!("{origin}: [batch]: {}", why.trim()))
+                })?;
+        criteria.check(origin)?;
+        Ok(criteria)
     }
-    Ok((criteria, rest))
-}
 
-/// The table name of a TOML table header line (`[name]`, `[[name]]`), comment removed.
-fn table_header(code: &str) -> Option<&str> {
-    let inner = code
-        .strip_prefix("[[")
-        .and_then(|c| c.strip_suffix("]]"))
-        .or_else(|| code.strip_prefix('[').and_then(|c| c.strip_suffix(']')))?
-        .trim();
-    // An array value on its own line ("[1.0, 0.0],") is not a header.
-    let first = inner.chars().next()?;
-    let ok = (first.is_ascii_alphabetic() || first == '_' || first == '"')
-        && inner
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || "_-.\" ".contains(c));
-    ok.then_some(inner)
+    /// Every given value finite and in its range.
+    fn check(&self, origin: &str) -> Result<(), InvalidInput> {
+        for (key, value) in [
+            ("min_convergence_rate", self.min_convergence_rate),
+            ("max_final_distance", self.max_final_distance),
+            ("max_time_to_converge", self.max_time_to_converge),
+        ] {
+            let Some(v) = value else { continue };
+            let why = if !v.is_finite() {
+                "must be a finite number"
+            } else if key == "min_convergence_rate" && !(0.0..=1.0).contains(&v) {
+                "must be between 0 and 1"
+            } else if v < 0.0 {
+                "must be >= 0"
+            } else {
+                continue;
+            };
+            return Err(InvalidInput(format!("{origin}: batch.{key} = {v}: {why}")));
+        }
+        Ok(())
+    }
 }
 
 /// One row of `batch.csv`.
@@ -541,10 +482,8 @@ pub fn main(args: &BatchArgs) -> Result<i32> {
     if args.jobs == 0 {
         return Err(InvalidInput("--jobs 0: need at least one job".into()).into());
     }
-    let origin = args.mission.display().to_string();
-    let text = vbap_mission::config::read_mission_file(&args.mission)?;
-    let (criteria, mission_text) = split_batch_table(&text, &origin)?;
-    let mission = Mission::from_toml_str(&mission_text, &origin)?;
+    let mission = Mission::load(&args.mission)?;
+    let criteria = Criteria::of(&mission)?;
     let first = mission.mission.seed;
     if first
         .checked_add(args.seeds - 1)
@@ -660,7 +599,7 @@ fn describe(r: &SeedResult) -> String {
 }
 
 fn default_batch_dir(name: &str) -> Result<PathBuf> {
-    crate::cli::default_run_dir(&format!("{name}-batch"))
+    crate::rundirs::default_run_dir(&format!("{name}-batch"))
 }
 
 fn seed_dir(out: &Path, seed: u64) -> PathBuf {
@@ -712,7 +651,7 @@ fn run_process(exe: &Path, mission: &Mission, seed: u64, out: &Path) -> SeedResu
             .stdin(std::process::Stdio::null())
             .stdout(log.try_clone()?)
             .stderr(log);
-        stop_with_parent(&mut cmd);
+        vbap_ipc::process::stop_with_parent(&mut cmd);
         let status = cmd
             .status()
             .with_context(|| format!("starting {}", exe.display()))?;
@@ -728,60 +667,72 @@ fn run_process(exe: &Path, mission: &Mission, seed: u64, out: &Path) -> SeedResu
     }
 }
 
-/// Asks the kernel to send SIGTERM to the child when the thread that started it dies (the
-/// batch was killed), so a `vbap run` never outlives its batch; SIGTERM lets it stop its
-/// process set cleanly.
-#[allow(unsafe_code)]
-pub(crate) fn stop_with_parent(cmd: &mut std::process::Command) {
-    use std::os::unix::process::CommandExt;
-    // SAFETY: the closure runs in the child between fork and exec and only calls prctl(2),
-    // which is async-signal-safe and touches no memory of ours.
-    unsafe {
-        cmd.pre_exec(|| {
-            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM as libc::c_ulong);
-            Ok(())
-        });
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    const TEXT: &str = "[mission]\nname = \"b\"\n\n[batch]  # criteria\nmin_convergence_rate = 0.9 # most\nmax_final_distance = 1_000.0\n\n[field]\nhessian = [\n  [1.0, 0.0],\n  [0.0, 1.0],\n]\n";
+    /// A mission with a `[batch]` table after `table` (TOML lines).
+    fn mission(table: &str) -> Result<Mission, vbap_mission::config::ConfigError> {
+        let text = format!(
+            "[mission]\nname = \"b\"\n[field]\ncenter = [1.0, 2.0]\namplitude = 1.0\nwidth = 2.0\n{table}"
+        );
+        Mission::from_toml_str(&text, "m.toml")
+    }
 
     #[test]
-    fn batch_table_is_read_and_blanked() {
-        let (c, rest) = split_batch_table(TEXT, "m.toml").unwrap();
+    fn the_batch_table_is_read_into_the_criteria() {
+        let m = mission(
+            "[batch]  # criteria\nmin_convergence_rate = 0.9 # most\nmax_final_distance = 1_000\n",
+        )
+        .unwrap();
+        let c = Criteria::of(&m).unwrap();
         assert_eq!(c.min_convergence_rate, Some(0.9));
         assert_eq!(c.max_final_distance, Some(1000.0));
         assert_eq!(c.max_time_to_converge, None);
-        assert!(!rest.contains("batch") && !rest.contains("min_convergence"));
-        assert_eq!(
-            rest.lines().count(),
-            TEXT.lines().count(),
-            "line numbers kept"
-        );
-        assert!(rest.contains("[field]") && rest.contains("  [0.0, 1.0],"));
-        let (none, same) = split_batch_table("[mission]\nseed = 2\n", "m").unwrap();
-        assert_eq!(none, Criteria::default());
-        assert_eq!(same, "[mission]\nseed = 2\n");
+        assert!(!m.to_toml_string().contains("batch"));
+        let none = mission("").unwrap();
+        assert_eq!(Criteria::of(&none).unwrap(), Criteria::default());
     }
 
     #[test]
     fn bad_batch_tables_name_the_key() {
-        for (text, needle) in [
-            ("[batch]\nmin_rate = 1\n", "batch.min_rate: unknown key"),
-            ("[batch]\nmin_convergence_rate = 2\n", "between 0 and 1"),
-            ("[batch]\nmax_final_distance = \"x\"\n", "finite number"),
+        for (table, needle) in [
             (
-                "[batch]\nmax_final_distance = 1\nmax_final_distance = 2\n",
-                "given twice",
+                "[batch]\nmin_rate = 1\n",
+                "m.toml: batch.min_rate: unknown key",
+            ),
+            (
+                "[batch]\n[batch.sub]\nx = 1\n",
+                "m.toml: batch.sub: unknown key",
+            ),
+            (
+                "[batch]\nmin_convergence_rate = 2\n",
+                "m.toml: batch.min_convergence_rate = 2: must be between 0 and 1",
+            ),
+            (
+                "[batch]\nmax_final_distance = \"x\"\n",
+                "m.toml: [batch]: invalid type: string \"x\", expected f64 in `max_final_distance`",
+            ),
+            (
+                "[batch]\nmax_time_to_converge = nan\n",
+                "m.toml: batch.max_time_to_converge = NaN: must be a finite number",
+            ),
+            (
+                "[batch]\nmax_final_distance = -1\n",
+                "m.toml: batch.max_final_distance = -1: must be >= 0",
             ),
         ] {
-            let e = split_batch_table(text, "m.toml").unwrap_err().to_string();
-            assert!(e.contains(needle) && e.contains("m.toml"), "{e}");
+            let m = mission(table).unwrap();
+            let e = Criteria::of(&m).unwrap_err().to_string();
+            assert!(e.contains(needle), "{table:?}: {e}");
         }
+        // A key given twice is no TOML.
+        let e = mission("[batch]\nmax_final_distance = 1\nmax_final_distance = 2\n").unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("m.toml: line 9, column 1: invalid TOML"),
+            "{e}"
+        );
     }
 
     #[test]

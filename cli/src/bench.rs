@@ -38,8 +38,8 @@ use vbap_ipc::topics::Domain;
 use vbap_mission::config::{Mission, Pace};
 use vbap_mission::rundir::Percentiles;
 
-use crate::cli::InvalidInput;
-use crate::supervise::clean_domain;
+use crate::domain::clean_domain;
+use crate::errors::InvalidInput;
 
 use floors::HopFloor;
 use system::{Footprint, SystemRun};

@@ -52,7 +52,7 @@
 //!   one that was not detected and recovered anyway is listed as unjudged and fails
 //!   nothing.
 //! - **Leftovers**: after each run, any file of the run's iceoryx2 domain left in
-//!   /dev/shm or under /tmp/iceoryx2 ([`crate::supervise::leftover_files`]) and any live
+//!   /dev/shm or under /tmp/iceoryx2 ([`crate::domain::leftover_files`]) and any live
 //!   process started with the run's mission file is a leftover; the campaign reports it,
 //!   then removes it (SIGKILL by pid, file by file).
 //! - The run's **verdict**: `summary.json` `verdict` (and `reasons`) when present, else
@@ -73,6 +73,7 @@ use std::process::Stdio;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::{Context, Result};
+use nix::sys::signal::Signal;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
@@ -84,7 +85,7 @@ use vbap_mission::config::{
 };
 use vbap_mission::rundir::Percentiles;
 
-use crate::cli::InvalidInput;
+use crate::errors::InvalidInput;
 
 /// Wall time a paced run lasts after the action window, s: room to detect, restart and
 /// readmit the last action's target.
@@ -120,8 +121,8 @@ pub struct ChaosArgs {
     #[arg(long, default_value_t = 1)]
     pub runs: usize,
     /// Paces, comma-separated: "lockstep" or real-time factors.
-    #[arg(long, default_value = "lockstep,10")]
-    pub paces: String,
+    #[arg(long, value_delimiter = ',', default_value = "lockstep,10")]
+    pub paces: Vec<Pace>,
     /// Restart policies of the vehicle agents, comma-separated: never, on-failure, always.
     #[arg(long, default_value = "never,on-failure,always")]
     pub policies: String,
@@ -236,14 +237,13 @@ fn children(pid: u32) -> Vec<u32> {
     out
 }
 
-#[allow(unsafe_code)]
-fn send(pid: u32, sig: i32) -> bool {
-    if pid == 0 || pid > i32::MAX as u32 {
-        return false;
+/// Sends `sig` to `pid`; false when there is no such process (any more). The pid was just
+/// checked to be the process of the run we mean (its command line).
+fn send(pid: u32, sig: Signal) -> bool {
+    match i32::try_from(pid) {
+        Ok(pid) if pid > 0 => nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), sig).is_ok(),
+        _ => false,
     }
-    // SAFETY: kill(2) takes a pid and a signal number and touches no memory of ours; the
-    // pid was just checked to be the process of the run we mean (its command line).
-    unsafe { libc::kill(pid as libc::pid_t, sig) == 0 }
 }
 
 fn epoch_s(t: SystemTime) -> f64 {
@@ -488,7 +488,7 @@ fn run_rng(seed: u64, index: usize, stream: u64) -> StdRng {
 
 /// Runs the command; returns the exit code.
 pub fn main(args: &ChaosArgs) -> Result<i32> {
-    let paces = parse_list("--paces", &args.paces, |s| s.parse::<Pace>().ok())?;
+    let paces = args.paces.clone();
     let policies = parse_list("--policies", &args.policies, parse_policy)?;
     let targets: Vec<Target> = parse_list("--targets", &args.targets, parse_target)?
         .into_iter()
@@ -532,7 +532,7 @@ pub fn main(args: &ChaosArgs) -> Result<i32> {
     base.faults.retain(|f| f.kind != FaultKind::Kill);
     let out = match &args.out {
         Some(p) => p.clone(),
-        None => crate::cli::default_run_dir(&format!("{}-chaos", base.mission.name))?,
+        None => crate::rundirs::default_run_dir(&format!("{}-chaos", base.mission.name))?,
     };
     if out.join("chaos.json").exists() {
         return Err(InvalidInput(format!(
@@ -770,7 +770,7 @@ fn run_one(
         .stdin(Stdio::null())
         .stdout(log.try_clone()?)
         .stderr(log);
-    crate::batch::stop_with_parent(&mut cmd);
+    vbap_ipc::process::stop_with_parent(&mut cmd);
     let wall = Instant::now();
     let mut child = cmd
         .spawn()
@@ -828,7 +828,7 @@ fn run_one(
                 .is_some_and(|s| cmdline(pid).as_ref() == Some(&s.cmd));
             actions[a].survived = Some(same && alive(pid));
             if same {
-                send(pid, libc::SIGCONT);
+                send(pid, Signal::SIGCONT);
             }
             actions[a].cont_unix_s = Some(epoch_s(SystemTime::now()));
             false
@@ -914,7 +914,11 @@ fn run_one(
                     actions[a].outcome = "not sent: the target ended just before".into();
                     continue;
                 }
-                let sig = if kill { libc::SIGKILL } else { libc::SIGSTOP };
+                let sig = if kill {
+                    Signal::SIGKILL
+                } else {
+                    Signal::SIGSTOP
+                };
                 let sent_at = SystemTime::now();
                 if !send(pid, sig) {
                     actions[a].outcome = "not sent: the target ended just before".into();
@@ -949,7 +953,7 @@ fn run_one(
             .is_some_and(|s| cmdline(pid).as_ref() == Some(&s.cmd));
         actions[a].survived = Some(same && alive(pid));
         if same {
-            send(pid, libc::SIGCONT);
+            send(pid, Signal::SIGCONT);
         }
         actions[a].cont_unix_s = Some(epoch_s(SystemTime::now()));
     }
@@ -979,11 +983,11 @@ fn run_one(
             .next()
             .and_then(|p| p.parse::<u32>().ok())
         {
-            send(pid, libc::SIGCONT);
-            send(pid, libc::SIGKILL);
+            send(pid, Signal::SIGCONT);
+            send(pid, Signal::SIGKILL);
         }
     }
-    report.leftover_files = crate::supervise::leftover_files(&domain);
+    report.leftover_files = crate::domain::leftover_files(&domain);
     for f in &report.leftover_files {
         let _ = std::fs::remove_file(f);
     }

@@ -5,8 +5,11 @@
 //! - [`progress`]: the progress bar of `vbap run`.
 //! - [`replay`], [`batch`], [`bench`]: study a run, many runs, the speed.
 //! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).
-//! - [`cli`]: the command line.
 //! - [`custom`]: a user's own vbap, over its own field and control law.
+//! - [`cli`]: the command line ([`formation`]: `vbap formation`; [`summary_text`]: the
+//!   terminal summary of a run); [`errors`]: the user's errors and the exit codes;
+//!   [`rundirs`]: where runs go by default; [`domain`]: a mission's iceoryx2 domain on this
+//!   host (free? leftovers, cleaning).
 //! - [`lock`]: one supervisor per mission name on a host.
 //!
 //! Pictures and timing analyses are `vbap-report`'s; the steps of the processes are the
@@ -17,8 +20,13 @@ pub mod bench;
 pub mod chaos;
 pub mod cli;
 pub mod custom;
+pub mod domain;
+pub mod errors;
+pub mod formation;
 pub mod lock;
 pub mod progress;
 pub mod replay;
+pub mod rundirs;
 pub mod sim;
+pub mod summary_text;
 pub mod supervise;

@@ -12,7 +12,6 @@
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Write};
 use std::os::unix::fs::{MetadataExt, PermissionsExt};
-use std::os::unix::io::AsRawFd;
 use std::path::{Path, PathBuf};
 
 /// Environment variable naming another lock directory (tests, sandboxes).
@@ -53,16 +52,6 @@ pub struct MissionLock {
     path: PathBuf,
 }
 
-#[allow(unsafe_code)]
-fn flock(file: &File, op: libc::c_int) -> std::io::Result<()> {
-    // SAFETY: flock(2) takes an open descriptor we own and an operation; no memory is shared.
-    if unsafe { libc::flock(file.as_raw_fd(), op) } == 0 {
-        Ok(())
-    } else {
-        Err(std::io::Error::last_os_error())
-    }
-}
-
 impl MissionLock {
     /// Takes the lock of `mission` (a validated mission name) without waiting.
     pub fn acquire(mission: &str) -> Result<MissionLock, LockError> {
@@ -90,9 +79,10 @@ impl MissionLock {
                 .truncate(false)
                 .open(&path)
                 .map_err(io)?;
-            match flock(&file, libc::LOCK_EX | libc::LOCK_NB) {
+            // std's file lock is flock(2) (LOCK_EX | LOCK_NB) on Linux.
+            match file.try_lock() {
                 Ok(()) => {}
-                Err(e) if e.raw_os_error() == Some(libc::EWOULDBLOCK) => {
+                Err(std::fs::TryLockError::WouldBlock) => {
                     let mut text = String::new();
                     let _ = file.read_to_string(&mut text);
                     let holder = match text.trim().parse::<u32>() {
@@ -104,7 +94,7 @@ impl MissionLock {
                         holder,
                     });
                 }
-                Err(e) => return Err(io(e)),
+                Err(std::fs::TryLockError::Error(e)) => return Err(io(e)),
             }
             // Locked; but the holder before us may have removed the file in between: only
             // the file still at `path` counts.
@@ -131,7 +121,7 @@ impl Drop for MissionLock {
     fn drop(&mut self) {
         // Removed while still locked; the descriptor's close then releases the lock.
         let _ = std::fs::remove_file(&self.path);
-        let _ = flock(&self.file, libc::LOCK_UN);
+        let _ = self.file.unlock();
     }
 }
 
@@ -141,8 +131,9 @@ mod tests {
 
     #[test]
     fn one_holder_at_a_time_and_released_on_drop() {
-        let dir = std::env::temp_dir().join(format!("vbap-lock-test-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let tmp = tempfile::tempdir().unwrap();
+        // Not there yet: acquire creates it.
+        let dir = tmp.path().join("locks");
         let a = MissionLock::acquire_in(&dir, "m").unwrap();
         assert_eq!(
             std::fs::read_to_string(a.path()).unwrap().trim(),
@@ -166,6 +157,5 @@ mod tests {
         let again = MissionLock::acquire_in(&dir, "m").unwrap();
         drop(again);
         drop(other);
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

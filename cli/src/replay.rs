@@ -27,7 +27,7 @@ use vbap_math::Vec3;
 use vbap_mission::config::Mission;
 use vbap_mission::rundir::{RunDir, Summary, INPUTS_HEADER};
 
-use crate::cli::InvalidInput;
+use crate::errors::InvalidInput;
 
 /// Arguments.
 #[derive(clap::Args, Debug)]

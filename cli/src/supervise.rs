@@ -11,6 +11,7 @@ use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
+use nix::sys::signal::Signal;
 use tokio::io::{AsyncBufReadExt, BufReader};
 use tokio::process::{Child, Command};
 use tokio::sync::mpsc;
@@ -24,8 +25,10 @@ use vbap_ipc::wait::Event;
 use vbap_mission::config::{Mission, RestartPolicy};
 use vbap_mission::rundir::{RunDir, Summary};
 
-use crate::progress::ProgressView;
 use vbap_report::analyze;
+// Re-exported for the benchmarks, which take them from here.
+pub use crate::domain::{await_domain_free, clean_domain, leftover_files};
+use crate::progress::ProgressView;
 
 /// Grace period between SIGTERM and SIGKILL.
 const GRACE: Duration = Duration::from_secs(5);
@@ -263,56 +266,12 @@ pub fn bin_dir() -> Result<PathBuf> {
         .to_path_buf())
 }
 
-/// Sends `sig` to a child that has not been reaped yet.
-#[allow(unsafe_code)]
-fn signal(pid: u32, sig: i32) {
-    // SAFETY: kill(2) takes a pid and a signal number and touches no memory of ours; the
-    // pid is of a child whose exit we have not seen, so it has not been reaped.
-    unsafe {
-        libc::kill(pid as libc::pid_t, sig);
+/// Sends `sig` to a child that has not been reaped yet (its exit not seen, so its pid is
+/// still its own); a pid that is no process any more is ignored.
+fn signal(pid: u32, sig: Signal) {
+    if let Ok(pid @ 1..) = i32::try_from(pid) {
+        let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), sig);
     }
-}
-
-/// Removes the stale iceoryx2 resources of `domain`: dead nodes, then every file of the
-/// domain (its exact prefix `vbap_<mission>.`) left in /dev/shm and under iceoryx2's root
-/// folder. Refuses when a live process of the same mission exists.
-pub fn clean_domain(domain: &Domain) -> Result<usize> {
-    let alive = domain.alive_node_names();
-    if !alive.is_empty() {
-        bail!(
-            "mission {:?} is already running on this host (live processes: {}); choose another mission.name",
-            domain.mission,
-            alive.join(", ")
-        );
-    }
-    let dead = domain.cleanup_dead_nodes();
-    Ok(dead + domain.remove_files())
-}
-
-/// Waits (polling every 100 ms, at most `timeout`) until no process of `domain` is alive: the
-/// processes of a supervisor that was killed end on their own (they get SIGTERM when it
-/// dies). Err names the ones still alive.
-pub fn await_domain_free(domain: &Domain, timeout: Duration) -> Result<()> {
-    let start = Instant::now();
-    loop {
-        let alive = domain.alive_node_names();
-        if alive.is_empty() {
-            return Ok(());
-        }
-        if start.elapsed() >= timeout {
-            bail!(
-                "mission {:?} is already running on this host (live processes: {}); choose another mission.name",
-                domain.mission,
-                alive.join(", ")
-            );
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
-}
-
-/// Files of the domain still present (for checks and tests).
-pub fn leftover_files(domain: &Domain) -> Vec<PathBuf> {
-    domain.files()
 }
 
 async fn spawn(exe: &Executable, name: &str, args: &[String], dir: &RunDir) -> Result<Child> {
@@ -506,7 +465,7 @@ impl<'a> ProcessSet<'a> {
     }
 
     /// Sends `sig` to every running process.
-    fn signal_all(&self, sig: i32) {
+    fn signal_all(&self, sig: Signal) {
         for p in &self.procs {
             if let Some(pid) = p.pid {
                 signal(pid, sig);
@@ -530,7 +489,7 @@ impl<'a> ProcessSet<'a> {
 
 /// SIGTERM to every running process, a grace period, then SIGKILL; reaps all.
 async fn stop_all(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedReceiver<Exit>) {
-    set.signal_all(libc::SIGTERM);
+    set.signal_all(Signal::SIGTERM);
     let deadline = tokio::time::Instant::now() + GRACE;
     while set.running() > 0 {
         match tokio::time::timeout_at(deadline, exits.recv()).await {
@@ -544,7 +503,7 @@ async fn stop_all(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedReceiver<
                 for p in &set.procs {
                     if let Some(pid) = p.pid {
                         warn!(process = %p.role.name(), "did not stop within the grace period: SIGKILL");
-                        signal(pid, libc::SIGKILL);
+                        signal(pid, Signal::SIGKILL);
                     }
                 }
                 while set.running() > 0 {

@@ -1,4 +1,7 @@
-//! Process plumbing shared by the three binaries: ending with the supervisor, exit codes.
+//! Process plumbing shared by the binaries: ending with the supervisor (or making a child
+//! end with us), signals, exit codes.
+
+use nix::sys::signal::Signal;
 
 /// Exit code: success.
 pub const EXIT_OK: i32 = 0;
@@ -17,12 +20,8 @@ pub const ORPHAN_GRACE: std::time::Duration = std::time::Duration::from_secs(5);
 /// files, see [`leave_domain`]). A watchdog thread ends the process with
 /// [`EXIT_FAILURE`] if it is still alive [`ORPHAN_GRACE`] after the parent's death. If the
 /// parent is already gone (`expected_parent` no longer our parent), exits at once.
-#[allow(unsafe_code)]
 pub fn die_with_parent(expected_parent: Option<u32>) {
-    // SAFETY: prctl(PR_SET_PDEATHSIG, sig) takes two integers and touches no memory of ours.
-    unsafe {
-        libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM as libc::c_ulong);
-    }
+    let _ = nix::sys::prctl::set_pdeathsig(Signal::SIGTERM);
     if let Some(parent) = expected_parent {
         if orphaned(Some(parent)) {
             std::process::exit(EXIT_FAILURE);
@@ -46,10 +45,8 @@ pub fn die_with_parent(expected_parent: Option<u32>) {
 
 /// True when `expected_parent` is given and is no longer this process's parent (the
 /// supervisor died).
-#[allow(unsafe_code)]
 pub fn orphaned(expected_parent: Option<u32>) -> bool {
-    // SAFETY: getppid has no preconditions.
-    let ppid = unsafe { libc::getppid() } as u32;
+    let ppid = std::os::unix::process::parent_id();
     expected_parent.is_some_and(|p| p != ppid)
 }
 
@@ -78,13 +75,29 @@ pub fn leave_domain(mission: &str, expected_parent: Option<u32>) {
 }
 
 /// Sends SIGKILL to process `pid`; false when it does not exist (any more).
-#[allow(unsafe_code)]
 pub fn sigkill(pid: u32) -> bool {
-    if pid == 0 || pid > i32::MAX as u32 {
-        return false;
+    match i32::try_from(pid) {
+        Ok(pid) if pid > 0 => {
+            nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), Signal::SIGKILL).is_ok()
+        }
+        _ => false,
     }
-    // SAFETY: kill(2) takes a pid and a signal number and touches no memory of ours.
-    unsafe { libc::kill(pid as libc::pid_t, libc::SIGKILL) == 0 }
+}
+
+/// Asks the kernel to send SIGTERM to the child `cmd` starts when the thread that started
+/// it dies (its parent was killed), so a `vbap run` never outlives the batch or campaign
+/// that started it; SIGTERM lets it stop its process set cleanly.
+#[allow(unsafe_code)]
+pub fn stop_with_parent(cmd: &mut std::process::Command) {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: the closure runs in the child between fork and exec and only calls prctl(2),
+    // which is async-signal-safe and touches no memory of ours.
+    unsafe {
+        cmd.pre_exec(|| {
+            let _ = nix::sys::prctl::set_pdeathsig(Signal::SIGTERM);
+            Ok(())
+        });
+    }
 }
 
 /// Loads the mission file of a process, or exits with [`EXIT_INVALID`] naming what is wrong.

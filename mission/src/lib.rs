@@ -1,6 +1,7 @@
 //! `vbap-mission`: what a mission is, apart from any process.
 //!
-//! - [`config`]: the mission file (TOML), parsed and validated.
+//! - [`config`]: the mission file (TOML), parsed and validated; `Mission::field` builds
+//!   its environment (in `mission_field.rs`, so `config` does not depend on `field`).
 //! - [`field`]: the sensed environments, with ground truth, and the keyed sensor noise.
 //! - [`link`], [`faults`]: the emulated glider link and the scheduled faults.
 //! - [`rundir`]: the run directory a mission writes (CSV, JSON lines, summary).
@@ -9,4 +10,5 @@ pub mod config;
 pub mod faults;
 pub mod field;
 pub mod link;
+mod mission_field;
 pub mod rundir;

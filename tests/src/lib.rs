@@ -64,19 +64,25 @@ pub fn unique_name(prefix: &str) -> String {
     )
 }
 
-/// A temporary directory removed on drop (kept, with its path printed, when the test
-/// thread panics, so the logs can be read).
+/// A temporary directory (`tempfile`'s) removed on drop, but kept, with its path printed,
+/// when the test thread panics, so the run directories and logs in it can be read.
 pub struct TempDir {
+    /// The directory.
     pub path: PathBuf,
+    dir: Option<tempfile::TempDir>,
 }
 
 impl TempDir {
-    /// A fresh empty directory under the system temp dir.
+    /// A fresh empty directory under the system temp dir, named `vbap-test-<tag>-<random>`.
     pub fn new(tag: &str) -> Self {
-        let path = std::env::temp_dir().join(format!("vbap-test-{}", unique_name(tag)));
-        let _ = std::fs::remove_dir_all(&path);
-        std::fs::create_dir_all(&path).expect("creating a temp dir");
-        Self { path }
+        let dir = tempfile::Builder::new()
+            .prefix(&format!("vbap-test-{tag}-"))
+            .tempdir()
+            .expect("creating a temp dir");
+        Self {
+            path: dir.path().to_path_buf(),
+            dir: Some(dir),
+        }
     }
     /// A path inside.
     pub fn join(&self, p: &str) -> PathBuf {
@@ -87,9 +93,9 @@ impl TempDir {
 impl Drop for TempDir {
     fn drop(&mut self) {
         if std::thread::panicking() {
-            eprintln!("kept for inspection: {}", self.path.display());
-        } else {
-            let _ = std::fs::remove_dir_all(&self.path);
+            if let Some(dir) = self.dir.take() {
+                eprintln!("kept for inspection: {}", dir.keep().display());
+            }
         }
     }
 }

@@ -34,7 +34,7 @@ use vbap_ipc::wait::{Event, Waiter, Wake, WakeListener};
 use vbap_mission::rundir::Percentiles;
 
 use super::{unique_name, BenchArgs, Interrupted, StopFlag};
-use crate::cli::InvalidInput;
+use crate::errors::InvalidInput;
 use crate::supervise::clean_domain;
 
 /// Helper roles (hidden from `--help`).

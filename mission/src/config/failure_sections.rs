@@ -1,0 +1,148 @@
+//! The sections of a mission file about what goes wrong: `[links]`, `[restart]` and
+//! `[[faults]]`, with their defaults.
+
+use serde::{Deserialize, Serialize};
+
+/// How the surfacing windows of the vehicles are placed in time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SurfacingPhase {
+    /// Vehicle i surfaces at phase i·period/N (one or a few at the surface at a time).
+    #[default]
+    Staggered,
+    /// All vehicles surface together.
+    Together,
+}
+
+/// `[links]`: the vehicle ↔ coordinator link model, both directions (docs/ARCHITECTURE.md §6).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LinksSection {
+    /// One-way delay (s), ≥ 0.
+    pub delay: f64,
+    /// Uniform ± jitter on the delay (s), 0 ≤ jitter ≤ delay.
+    pub jitter: f64,
+    /// Probability a message is lost, 0 ≤ loss < 1.
+    pub loss: f64,
+    /// Surfacing period (s); 0 = always in contact.
+    pub surfacing_period: f64,
+    /// Time at the surface in each period (s), ≤ surfacing_period, > 0 if the period is.
+    pub surfacing_window: f64,
+    /// Placement of the surfacing windows: "staggered" (vehicle i at phase i·period/N) or
+    /// "together".
+    pub surfacing_phase: SurfacingPhase,
+    /// Bursty loss (Gilbert–Elliott): probability per message of going from the good to
+    /// the bad state; 0 = plain Bernoulli loss.
+    pub burst_enter: f64,
+    /// Gilbert–Elliott: probability per message of leaving the bad state.
+    pub burst_exit: f64,
+    /// Gilbert–Elliott: loss probability in the bad state (`loss` applies in the good one).
+    pub burst_loss: f64,
+    /// Apply the model to coordinator → vehicle messages too (false: uplink only).
+    pub downlink: bool,
+}
+
+impl Default for LinksSection {
+    fn default() -> Self {
+        Self {
+            delay: 0.0,
+            jitter: 0.0,
+            loss: 0.0,
+            surfacing_period: 0.0,
+            surfacing_window: 0.0,
+            surfacing_phase: SurfacingPhase::Staggered,
+            burst_enter: 0.0,
+            burst_exit: 0.5,
+            burst_loss: 0.5,
+            downlink: true,
+        }
+    }
+}
+
+/// A restart policy of the supervisor (`[restart]`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RestartPolicy {
+    /// Never restart.
+    Never,
+    /// Restart after a failure (non-zero exit or killed by a signal).
+    OnFailure,
+    /// Restart whenever the process ends before the mission does.
+    Always,
+}
+
+/// `[restart]`: what the supervisor does when a process of the set dies (docs/ARCHITECTURE.md §7).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RestartSection {
+    /// Policy for vehicle agents.
+    pub vehicles: RestartPolicy,
+    /// Policy for the coordinator (a restarted coordinator resumes from its checkpoint).
+    pub coordinator: RestartPolicy,
+    /// Policy for the field server.
+    pub field_server: RestartPolicy,
+    /// Wall time before a restart (s); doubles with each restart inside the window.
+    pub backoff: f64,
+    /// Largest number of restarts of one process inside `window`; past it, no more.
+    pub max_restarts: u32,
+    /// Length of the restart-counting window (s, wall time).
+    pub window: f64,
+}
+
+impl Default for RestartSection {
+    fn default() -> Self {
+        Self {
+            vehicles: RestartPolicy::Never,
+            coordinator: RestartPolicy::OnFailure,
+            field_server: RestartPolicy::OnFailure,
+            backoff: 0.2,
+            max_restarts: 5,
+            window: 60.0,
+        }
+    }
+}
+
+/// The kind of a scheduled fault (`faults[i].kind`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FaultKind {
+    /// SIGKILL the vehicle's process at `at`; restart it at `until` if given.
+    Kill,
+    /// Cut the vehicle's link both ways from `at` to `until` (or the end).
+    LinkDown,
+    /// The sensor reads `value` (or its last reading if absent) from `at` to `until`.
+    SensorStuck,
+    /// The sensor reads T + `value` from `at` to `until`.
+    SensorBias,
+}
+
+impl FaultKind {
+    /// The name used in mission files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FaultKind::Kill => "kill",
+            FaultKind::LinkDown => "link_down",
+            FaultKind::SensorStuck => "sensor_stuck",
+            FaultKind::SensorBias => "sensor_bias",
+        }
+    }
+}
+
+/// One scheduled fault (`[[faults]]`, docs/ARCHITECTURE.md §7).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FaultConfig {
+    /// What happens.
+    pub kind: FaultKind,
+    /// Which vehicle (id < vehicles.count).
+    pub vehicle: u32,
+    /// Mission time it starts (s), in [0, duration].
+    pub at: f64,
+    /// Mission time it ends (s), in (at, duration]; absent = never (for `kill`: no restart).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub until: Option<f64>,
+    /// `sensor_bias`: the bias (field unit, required); `sensor_stuck`: the stuck reading
+    /// (optional); not used by other kinds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<f64>,
+}

@@ -1,0 +1,56 @@
+//! The environment a mission describes, [`Mission::field`]. It lives apart from `config`
+//! so that the mission file's parsing and validation do not depend on the fields (which
+//! are built from their `[field]` section): `field` uses `config`, this module uses both.
+
+use crate::config::Mission;
+use crate::field::Field;
+
+impl Mission {
+    /// The environment this mission describes.
+    pub fn field(&self) -> Field {
+        Field::from_config(&self.field, self.mission.dim)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Goal;
+    use std::path::Path;
+    use vbap_math::Vec3;
+
+    fn parse(text: &str) -> Mission {
+        Mission::from_toml_str(text, "missions/x.toml").unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    #[test]
+    fn mission_field_is_built_from_the_config() {
+        let m = parse("[mission]\nname = \"a\"\ngoal = \"max\"\n[field]\ncenter = [3.0, 4.0]\namplitude = 10.0\nwidth = 15.0\n");
+        assert_eq!(
+            m.field().optimum(0.0, Goal::Max),
+            Some(Vec3::new(3.0, 4.0, 0.0))
+        );
+        let front = parse("[mission]\nname = \"f\"\ndim = 3\n[field]\nkind = \"front\"\nnormal = [0.0, 1.0, 1.0]\namplitude = -1.5\nwidth = 0.3\n[vehicles]\ncount = 6\nstart = [0.1, 0.2, 0.3]\n");
+        assert!(matches!(front.field(), Field::MovingFront { dim: 3, .. }));
+    }
+
+    #[test]
+    fn the_fields_of_the_shipped_missions_have_an_optimum() {
+        let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../deploy/missions"));
+        let mut n = 0;
+        for entry in std::fs::read_dir(dir).expect("deploy/missions exists") {
+            let path = entry.expect("dir entry").path();
+            if path.extension().is_none_or(|e| e != "toml") {
+                continue;
+            }
+            let m = Mission::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            assert!(
+                m.field().optimum(0.0, m.mission.goal).is_some(),
+                "{}: the field has no optimum for the goal",
+                path.display()
+            );
+            n += 1;
+        }
+        assert!(n >= 3, "{n} missions");
+    }
+}
