@@ -16,9 +16,14 @@
 //!   and labelled with the event too;
 //! - the optimum (star) and events (crosses with short labels).
 //!
-//! [`style`] holds what every figure of a run shares (palette, event colours and labels,
-//! tick steps, time units); the hand-written SVG plots of `vbap` use it too.
+//! Every picture of a run is drawn with plotters: [`style`] holds what they all share
+//! (palette, event colours and labels, tick steps, time units), [`canvas`] the pixel
+//! primitives and [`chart`] the stacked panel charts of the time series, the contact
+//! timeline's age panel and the analysis plots; [`decimate`] keeps long series small.
 
+pub mod canvas;
+pub mod chart;
+pub mod decimate;
 pub mod style;
 
 use std::path::{Path, PathBuf};

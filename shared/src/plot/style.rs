@@ -1,6 +1,6 @@
-//! The style every figure of a run shares, in one place: `plot.svg` (drawn with plotters in
-//! [`crate::plot`]) and the hand-written SVG of `vbap`'s time-series, contact and analysis
-//! plots use the same palette, the same colours and short labels for events, the same
+//! The style every figure of a run shares, in one place: `plot.svg` ([`crate::plot`]) and
+//! the charts of the time series, contact timeline and analysis ([`crate::plot::chart`],
+//! [`crate::plot::canvas`]) use the same palette, the same colours and short labels for events, the same
 //! "nice" tick steps and the same readable time labels ("36 h", "1.5 d", "250 ms", never
 //! "129600 s" or "6e6 ms").
 
