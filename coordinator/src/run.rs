@@ -1209,9 +1209,6 @@ pub fn run(mission: &Mission, dir: &RunDir, msgs: MsgLog, on_ready: impl FnOnce(
     summary.detection_latency_ms = detection_ms;
     summary.rejoin_latency_ms = rejoin_ms;
     summary.write(dir).context("writing summary.json")?;
-    if let Err(e) = recorder.write_plot() {
-        warn!(error = %e, "plot failed");
-    }
     info!(
         ticks = k,
         stopped,

@@ -7,6 +7,7 @@
 //! - [`replay`], [`batch`], [`bench`], [`report_plots`]: study a run, many runs, the speed.
 //! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).
 //! - [`truth_plots`]: the contact timeline and the true formation in the run's pictures.
+//! - [`report`]: every picture of a run, drawn from its run directory ([`report::draw_run`]).
 //! - [`cli`]: the command line.
 //! - [`lock`]: one supervisor per mission name on a host.
 
@@ -18,6 +19,7 @@ pub mod cli;
 pub mod lock;
 pub mod progress;
 pub mod replay;
+pub mod report;
 pub mod report_plots;
 pub mod sim;
 pub mod supervise;

@@ -143,7 +143,6 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
     summary.messages.dropped_injected = fleet.counts.dropped_injected + downlink.dropped;
     summary.wall_time_s = wall.elapsed().as_secs_f64();
     summary.write(dir).context("writing summary.json")?;
-    recorder.write_plot().context("writing plot.svg")?;
-    crate::report_plots::write_run_plots(dir).context("writing the time-series plots")?;
+    crate::report::draw_run(dir).context("drawing the run's pictures")?;
     Ok(summary)
 }

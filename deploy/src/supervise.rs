@@ -593,7 +593,8 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
     let mut summary = Summary::read(dir).ok();
     if let Some(s) = summary.as_mut() {
         s.wall_time_s = wall.elapsed().as_secs_f64();
-        if let Ok(report) = analyze::analyze(dir) {
+        let analysis = analyze::compute(dir).ok();
+        if let Some((report, _)) = &analysis {
             report.fill_summary(s);
         }
         s.agent_rejected = count_agent_rejections(dir);
@@ -606,8 +607,9 @@ pub async fn run(mission: &Mission, dir: &RunDir, show_progress: bool) -> Result
             );
         }
         s.write(dir).context("writing summary.json")?;
-        if let Err(e) = crate::report_plots::write_run_plots(dir) {
-            warn!(error = %e, "time-series plots failed");
+        let analysis = analysis.as_ref().map(|(r, d)| (r, d));
+        if let Err(e) = crate::report::draw_run_with(dir, analysis) {
+            warn!(error = %format!("{e:#}"), "drawing the run's pictures failed");
         }
     }
     Ok(RunOutcome {
