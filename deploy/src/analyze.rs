@@ -615,35 +615,7 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
     // of the mission's links.
     let last_tick = mission.as_ref().map_or(u64::MAX, |m| m.ticks());
 
-    // Parse the files in parallel, one worker per core.
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(files.len().max(1));
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut parts: Vec<(usize, Partial)> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..workers)
-            .map(|_| {
-                scope.spawn(|| -> Result<Vec<(usize, Partial)>> {
-                    let mut mine = Vec::new();
-                    loop {
-                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some((path, format, process)) = files.get(i) else {
-                            break;
-                        };
-                        let is_agent = process.starts_with("vehicle_agent");
-                        mine.push((i, read_log(path, *format, is_agent, last_tick)?));
-                    }
-                    Ok(mine)
-                })
-            })
-            .collect();
-        let mut all = Vec::new();
-        for h in handles {
-            all.extend(h.join().expect("a log reader panicked")?);
-        }
-        Ok::<_, anyhow::Error>(all)
-    })?;
-    parts.sort_by_key(|(i, _)| *i);
+    let parts = read_logs(&files, last_tick)?;
 
     let nominal_ms = mission.as_ref().and_then(|m| match m.mission.pace {
         Pace::Lockstep => None,
@@ -696,6 +668,50 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
             .insert("coordinator".to_string(), periods(&times));
     }
 
+    hop_reports(hops, &mut report, &mut dists);
+    loop_reports(nominal_ms, &mut report, &mut dists);
+    if let Ok(s) = Summary::read(dir) {
+        report.late_ticks = s.late_ticks;
+    }
+    Ok((report, dists))
+}
+
+/// The message records of `files` (path, format, process) parsed in parallel, one worker per
+/// core, in the order of `files`.
+fn read_logs(files: &[(PathBuf, Format, String)], last_tick: u64) -> Result<Vec<(usize, Partial)>> {
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(files.len().max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut parts: Vec<(usize, Partial)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                scope.spawn(|| -> Result<Vec<(usize, Partial)>> {
+                    let mut mine = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some((path, format, process)) = files.get(i) else {
+                            break;
+                        };
+                        let is_agent = process.starts_with("vehicle_agent");
+                        mine.push((i, read_log(path, *format, is_agent, last_tick)?));
+                    }
+                    Ok(mine)
+                })
+            })
+            .collect();
+        let mut all = Vec::new();
+        for h in handles {
+            all.extend(h.join().expect("a log reader panicked")?);
+        }
+        Ok::<_, anyhow::Error>(all)
+    })?;
+    parts.sort_by_key(|(i, _)| *i);
+    Ok(parts)
+}
+
+/// The per-hop figures and distributions from the merged accumulators.
+fn hop_reports(hops: BTreeMap<String, HopAcc>, report: &mut Report, dists: &mut Distributions) {
     for (hop, mut acc) in hops {
         let received = acc.transport_us.len() as u64;
         // Two ways of logging the link model: reception records that carry the injected
@@ -727,6 +743,11 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
         dists.transport_us.insert(hop.clone(), acc.transport_us);
         dists.injected_ms.insert(hop, injected);
     }
+}
+
+/// The loop periods and jitter of each process against `nominal_ms` (the pace's tick
+/// period; in lockstep, the median period).
+fn loop_reports(nominal_ms: Option<f64>, report: &mut Report, dists: &mut Distributions) {
     for (process, p) in &dists.periods {
         let mut values: Vec<f64> = p.iter().map(|&(_, v)| v).collect();
         let period = Percentiles::of(&mut values);
@@ -744,10 +765,6 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
         );
         dists.jitter_ms.insert(process.clone(), jitter);
     }
-    if let Ok(s) = Summary::read(dir) {
-        report.late_ticks = s.late_ticks;
-    }
-    Ok((report, dists))
 }
 
 /// The tick breakdown of a lockstep run ([`TickReport`]) from the publications (seq, tick,

@@ -175,7 +175,7 @@ pub const MISSION_SIZE: (u32, u32) = (1200, 950);
 /// Time-series canvas size in pixels (width, height).
 pub const TIMESERIES_SIZE: (u32, u32) = (1100, 560);
 
-const FONT: &str = "sans-serif";
+use canvas::FONT;
 const TITLE_H: u32 = 50;
 const MISSION_CHART_W: u32 = 900;
 const TS_CHART_W: u32 = 860;
@@ -219,7 +219,9 @@ fn draw_title(area: &DrawingArea<SVGBackend<'_>, Shift>, title: &str) -> Result<
     .map_err(draw_err)
 }
 
-fn draw_err<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> PlotError {
+pub(crate) fn draw_err<E: std::error::Error + Send + Sync>(
+    e: DrawingAreaErrorKind<E>,
+) -> PlotError {
     PlotError::Draw(e.to_string())
 }
 
@@ -244,24 +246,6 @@ fn widen_if_flat(lo: f64, hi: f64) -> (f64, f64) {
         let d = 1.0_f64.max(0.1 * lo.abs());
         (lo - d, hi + d)
     }
-}
-
-/// An axis tick value on an axis of extent `span`: enough decimals for ticks about span / 10
-/// apart, trailing zeros dropped ("200", "0.25", never "-0").
-fn fmt_tick(v: f64, span: f64) -> String {
-    let decimals = if span > 0.0 && span.is_finite() {
-        (2.0 - span.log10().floor()).clamp(0.0, 9.0) as usize
-    } else {
-        3
-    };
-    let mut s = format!("{v:.decimals$}");
-    if s.contains('.') {
-        s = s.trim_end_matches('0').trim_end_matches('.').to_string();
-    }
-    if s == "-0" {
-        s = "0".into();
-    }
-    s
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::{style, PlotError};
+use super::{draw_err, style, PlotError};
 
 /// The font family of every text of the charts.
 pub const FONT: &str = "sans-serif";
@@ -94,10 +94,6 @@ pub fn colour(hex: &str) -> RGBColor {
 
 fn px((x, y): (f64, f64)) -> (i32, i32) {
     (x.round() as i32, y.round() as i32)
-}
-
-fn draw_err<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> PlotError {
-    PlotError::Draw(e.to_string())
 }
 
 /// A drawing surface of `width` × `height` px.
