@@ -11,7 +11,7 @@ use shared::math::Vec3;
 use shared::plot::{MissionPlot, Snapshot, Track};
 use shared::rundir::RunDir;
 
-use super::rows::{for_each_row_of, BodyCsv, VehicleCsv};
+use super::rows::{for_each_row_of, BodyPathCsv, VehicleCsv};
 
 /// Number of formation snapshots drawn on the plot.
 const PLOT_SNAPSHOTS: usize = 6;
@@ -83,7 +83,7 @@ fn plot_data(dir: &RunDir, ticks: u64, at_events: &BTreeMap<u64, String>) -> Res
     let mut body: BTreeMap<u64, (f64, f64, f64)> = BTreeMap::new();
     let mut body_path = Vec::new();
     let mut last = None;
-    for_each_row_of(&dir.body(), |_, b: BodyCsv| {
+    for_each_row_of(&dir.body(), |_, b: BodyPathCsv| {
         if b.k.is_multiple_of(stride) {
             body_path.push((b.rx, b.ry));
         }
@@ -125,4 +125,46 @@ fn plot_data(dir: &RunDir, ticks: u64, at_events: &BTreeMap<u64, String>) -> Res
         snapshots,
         last,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plot_data_is_read_back_by_column_name() {
+        let root = std::env::temp_dir().join(format!("vbap-mission-plot-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = RunDir::create(&root).unwrap();
+        let ticks = 12u64;
+        // Columns in another order than the writer's, and one more: read the same.
+        let mut body = String::from("k,extra,t,rx,ry,rz\n");
+        let mut vehicles = String::from("y,x,id,k\n");
+        for k in 0..ticks {
+            body.push_str(&format!("{k},x,{},{},{},0.5\n", k as f64 * 0.1, k, 2 * k));
+            for id in 0..3 {
+                vehicles.push_str(&format!("{},{},{id},{k}\n", id as f64, k as f64 + 0.5));
+            }
+        }
+        std::fs::write(dir.body(), body).unwrap();
+        std::fs::write(dir.vehicles(), vehicles).unwrap();
+        let at_events = BTreeMap::from([(5, "lost 2".to_string())]);
+        let d = plot_data(&dir, ticks, &at_events).unwrap();
+        assert_eq!(d.tracks.len(), 3);
+        assert_eq!(d.tracks[1].points.len(), ticks as usize);
+        assert_eq!(d.tracks[1].points[3], (3.5, 1.0));
+        assert_eq!(d.body_path[4], (4.0, 8.0));
+        // The first and last tick, and the event's tick with its label.
+        let ks: Vec<f64> = d.snapshots.iter().map(|s| s.centre.0).collect();
+        assert!(
+            ks.contains(&0.0) && ks.contains(&11.0) && ks.contains(&5.0),
+            "{ks:?}"
+        );
+        let at5 = d.snapshots.iter().find(|s| s.centre.0 == 5.0).unwrap();
+        assert_eq!(at5.label, "lost 2");
+        assert_eq!(at5.positions.len(), 3);
+        let (t, r) = d.last.unwrap();
+        assert!((t - 1.1).abs() < 1e-12 && r == Vec3::new(11.0, 22.0, 0.5));
+        let _ = std::fs::remove_dir_all(&root);
+    }
 }

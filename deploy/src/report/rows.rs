@@ -60,6 +60,20 @@ impl CsvRow for BodyCsv {
     ];
 }
 
+/// The body centre of a row of `body.csv`: what the mission plot needs.
+#[derive(Clone, Debug, Deserialize)]
+pub struct BodyPathCsv {
+    pub t: f64,
+    pub k: u64,
+    pub rx: f64,
+    pub ry: f64,
+    pub rz: f64,
+}
+
+impl CsvRow for BodyPathCsv {
+    const COLUMNS: &'static [&'static str] = &["t", "k", "rx", "ry", "rz"];
+}
+
 /// A row of `vehicles.csv` (`shared::rundir::VEHICLES_HEADER`), the columns the plot needs.
 #[derive(Clone, Debug, Deserialize)]
 pub struct VehicleCsv {
