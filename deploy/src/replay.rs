@@ -435,12 +435,13 @@ pub fn first_difference(recorded: &Path, replayed: &Path) -> Result<Option<Diffe
 mod tests {
     use super::*;
 
+    /// An [`InputsReader`] of `text` (the file is removed once opened: the reader keeps it).
     fn reader(name: &str, text: &str) -> Result<InputsReader> {
-        let dir = std::env::temp_dir().join(format!("vbap-replay-unit-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join(name);
+        let path = std::env::temp_dir().join(format!("vbap-replay-{}-{name}", std::process::id()));
         std::fs::write(&path, text).unwrap();
-        InputsReader::open(&path)
+        let r = InputsReader::open(&path);
+        std::fs::remove_file(&path).unwrap();
+        r
     }
 
     #[test]
