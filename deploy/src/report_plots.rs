@@ -35,8 +35,7 @@ use series::RunSeries;
 pub const FORMATION_SVG: &str = "timeseries_formation.svg";
 /// File name of the estimator time series.
 pub const ESTIMATE_SVG: &str = "timeseries_estimate.svg";
-/// Points kept per series of a time-series plot (as min/max pairs of half as many buckets).
-pub const MAX_POINTS: usize = 3000;
+pub use shared::plot::decimate::MAX_POINTS;
 
 /// Writes the time-series plots and the contact timeline of `dir` (from body.csv,
 /// events.jsonl, the truth files and `mission`, its resolved mission.toml); nothing when

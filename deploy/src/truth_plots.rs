@@ -29,7 +29,7 @@ use shared::plot::chart::PLOT_W;
 use shared::plot::style::CONTACT_STATES;
 use shared::rundir::RunDir;
 
-use crate::report_plots::MAX_POINTS;
+use shared::plot::decimate::MAX_POINTS;
 
 pub use contact::render_contact_svg;
 pub use panels::{nearest_pair_panel, slot_error_panel};

@@ -1,6 +1,9 @@
 //! Streaming decimation of long series, so the files of a plot stay small whatever the
 //! number of ticks while spikes survive.
 
+/// Points kept per series of a time-series plot (as min/max pairs of half as many buckets).
+pub const MAX_POINTS: usize = 3000;
+
 /// Streaming decimation: keeps the first, minimum, maximum and last point of each bucket of
 /// `bucket` consecutive samples (in time order), so peaks survive.
 #[derive(Clone, Debug, Default)]
