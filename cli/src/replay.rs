@@ -16,12 +16,13 @@
 //! it is not (the first differing line is printed), 2 when the run directory is unusable.
 
 use std::fs::File;
-use std::io::{BufRead, BufReader, Lines};
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use coordinator::planner::{Planner, PlannerParams, Report};
 use coordinator::record::Recorder;
+use serde::Deserialize;
 use vbap_ipc::process::{EXIT_FAILURE, EXIT_OK};
 use vbap_math::Vec3;
 use vbap_mission::config::Mission;
@@ -211,27 +212,35 @@ fn recorded_ticks(run: &RunDir) -> Result<u64> {
     }
     let file =
         File::open(run.body()).with_context(|| format!("opening {}", run.body().display()))?;
+    let mut csv = csv::ReaderBuilder::new().flexible(true).from_reader(file);
+    let width = csv
+        .headers()
+        .with_context(|| format!("reading {}", run.body().display()))?
+        .len();
     let mut rows = 0u64;
-    for line in BufReader::new(file).lines().skip(1) {
-        let line = line.with_context(|| format!("reading {}", run.body().display()))?;
+    for record in csv.records() {
+        let record = record.with_context(|| format!("reading {}", run.body().display()))?;
         // A run killed mid-write may leave a partial last line.
-        if line.split(',').count() == vbap_mission::rundir::BODY_HEADER.split(',').count() {
+        if record.len() == width {
             rows += 1;
         }
     }
     Ok(rows)
 }
 
-/// Streams `planner_inputs.csv` tick by tick (rows are in tick order).
+/// Streams `planner_inputs.csv` tick by tick (rows are in tick order), read by column name.
 struct InputsReader {
     path: PathBuf,
-    lines: Lines<BufReader<File>>,
-    line_no: usize,
+    csv: csv::Reader<File>,
+    header: csv::StringRecord,
+    record: csv::StringRecord,
+    line_no: u64,
     pending: Option<(u64, Role, Report)>,
     rows: u64,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
 enum Role {
     Both,
     Member,
@@ -239,25 +248,47 @@ enum Role {
     Joined,
 }
 
+/// A row of `planner_inputs.csv` ([`INPUTS_HEADER`]).
+#[derive(Deserialize)]
+struct InputCsv {
+    k: u64,
+    role: Role,
+    id: u32,
+    tick: u64,
+    x: f64,
+    y: f64,
+    z: f64,
+    vx: f64,
+    vy: f64,
+    vz: f64,
+    measurement: f64,
+}
+
 impl InputsReader {
     fn open(path: &Path) -> Result<Self> {
         let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
-        let mut lines = BufReader::new(file).lines();
-        let header = lines
-            .next()
-            .transpose()
+        let mut csv = csv::ReaderBuilder::new()
+            .buffer_capacity(1 << 16)
+            .from_reader(file);
+        let header = csv
+            .headers()
             .with_context(|| format!("reading {}", path.display()))?
-            .unwrap_or_default();
-        if header != INPUTS_HEADER {
+            .clone();
+        if let Some(missing) = INPUTS_HEADER
+            .split(',')
+            .find(|c| !header.iter().any(|h| h == *c))
+        {
             return Err(InvalidInput(format!(
-                "{}: line 1: header is {header:?}, expected {INPUTS_HEADER:?}",
+                "{}: line 1: no column {missing:?} in the header (expected {INPUTS_HEADER:?})",
                 path.display()
             ))
             .into());
         }
         let mut reader = Self {
             path: path.to_path_buf(),
-            lines,
+            csv,
+            header,
+            record: csv::StringRecord::new(),
             line_no: 1,
             pending: None,
             rows: 0,
@@ -278,51 +309,40 @@ impl InputsReader {
     /// Reads the next row into `pending`.
     fn advance(&mut self) -> Result<()> {
         self.pending = None;
-        let Some(line) = self.lines.next() else {
-            return Ok(());
-        };
-        self.line_no += 1;
-        let line = line.with_context(|| format!("reading {}", self.path.display()))?;
-        let cols: Vec<&str> = line.split(',').collect();
-        if cols.len() != INPUTS_HEADER.split(',').count() {
-            return Err(self.bad(format!(
-                "{} columns, expected {}",
-                cols.len(),
-                INPUTS_HEADER.split(',').count()
-            )));
-        }
-        let int = |i: usize| {
-            cols[i]
-                .parse::<u64>()
-                .map_err(|e| self.bad(format!("column {i} ({:?}): {e}", cols[i])))
-        };
-        let float = |i: usize| {
-            cols[i]
-                .parse::<f64>()
-                .map_err(|e| self.bad(format!("column {i} ({:?}): {e}", cols[i])))
-        };
-        let role = match cols[1] {
-            "both" => Role::Both,
-            "member" => Role::Member,
-            "fresh" => Role::Fresh,
-            "joined" => Role::Joined,
-            other => {
-                return Err(self.bad(format!(
-                    "role {other:?}: expected \"both\", \"member\", \"fresh\" or \"joined\""
-                )))
+        let more = match self.csv.read_record(&mut self.record) {
+            Ok(more) => more,
+            Err(e) => {
+                self.line_no = e.position().map_or(self.line_no + 1, |p| p.line());
+                return Err(self.bad(e.to_string()));
             }
         };
-        let k = int(0)?;
-        let id = u32::try_from(int(2)?).map_err(|e| self.bad(format!("id: {e}")))?;
+        if !more {
+            return Ok(());
+        }
+        self.line_no = self
+            .record
+            .position()
+            .map_or(self.line_no + 1, |p| p.line());
+        let row: InputCsv = self.record.deserialize(Some(&self.header)).map_err(|e| {
+            let column = match e.kind() {
+                csv::ErrorKind::Deserialize { err, .. } => err
+                    .field()
+                    .and_then(|f| self.header.get(f as usize))
+                    .map(|name| format!("column {name}: "))
+                    .unwrap_or_default(),
+                _ => String::new(),
+            };
+            self.bad(format!("{column}{e}"))
+        })?;
         let report = Report {
-            id,
-            tick: int(3)?,
-            position: Vec3::new(float(4)?, float(5)?, float(6)?),
-            velocity: Vec3::new(float(7)?, float(8)?, float(9)?),
-            measurement: float(10)?,
+            id: row.id,
+            tick: row.tick,
+            position: Vec3::new(row.x, row.y, row.z),
+            velocity: Vec3::new(row.vx, row.vy, row.vz),
+            measurement: row.measurement,
         };
         self.rows += 1;
-        self.pending = Some((k, role, report));
+        self.pending = Some((row.k, row.role, report));
         Ok(())
     }
 
@@ -408,5 +428,53 @@ pub fn first_difference(recorded: &Path, replayed: &Path) -> Result<Option<Diffe
                 replayed: text(&y, nb),
             }));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An [`InputsReader`] of `text` (the file is removed once opened: the reader keeps it).
+    fn reader(name: &str, text: &str) -> Result<InputsReader> {
+        let path = std::env::temp_dir().join(format!("vbap-replay-{}-{name}", std::process::id()));
+        std::fs::write(&path, text).unwrap();
+        let r = InputsReader::open(&path);
+        std::fs::remove_file(&path).unwrap();
+        r
+    }
+
+    #[test]
+    fn inputs_are_read_by_column_name() {
+        // Columns in another order than INPUTS_HEADER read the same.
+        let text = "role,k,id,tick,measurement,x,y,z,vx,vy,vz\nboth,0,3,0,0.1,1,2,0,0,0,0\nmember,1,3,0,0.1,1,2,0,0,0,0\njoined,1,4,1,7,0,0,0,0,0,0\n";
+        let mut r = reader("ok.csv", text).unwrap();
+        let (mut members, mut fresh, mut joined) = (Vec::new(), Vec::new(), Vec::new());
+        r.tick(0, &mut members, &mut fresh, &mut joined).unwrap();
+        assert_eq!((members.len(), fresh.len(), joined.len()), (1, 1, 0));
+        assert_eq!(members[0].position, Vec3::new(1.0, 2.0, 0.0));
+        assert_eq!(members[0].measurement.to_bits(), 0.1f64.to_bits());
+        r.tick(1, &mut members, &mut fresh, &mut joined).unwrap();
+        assert_eq!((members.len(), fresh.len(), joined), (1, 0, vec![4]));
+        r.finish(2).unwrap();
+        assert_eq!(r.rows, 3);
+    }
+
+    #[test]
+    fn bad_inputs_name_the_file_line_and_column() {
+        let missing = "k,role,id,tick,x,y,z,vx,vy,vz\n";
+        let e = reader("missing.csv", missing).err().unwrap().to_string();
+        assert!(
+            e.contains("missing.csv") && e.contains("\"measurement\""),
+            "{e}"
+        );
+        let bad =
+            format!("{INPUTS_HEADER}\n0,both,0,0,1,1,0,0,0,0,1\n1,asleep,0,0,1,1,0,0,0,0,1\n");
+        let mut r = reader("bad.csv", &bad).unwrap();
+        let (mut m, mut f, mut j) = (Vec::new(), Vec::new(), Vec::new());
+        let e = r.tick(0, &mut m, &mut f, &mut j).unwrap_err();
+        assert!(e.downcast_ref::<InvalidInput>().is_some(), "exit code 2");
+        let e = e.to_string();
+        assert!(e.contains("line 3") && e.contains("asleep"), "{e}");
     }
 }

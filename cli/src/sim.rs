@@ -150,8 +150,7 @@ pub fn simulate_with(
     summary.messages = tally.counts(&fleet);
     summary.wall_time_s = wall.elapsed().as_secs_f64();
     summary.write(dir).context("writing summary.json")?;
-    recorder.write_plot().context("writing plot.svg")?;
-    vbap_report::report_plots::write_run_plots(dir).context("writing the time-series plots")?;
+    vbap_report::draw_run(dir).context("drawing the run's pictures")?;
     Ok(summary)
 }
 

@@ -700,17 +700,14 @@ fn final_summary(
 
 /// Completes the coordinator's summary `s` with what the supervisor knows once every
 /// process has ended (`wall_s`, the analysis of the message records, the agents'
-/// rejections, whether a signal stopped the run), writes `summary.json`, then draws the
-/// analysis and time-series plots.
+/// rejections, whether a signal stopped the run), writes `summary.json`, then draws every
+/// picture of the run.
 fn complete_summary(s: &mut Summary, dir: &RunDir, wall_s: f64, interrupted: bool) -> Result<()> {
     s.wall_time_s = wall_s;
-    let analysed = match analyze::compute(dir) {
-        Ok((report, _)) => {
-            report.fill_summary(s);
-            true
-        }
-        Err(_) => false,
-    };
+    let analysis = analyze::compute(dir).ok();
+    if let Some((report, _)) = &analysis {
+        report.fill_summary(s);
+    }
     s.agent_rejected = count_agent_rejections(dir);
     if interrupted && s.verdict != "interrupted" {
         s.verdict = "interrupted".into();
@@ -721,13 +718,10 @@ fn complete_summary(s: &mut Summary, dir: &RunDir, wall_s: f64, interrupted: boo
         );
     }
     s.write(dir).context("writing summary.json")?;
-    // The analysis plots read the late ticks from summary.json: drawn once it is there
-    // (a second reading of the message records).
-    if analysed {
-        let _ = analyze::analyze(dir);
-    }
-    if let Err(e) = vbap_report::report_plots::write_run_plots(dir) {
-        warn!(error = %e, "time-series plots failed");
+    // Every picture, once, from the written run directory (the analysis already computed).
+    let analysis = analysis.as_ref().map(|(r, d)| (r, d));
+    if let Err(e) = vbap_report::draw_run_with(dir, analysis) {
+        warn!(error = %format!("{e:#}"), "drawing the run's pictures failed");
     }
     Ok(())
 }

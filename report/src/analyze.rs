@@ -47,8 +47,7 @@ use vbap_ipc::telemetry::MSG_TARGET;
 use vbap_mission::config::{Mission, Pace};
 use vbap_mission::rundir::{Percentiles, RunDir, Summary};
 
-use crate::plot::style::TimeUnit;
-use crate::report_plots::{self, Axis, Figure, Panel, Series, PALETTE};
+pub mod plots;
 
 /// Seconds since the Unix epoch of an RFC 3339 UTC timestamp as the tracing logs write it
 /// (`2026-12-01T17:24:09.458255Z`); None when it is not one.
@@ -322,7 +321,7 @@ pub fn main(run_dir: &Path, json: bool) -> Result<i32> {
             "no message records to analyse: no logs/*{MSG_SUFFIX} with records and no `{MSG_TARGET}` records in logs/*.jsonl{unparsed} ({NO_RECORDS_HINT})"
         )));
     }
-    if let Err(e) = write_plots(&dir, &report, &dists) {
+    if let Err(e) = plots::write_plots(&dir, &report, &dists) {
         tracing::warn!(error = %format!("{e:#}"), "writing the analysis plots");
     }
     if json {
@@ -342,14 +341,10 @@ pub fn main(run_dir: &Path, json: bool) -> Result<i32> {
 const NO_RECORDS_HINT: &str = "`vbap sim` runs in one process and records no messages; \
 `vbap run` records them unless RUST_LOG turned them off";
 
-/// Reads the logs of `dir`, computes the report and writes `latency.svg` and `loops.svg`
-/// into `dir` (a plot that cannot be written is logged, not an error).
+/// Reads the logs of `dir` and computes the report (the plots are drawn by
+/// [`crate::draw_run`] or [`plots::write_plots`]).
 pub fn analyze(dir: &RunDir) -> Result<Report> {
-    let (report, dists) = compute(dir)?;
-    if let Err(e) = write_plots(dir, &report, &dists) {
-        tracing::warn!(error = %format!("{e:#}"), "writing the analysis plots");
-    }
-    Ok(report)
+    Ok(compute(dir)?.0)
 }
 
 /// One log line of the message target, borrowed from the line.
@@ -620,35 +615,7 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
     // of the mission's links.
     let last_tick = mission.as_ref().map_or(u64::MAX, |m| m.ticks());
 
-    // Parse the files in parallel, one worker per core.
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(files.len().max(1));
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut parts: Vec<(usize, Partial)> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..workers)
-            .map(|_| {
-                scope.spawn(|| -> Result<Vec<(usize, Partial)>> {
-                    let mut mine = Vec::new();
-                    loop {
-                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some((path, format, process)) = files.get(i) else {
-                            break;
-                        };
-                        let is_agent = process.starts_with("vehicle_agent");
-                        mine.push((i, read_log(path, *format, is_agent, last_tick)?));
-                    }
-                    Ok(mine)
-                })
-            })
-            .collect();
-        let mut all = Vec::new();
-        for h in handles {
-            all.extend(h.join().expect("a log reader panicked")?);
-        }
-        Ok::<_, anyhow::Error>(all)
-    })?;
-    parts.sort_by_key(|(i, _)| *i);
+    let parts = read_logs(&files, last_tick)?;
 
     let nominal_ms = mission.as_ref().and_then(|m| match m.mission.pace {
         Pace::Lockstep => None,
@@ -701,6 +668,50 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
             .insert("coordinator".to_string(), periods(&times));
     }
 
+    hop_reports(hops, &mut report, &mut dists);
+    loop_reports(nominal_ms, &mut report, &mut dists);
+    if let Ok(s) = Summary::read(dir) {
+        report.late_ticks = s.late_ticks;
+    }
+    Ok((report, dists))
+}
+
+/// The message records of `files` (path, format, process) parsed in parallel, one worker per
+/// core, in the order of `files`.
+fn read_logs(files: &[(PathBuf, Format, String)], last_tick: u64) -> Result<Vec<(usize, Partial)>> {
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(files.len().max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut parts: Vec<(usize, Partial)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                scope.spawn(|| -> Result<Vec<(usize, Partial)>> {
+                    let mut mine = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some((path, format, process)) = files.get(i) else {
+                            break;
+                        };
+                        let is_agent = process.starts_with("vehicle_agent");
+                        mine.push((i, read_log(path, *format, is_agent, last_tick)?));
+                    }
+                    Ok(mine)
+                })
+            })
+            .collect();
+        let mut all = Vec::new();
+        for h in handles {
+            all.extend(h.join().expect("a log reader panicked")?);
+        }
+        Ok::<_, anyhow::Error>(all)
+    })?;
+    parts.sort_by_key(|(i, _)| *i);
+    Ok(parts)
+}
+
+/// The per-hop figures and distributions from the merged accumulators.
+fn hop_reports(hops: BTreeMap<String, HopAcc>, report: &mut Report, dists: &mut Distributions) {
     for (hop, mut acc) in hops {
         let received = acc.transport_us.len() as u64;
         // Two ways of logging the link model: reception records that carry the injected
@@ -732,6 +743,11 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
         dists.transport_us.insert(hop.clone(), acc.transport_us);
         dists.injected_ms.insert(hop, injected);
     }
+}
+
+/// The loop periods and jitter of each process against `nominal_ms` (the pace's tick
+/// period; in lockstep, the median period).
+fn loop_reports(nominal_ms: Option<f64>, report: &mut Report, dists: &mut Distributions) {
     for (process, p) in &dists.periods {
         let mut values: Vec<f64> = p.iter().map(|&(_, v)| v).collect();
         let period = Percentiles::of(&mut values);
@@ -749,10 +765,6 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
         );
         dists.jitter_ms.insert(process.clone(), jitter);
     }
-    if let Ok(s) = Summary::read(dir) {
-        report.late_ticks = s.late_ticks;
-    }
-    Ok((report, dists))
 }
 
 /// The tick breakdown of a lockstep run ([`TickReport`]) from the publications (seq, tick,
@@ -780,333 +792,9 @@ fn tick_report(
     })
 }
 
-// ---------------------------------------------------------------------------------------------
-// Plots.
-
-/// Points of the empirical CDF of `sorted` (ascending), at most about `max` of them, the
-/// tail kept in full: (value, fraction ≤ value).
-fn cdf_points(sorted: &[f64], max: usize) -> Vec<(f64, f64)> {
-    let n = sorted.len();
-    if n == 0 {
-        return Vec::new();
-    }
-    let tail = (max / 4).min(n);
-    let body = n - tail;
-    let stride = body.div_ceil((max - tail).max(1)).max(1);
-    let mut out = Vec::with_capacity(max + 2);
-    let mut i = 0;
-    while i < body {
-        out.push((sorted[i], (i + 1) as f64 / n as f64));
-        i += stride;
-    }
-    for (j, v) in sorted.iter().enumerate().skip(body) {
-        out.push((*v, (j + 1) as f64 / n as f64));
-    }
-    out
-}
-
-/// Same as [`cdf_points`] for the complementary CDF: (value, fraction > value), the last
-/// point (fraction 0) left out (it has no place on a log axis).
-fn ccdf_points(sorted: &[f64], max: usize) -> Vec<(f64, f64)> {
-    cdf_points(sorted, max)
-        .into_iter()
-        .map(|(v, f)| (v, 1.0 - f))
-        .filter(|&(_, f)| f > 0.0)
-        .collect()
-}
-
-fn hop_colour(i: usize) -> &'static str {
-    PALETTE[i % PALETTE.len()]
-}
-
-/// Clamps latencies for a log axis: non-positive values (clock granularity, an injected
-/// delay larger than the measured one) are shown at 0.1 µs.
-fn positive(v: &[f64]) -> Vec<f64> {
-    v.iter().map(|&x| x.max(0.1)).collect()
-}
-
-fn write_plots(dir: &RunDir, report: &Report, d: &Distributions) -> Result<()> {
-    let pace = if report.pace == "lockstep" || report.pace == "unknown" {
-        report.pace.clone()
-    } else {
-        format!("{} × real time", report.pace)
-    };
-    let name = Mission::load(&dir.mission())
-        .map(|m| format!("{} (seed {})", m.mission.name, m.mission.seed))
-        .unwrap_or_else(|_| dir.root.display().to_string());
-
-    // latency.svg
-    let mut cdf = Panel::new(
-        "Transport latency per hop: cumulative distribution",
-        Axis {
-            label: "transport latency (µs, log scale)".into(),
-            log: true,
-            ..Axis::default()
-        },
-        Axis {
-            label: "fraction of messages".into(),
-            range: Some((0.0, 1.0)),
-            ..Axis::default()
-        },
-    );
-    let mut ccdf = Panel::new(
-        "Tail: fraction of messages slower than x",
-        Axis {
-            label: "transport latency (µs, log scale)".into(),
-            log: true,
-            ..Axis::default()
-        },
-        Axis {
-            label: "fraction slower".into(),
-            log: true,
-            ..Axis::default()
-        },
-    );
-    for (i, (hop, values)) in d.transport_us.iter().enumerate() {
-        let h = &report.hops[hop];
-        let v = positive(values);
-        let label = format!(
-            "{hop}: p50 {} p99 {} µs",
-            short(h.transport_us.p50),
-            short(h.transport_us.p99)
-        );
-        cdf.series
-            .push(Series::line(&label, cdf_points(&v, 1500), hop_colour(i)));
-        ccdf.series.push(Series::line(
-            &format!("{hop} (n = {})", h.received),
-            ccdf_points(&v, 1500),
-            hop_colour(i),
-        ));
-    }
-    let mut panels = vec![cdf, ccdf];
-    let injected: Vec<_> = d
-        .injected_ms
-        .iter()
-        .enumerate()
-        .filter(|(_, (_, v))| v.iter().any(|&x| x > 0.0))
-        .collect();
-    if !injected.is_empty() {
-        // In the unit of its size: ms for a LAN, s for acoustic modems, min or h for
-        // gliders that hold their reports until they surface.
-        let largest_ms = injected
-            .iter()
-            .flat_map(|(_, (_, v))| v.iter().copied())
-            .fold(0.0, f64::max);
-        let unit = TimeUnit::for_magnitude(largest_ms * 1e-3);
-        let mut p = Panel::new(
-            "Injected link delay (link model): cumulative distribution",
-            Axis {
-                label: unit.axis_label("injected delay, mission time"),
-                time: Some(unit),
-                ..Axis::default()
-            },
-            Axis {
-                label: "fraction of messages".into(),
-                range: Some((0.0, 1.0)),
-                ..Axis::default()
-            },
-        );
-        for (i, (hop, v)) in injected {
-            let in_unit: Vec<f64> = v.iter().map(|ms| unit.of(ms * 1e-3)).collect();
-            p.series
-                .push(Series::line(hop, cdf_points(&in_unit, 1500), hop_colour(i)));
-        }
-        panels.push(p);
-    }
-    let drops: Vec<String> = report
-        .hops
-        .iter()
-        .filter(|(_, h)| h.dropped_injected + h.dropped_overflow > 0)
-        .map(|(k, h)| {
-            format!(
-                "{k}: {} dropped by the link, {} by overflow",
-                h.dropped_injected, h.dropped_overflow
-            )
-        })
-        .collect();
-    if let Some(first) = panels.first_mut() {
-        first.notes.extend(drops);
-    }
-    let delivered: u64 = report.hops.values().map(|h| h.delivered).sum();
-    report_plots::write_svg(
-        &Figure {
-            title: format!("{name}: message latency"),
-            subtitle: format!(
-                "{delivered} messages delivered · pace {pace} · transport = receive − send − injected delay"
-            ),
-            panels,
-        },
-        &dir.root.join(LATENCY_SVG),
-    )?;
-
-    // loops.svg: the period over the run as the median and the maximum of each of a few
-    // hundred buckets of ticks (per-tick lines of several processes are unreadable), and the
-    // jitter distributions.
-    let mut period = Panel::new(
-        "Loop period over the run (median and maximum of each bucket of ticks)",
-        Axis {
-            label: "tick".into(),
-            ..Axis::default()
-        },
-        Axis {
-            label: "period (ms, log scale)".into(),
-            log: true,
-            ..Axis::default()
-        },
-    );
-    let mut jitter = Panel::new(
-        "Loop jitter |period − nominal|: cumulative distribution",
-        Axis {
-            label: "jitter (ms, log scale)".into(),
-            log: true,
-            ..Axis::default()
-        },
-        Axis {
-            label: "fraction of ticks".into(),
-            range: Some((0.0, 1.0)),
-            ..Axis::default()
-        },
-    );
-    let agents: Vec<&String> = d
-        .periods
-        .keys()
-        .filter(|k| k.starts_with("vehicle_agent"))
-        .collect();
-    let mut groups: Vec<(String, Vec<(u64, f64)>)> = Vec::new();
-    if let Some(p) = d.periods.get("coordinator") {
-        groups.push(("coordinator".into(), p.clone()));
-    }
-    if !agents.is_empty() {
-        let mut pooled: Vec<(u64, f64)> = agents
-            .iter()
-            .flat_map(|a| d.periods[*a].iter().copied())
-            .collect();
-        pooled.sort_by_key(|&(k, _)| k);
-        let label = if agents.len() == 1 {
-            agents[0].clone()
-        } else {
-            format!("{} agents", agents.len())
-        };
-        groups.push((label, pooled));
-    }
-    for (i, (label, points)) in groups.iter().enumerate() {
-        let (median, max) = bucket_stats(points, 200);
-        period.series.push(Series::line(
-            &format!("{label}: median"),
-            median,
-            hop_colour(i),
-        ));
-        period.series.push(Series {
-            dashed: true,
-            ..Series::line(&format!("{label}: max"), max, hop_colour(i))
-        });
-    }
-    if let Some((lo, hi)) = groups
-        .iter()
-        .flat_map(|(_, p)| p.iter().map(|&(k, _)| k))
-        .fold(None, |acc: Option<(u64, u64)>, k| {
-            Some(acc.map_or((k, k), |(a, b)| (a.min(k), b.max(k))))
-        })
-    {
-        period.x.range = Some((lo as f64, hi.max(lo + 1) as f64));
-    }
-    // Jitter: each process when few, else the coordinator and the agents pooled.
-    let mut jitter_sets: Vec<(String, Vec<f64>)> = Vec::new();
-    if let Some(j) = d.jitter_ms.get("coordinator") {
-        jitter_sets.push(("coordinator".into(), j.clone()));
-    }
-    if agents.len() <= 6 {
-        for a in &agents {
-            jitter_sets.push(((*a).clone(), d.jitter_ms[*a].clone()));
-        }
-    } else {
-        let pooled: Vec<f64> = agents
-            .iter()
-            .flat_map(|a| d.jitter_ms[*a].iter().copied())
-            .collect();
-        jitter_sets.push((format!("all {} agents", agents.len()), pooled));
-    }
-    for (i, (label, mut values)) in jitter_sets.into_iter().enumerate() {
-        for v in &mut values {
-            *v = v.max(1e-4);
-        }
-        values.sort_by(|a, b| a.total_cmp(b));
-        jitter.series.push(Series::line(
-            &label,
-            cdf_points(&values, 1500),
-            hop_colour(i),
-        ));
-    }
-    jitter
-        .notes
-        .push("jitter below 0.1 µs is drawn at 0.1 µs".into());
-    if let Some(n) = report.loops.values().next().map(|l| l.nominal_ms) {
-        if report.pace != "lockstep" {
-            period.hlines.push(report_plots::RefLine {
-                y: n,
-                label: format!("nominal {} ms", short(n)),
-                colour: "#555555",
-            });
-        }
-    }
-    report_plots::write_svg(
-        &Figure {
-            title: format!("{name}: loop timing"),
-            subtitle: format!(
-                "pace {pace} · coordinator: publish to publish · agents: body command to body command · late ticks: {}",
-                report.late_ticks
-            ),
-            panels: vec![period, jitter],
-        },
-        &dir.root.join(LOOPS_SVG),
-    )?;
-    Ok(())
-}
-
-/// Points (x, y) of a plotted series.
-type Points = Vec<(f64, f64)>;
-
-/// The median and the maximum of y over buckets of consecutive x (`points` sorted by x),
-/// about `buckets` of them, each placed at its middle x.
-fn bucket_stats(points: &[(u64, f64)], buckets: usize) -> (Points, Points) {
-    let (Some(first), Some(last)) = (points.first(), points.last()) else {
-        return (Vec::new(), Vec::new());
-    };
-    let width = (last.0 - first.0 + 1)
-        .div_ceil(buckets.max(1) as u64)
-        .max(1);
-    let mut median = Vec::new();
-    let mut max = Vec::new();
-    let mut i = 0;
-    let mut values = Vec::new();
-    while i < points.len() {
-        let b = (points[i].0 - first.0) / width;
-        values.clear();
-        let mut j = i;
-        while j < points.len() && (points[j].0 - first.0) / width == b {
-            values.push(points[j].1);
-            j += 1;
-        }
-        let x = (points[i].0 + points[j - 1].0) as f64 / 2.0;
-        let p = Percentiles::of(&mut values);
-        median.push((x, p.p50));
-        max.push((x, p.max));
-        i = j;
-    }
-    (median, max)
-}
-
-/// A number with 3 significant digits.
-fn short(v: f64) -> String {
-    if v == 0.0 {
-        return "0".into();
-    }
-    let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
-    format!("{v:.digits$}")
-}
-
 #[cfg(test)]
 mod tests {
+    use super::plots::{ccdf_points, cdf_points};
     use super::*;
 
     #[test]
@@ -1202,7 +890,8 @@ mod tests {
         assert_eq!(s.messages.dropped_injected, 2);
         assert_eq!(s.messages.dropped_overflow, 1);
         assert_eq!(s.latency_us["body"].p50, 20.0);
-        analyze(&dir).unwrap();
+        let (r, d) = compute(&dir).unwrap();
+        plots::write_plots(&dir, &r, &d).unwrap();
         assert!(root.join(LATENCY_SVG).is_file());
         assert!(root.join(LOOPS_SVG).is_file());
         let _ = std::fs::remove_dir_all(&root);

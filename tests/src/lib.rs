@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 pub use vbap_ipc::msglog::MsgEvent;
 use vbap_ipc::msglog::{self, MsgRecord, MSG_SUFFIX};
 
+pub mod columns;
 /// The workspace root.
 pub fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -73,14 +73,12 @@ fn replay_of_an_in_process_run_reproduces_body_csv() {
     assert_replays(&dir);
 
     // A changed input gives a changed body.csv: replay exits 1 and names the line.
-    let inputs = read(&dir.join("planner_inputs.csv"));
-    let mut lines: Vec<String> = inputs.lines().map(str::to_string).collect();
-    let row = 4 * 100 + 1; // a measurement of tick 100 (4 rows per tick after the header)
-    let mut cols: Vec<String> = lines[row].split(',').map(str::to_string).collect();
-    let m: f64 = cols[10].parse().unwrap();
-    cols[10] = (m + 0.5).to_string();
-    lines[row] = cols.join(",");
-    std::fs::write(dir.join("planner_inputs.csv"), lines.join("\n") + "\n").unwrap();
+    let mut inputs = columns::Table::read(&dir.join("planner_inputs.csv"));
+    let row = 4 * 100; // a measurement of tick 100 (4 rows per tick)
+    assert_eq!(inputs.row(row).parse::<u64>("k"), 100);
+    let m = inputs.row(row).num("measurement");
+    inputs.set(row, "measurement", &(m + 0.5).to_string());
+    std::fs::write(dir.join("planner_inputs.csv"), inputs.to_csv()).unwrap();
     let out = vbap().arg("replay").arg(&dir).output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(1), "{stdout}");
@@ -258,9 +256,11 @@ fn batch_in_process_writes_table_and_aggregate_and_judges() {
     assert!(rows[0].starts_with(
         "seed,converged,time_to_converge_s,final_distance_to_optimum,final_grad_norm,max_V_over_VU,in_set_m,wall_time_s"
     ));
+    let batch = columns::Table::parse(&table, "batch.csv");
     for (i, seed) in [11, 12, 13].iter().enumerate() {
         assert!(rows[i + 1].starts_with(&format!("{seed},")), "{table}");
-        assert_eq!(rows[i + 1].split(',').nth(8), Some("ok"), "{table}");
+        let row = batch.row(i);
+        assert_eq!(row.get("status"), "ok", "{table}");
         // Each row is that seed's own run, its verdict included (quoted when it holds a
         // comma).
         let s = summary(&out_dir.join(format!("seed_{seed}")));
@@ -273,8 +273,9 @@ fn batch_in_process_writes_table_and_aggregate_and_judges() {
         };
         assert!(rows[i + 1].contains(&cell), "{cell} in {table}");
         assert_eq!(s["seed"], *seed);
-        let d = rows[i + 1].split(',').nth(3).unwrap();
+        let d = row.get("final_distance_to_optimum");
         assert_eq!(d, s["final_distance_to_optimum"].to_string(), "{table}");
+        assert_eq!(row.get("verdict"), verdict, "{table}");
     }
     let on_disk: serde_json::Value =
         serde_json::from_str(&read(&out_dir.join("batch.json"))).unwrap();
@@ -368,6 +369,9 @@ fn time_series_plots_after_a_sim() {
     assert!(formation.contains("<polyline"));
     // The run converged: its event is marked.
     if read(&dir.join("events.jsonl")).contains("\"converged\"") {
-        assert!(formation.contains(">converged<"));
+        assert!(
+            formation.contains("\nconverged\n"),
+            "the converged event is labelled"
+        );
     }
 }

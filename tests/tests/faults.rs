@@ -343,15 +343,14 @@ fn nothing_is_delivered_outside_a_surfacing_window() {
     }
     // Every report the planner received fresh was delivered while its vehicle was at the
     // surface: staggered phase i·period/N.
-    let text = read(&tmp.join("run/planner_inputs.csv"));
+    let inputs = columns::Table::read(&tmp.join("run/planner_inputs.csv"));
     let mut fresh_per_vehicle: BTreeMap<u32, usize> = BTreeMap::new();
-    for line in text.lines().skip(1) {
-        let f: Vec<&str> = line.split(',').collect();
-        if f[1] == "member" {
+    for row in inputs.rows() {
+        if row.get("role") == "member" {
             continue;
         }
-        let k: u64 = f[0].parse().unwrap();
-        let id: u32 = f[2].parse().unwrap();
+        let k: u64 = row.parse("k");
+        let id: u32 = row.parse("id");
         let t = k as f64 * 0.05;
         let phase = period * id as f64 / n as f64;
         let into = (t - phase).rem_euclid(period);

@@ -271,13 +271,10 @@ fn a_field_server_kill_costs_no_coordinator_restart() {
 /// Every planner input row `(vehicle, report tick)` of fresh reports: each state is used
 /// once (a stale state is never used again as if new).
 fn fresh_reports(dir: &Path) -> Vec<(u32, u64)> {
-    read(&dir.join("planner_inputs.csv"))
-        .lines()
-        .skip(1)
-        .filter_map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            (f[1] != "member").then(|| (f[2].parse().unwrap(), f[3].parse().unwrap()))
-        })
+    columns::Table::read(&dir.join("planner_inputs.csv"))
+        .rows()
+        .filter(|r| r.get("role") != "member")
+        .map(|r| (r.parse("id"), r.parse("tick")))
         .collect()
 }
 

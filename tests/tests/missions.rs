@@ -177,20 +177,18 @@ at = 2.0
     let s = summary(&tmp.join("sim"));
     assert!(s["holding_ticks"].as_u64().unwrap() >= 70, "{s}");
     // From the loss on, the body neither moves nor changes speed.
-    let rows: Vec<Vec<f64>> = read(&tmp.join("sim/body.csv"))
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
-        .collect();
-    let after: Vec<&Vec<f64>> = rows.iter().filter(|r| r[0] >= 2.05).collect();
+    let body = columns::Table::read(&tmp.join("sim/body.csv"));
+    let after: Vec<columns::Row<'_>> = body.rows().filter(|r| r.num("t") >= 2.05).collect();
     assert!(
-        after.iter().all(|r| r[3] == 0.0 && r[12] == 2.0),
+        after
+            .iter()
+            .all(|r| r.num("sdot") == 0.0 && r.num("n_vehicles") == 2.0),
         "sdot 0 and two vehicles after the loss"
     );
     assert!(
         after
             .windows(2)
-            .all(|w| w[0][4] == w[1][4] && w[0][5] == w[1][5]),
+            .all(|w| w[0].num("rx") == w[1].num("rx") && w[0].num("ry") == w[1].num("ry")),
         "r stays put"
     );
 }

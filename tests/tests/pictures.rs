@@ -117,7 +117,7 @@ fn sim_draws_event_snapshots_contact_timeline_and_readable_times() {
     let contact = svg(&out, "contact.svg");
     for id in 0..N {
         assert_eq!(
-            contact.matches(&format!(">vehicle {id}</text>")).count(),
+            contact.matches(&format!("\nvehicle {id}\n</text>")).count(),
             1,
             "one row label for vehicle {id}"
         );

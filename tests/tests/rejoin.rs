@@ -25,20 +25,14 @@ const FINAL_SLOT: f64 = 0.1;
 
 /// Rows of a CSV file as maps column → value.
 fn rows(path: &Path) -> Vec<BTreeMap<String, f64>> {
-    let text = read(path);
-    let mut lines = text.lines();
-    let header: Vec<String> = lines
-        .next()
-        .expect("a header")
-        .split(',')
-        .map(str::to_string)
-        .collect();
-    lines
-        .map(|l| {
-            header
+    let table = columns::Table::read(path);
+    table
+        .rows()
+        .map(|r| {
+            table
+                .header()
                 .iter()
-                .cloned()
-                .zip(l.split(',').map(|v| v.parse::<f64>().unwrap_or(f64::NAN)))
+                .map(|h| (h.clone(), r.get(h).parse::<f64>().unwrap_or(f64::NAN)))
                 .collect()
         })
         .collect()

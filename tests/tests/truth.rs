@@ -6,20 +6,14 @@ use std::path::Path;
 
 use tests::*;
 
-/// The rows of a CSV file with a header: (header, rows of fields).
+/// The rows of a CSV file with a header, read by column name: (header, rows of fields).
 fn csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let text = read(path);
-    let mut lines = text.lines();
-    let header = lines
-        .next()
-        .expect("a header")
-        .split(',')
-        .map(str::to_string)
+    let t = columns::Table::read(path);
+    let rows = t
+        .rows()
+        .map(|r| t.header().iter().map(|h| r.get(h).to_string()).collect())
         .collect();
-    let rows = lines
-        .map(|l| l.split(',').map(str::to_string).collect())
-        .collect();
-    (header, rows)
+    (t.header().to_vec(), rows)
 }
 
 fn col(header: &[String], name: &str) -> usize {

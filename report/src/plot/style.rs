@@ -1,6 +1,6 @@
-//! The style every figure of a run shares, in one place: `plot.svg` (drawn with plotters in
-//! [`crate::plot`]) and the hand-written SVG of `vbap`'s time-series, contact and analysis
-//! plots use the same palette, the same colours and short labels for events, the same
+//! The style every figure of a run shares, in one place: `plot.svg` ([`crate::plot`]) and
+//! the charts of the time series, contact timeline and analysis ([`crate::plot::chart`],
+//! [`crate::plot::canvas`]) use the same palette, the same colours and short labels for events, the same
 //! "nice" tick steps and the same readable time labels ("36 h", "1.5 d", "250 ms", never
 //! "129600 s" or "6e6 ms").
 
@@ -222,6 +222,24 @@ pub fn fmt_tick(v: f64, step: f64) -> String {
     } else {
         s
     }
+}
+
+/// An axis tick value on an axis of extent `span`: enough decimals for ticks about span / 10
+/// apart, trailing zeros dropped ("200", "0.25", never "-0").
+pub fn fmt_tick_span(v: f64, span: f64) -> String {
+    let decimals = if span > 0.0 && span.is_finite() {
+        (2.0 - span.log10().floor()).clamp(0.0, 9.0) as usize
+    } else {
+        3
+    };
+    let mut s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s = s.trim_end_matches('0').trim_end_matches('.').to_string();
+    }
+    if s == "-0" {
+        s = "0".into();
+    }
+    s
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -446,6 +464,10 @@ mod tests {
         assert_eq!(fmt_tick(7.5, 2.5), "7.5");
         assert_eq!(fmt_tick(-0.0001, 0.5), "0");
         assert_eq!(fmt_tick(2e6, 1e6), "2e6");
+        // The mission plot's axes: decimals by the axis extent, trailing zeros dropped.
+        assert_eq!(fmt_tick_span(200.0, 1000.0), "200");
+        assert_eq!(fmt_tick_span(0.25, 1.0), "0.25");
+        assert_eq!(fmt_tick_span(-0.0001, 10.0), "0");
         assert_eq!(fmt_significant(0.0612, 2, 3), "0.061");
         assert_eq!(fmt_significant(-0.0001, 2, 2), "0");
     }
