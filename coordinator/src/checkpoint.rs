@@ -32,6 +32,11 @@ use crate::record::RecorderStats;
 pub struct PeerMark {
     pub pid: u32,
     pub last_seq: Option<u64>,
+    /// The newest tick of this vehicle whose state a tick has used: a resumed coordinator
+    /// keeps no state of it or an older tick (an agent re-sends its recent states, under
+    /// new sequence numbers, to a restarted coordinator).
+    #[serde(default)]
+    pub used_tick: Option<u64>,
 }
 
 /// One checkpoint, of a coordinator with planner `P`.

@@ -6,7 +6,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
 
 use anyhow::Result;
-use tracing::{info, warn};
+use tracing::{debug, info, warn};
 use vbap_ipc::msg::agent_to_coordinator::VehicleState;
 use vbap_ipc::msg::Header;
 use vbap_ipc::msglog::MsgLog;
@@ -21,6 +21,11 @@ use crate::fleet::Fleet;
 pub(super) struct Peer {
     pub pid: u32,
     pub last_seq: Option<u64>,
+    /// The newest tick whose state of this vehicle a tick has used ([`Inbox::used`]): a
+    /// state of it or of an older tick is never kept again, whatever its sequence number
+    /// (an agent re-sends its recent states, under new numbers, to a restarted
+    /// coordinator; the one of a tick already used must not be used for another tick).
+    pub used_tick: Option<u64>,
     pub last_recv: Option<Instant>,
     pub join_request: Option<Instant>,
     /// Silence before a new process of this vehicle spoke (its predecessor's last message to
@@ -66,9 +71,19 @@ impl Inbox {
 
     /// Forgets the states tick `k` has used (lockstep), or every state (paced: a state is
     /// used once, never again as if it were new; a vehicle with no newer one at the next
-    /// deadline is dead-reckoned from its last report).
+    /// deadline is dead-reckoned from its last report). The tick of the state each vehicle
+    /// had for tick `k` (the one [`Inbox::state`] gave) becomes its [`Peer::used_tick`].
     pub fn used(&mut self, k: u64, paced: bool) {
-        for states in self.states.values_mut() {
+        for (&v, states) in self.states.iter_mut() {
+            let used = if paced {
+                states.keys().next_back().copied()
+            } else {
+                states.contains_key(&k).then_some(k)
+            };
+            if let Some(tick) = used {
+                let peer = &mut self.peers[v as usize];
+                peer.used_tick = peer.used_tick.max(Some(tick));
+            }
             if paced {
                 states.clear();
             } else {
@@ -177,6 +192,20 @@ impl Inbox {
             return;
         }
         self.counts.delivered += 1;
+        if self.peers[id as usize]
+            .used_tick
+            .is_some_and(|u| h.tick <= u)
+        {
+            // A state of a tick already used (re-sent to a restarted coordinator): the
+            // tick's state is used once, never for a later tick as if it were new.
+            debug!(
+                vehicle = id,
+                tick = h.tick,
+                seq = h.seq,
+                "a state of a tick already used: not kept"
+            );
+            return;
+        }
         self.states.entry(id).or_default().insert(h.tick, s);
     }
 
@@ -185,5 +214,102 @@ impl Inbox {
     pub fn behind(&self, v: u32, k: u64) -> bool {
         let unread = k.saturating_sub(self.peers[v as usize].commands_read) + 1;
         unread > Limits::BODY_BUFFER as u64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vbap_mission::config::Mission;
+
+    fn mission() -> Mission {
+        Mission::from_toml_str(
+            "[mission]\nname = \"t\"\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 3\n",
+            "<test>",
+        )
+        .unwrap()
+    }
+
+    /// Vehicle `id`'s state of tick `tick` under sequence number `seq`, at x = `x`.
+    fn state(id: u32, tick: u64, seq: u64, x: f64) -> VehicleState {
+        VehicleState {
+            header: Header {
+                sender: id,
+                flags: 0,
+                tick,
+                t: tick as f64 * 0.05,
+                seq,
+                sent_ns: 0,
+            },
+            pid: 100 + id,
+            _pad: 0,
+            position: [x, 0.0, 0.0],
+            velocity: [0.0; 3],
+            commands_read: tick,
+        }
+    }
+
+    fn setup() -> (Inbox, Fleet) {
+        let m = mission();
+        let fleet = Fleet::new(&m, &[0, 1, 2]);
+        (Inbox::new(3, MsgLog::disabled()), fleet)
+    }
+
+    /// Paced: the re-sent copy of a state already used (same tick, a newer sequence
+    /// number) is not kept, so the next tick cannot use it again; a state of a newer
+    /// tick still is.
+    #[test]
+    fn paced_a_resent_state_of_a_used_tick_is_not_used_again() {
+        let (mut inbox, fleet) = setup();
+        inbox.take_in(2, state(2, 309, 7, 1.0), &fleet, 309);
+        inbox.take_in(2, state(2, 310, 8, 2.0), &fleet, 309);
+        // Tick 309 uses the newest state: that of tick 310.
+        assert_eq!(inbox.state(2, 309, true).unwrap().header.tick, 310);
+        inbox.used(309, true);
+        assert_eq!(inbox.peers[2].used_tick, Some(310));
+        // The agent re-sends states 309 and 310 under new sequence numbers.
+        inbox.take_in(2, state(2, 309, 9, 1.0), &fleet, 310);
+        inbox.take_in(2, state(2, 310, 10, 2.0), &fleet, 310);
+        assert!(
+            inbox.state(2, 310, true).is_none(),
+            "tick 310 must not use the state of tick 310 again"
+        );
+        // Not a rejection: they arrived and were counted, only not kept.
+        assert_eq!(inbox.counts.rejected, 0);
+        assert_eq!(inbox.counts.delivered, 4);
+        // The next state of a new tick is taken.
+        inbox.take_in(2, state(2, 311, 11, 3.0), &fleet, 310);
+        assert_eq!(inbox.state(2, 310, true).unwrap().header.tick, 311);
+        // Other vehicles are not affected by vehicle 2's mark.
+        inbox.take_in(1, state(1, 305, 1, 0.0), &fleet, 310);
+        assert_eq!(inbox.state(1, 310, true).unwrap().header.tick, 305);
+    }
+
+    /// Lockstep: the state of tick k is used at tick k only; a copy of it arriving
+    /// later is not kept, while the states of later ticks already in stay.
+    #[test]
+    fn lockstep_a_state_is_used_at_its_own_tick_only() {
+        let (mut inbox, fleet) = setup();
+        inbox.take_in(0, state(0, 4, 1, 0.0), &fleet, 4);
+        inbox.take_in(0, state(0, 5, 2, 0.0), &fleet, 4);
+        assert_eq!(inbox.state(0, 4, false).unwrap().header.tick, 4);
+        inbox.used(4, false);
+        assert_eq!(inbox.peers[0].used_tick, Some(4));
+        assert!(inbox.state(0, 4, false).is_none());
+        inbox.take_in(0, state(0, 4, 3, 0.0), &fleet, 5);
+        assert!(inbox.state(0, 4, false).is_none());
+        assert_eq!(inbox.state(0, 5, false).unwrap().header.tick, 5);
+        // A vehicle with no state of tick 4 gets no mark.
+        assert_eq!(inbox.peers[1].used_tick, None);
+    }
+
+    /// A replay (a sequence number not above the last one) is still rejected as such.
+    #[test]
+    fn a_replayed_sequence_number_is_rejected() {
+        let (mut inbox, fleet) = setup();
+        inbox.take_in(0, state(0, 1, 5, 0.0), &fleet, 1);
+        inbox.take_in(0, state(0, 2, 5, 0.0), &fleet, 1);
+        assert_eq!(inbox.counts.rejected, 1);
+        assert!(inbox.state(0, 2, false).is_none());
     }
 }

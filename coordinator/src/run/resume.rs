@@ -121,6 +121,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             .map(|p| PeerMark {
                 pid: p.pid,
                 last_seq: p.last_seq,
+                used_tick: p.used_tick,
             })
             .collect();
         CheckpointRef {
@@ -158,6 +159,7 @@ fn resume<P>(
     for (peer, mark) in inbox.peers.iter_mut().zip(&cp.peers) {
         peer.pid = mark.pid;
         peer.last_seq = mark.last_seq;
+        peer.used_tick = mark.used_tick;
     }
     inbox.counts = cp.counts;
     info!(

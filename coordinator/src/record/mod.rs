@@ -7,19 +7,19 @@
 use std::io;
 use std::sync::{Arc, OnceLock};
 
-use vbap_math::convergence::{default_delta_m, theorem_5_1_bound};
 use vbap_math::formation::FormationDesign;
 use vbap_math::Vec3;
 use vbap_mission::config::Mission;
 use vbap_mission::field::ScalarField;
 use vbap_mission::rundir::{
-    BodyRow, Event, EventLog, InputRow, RunDir, Summary, TrackWriter, TruthWriter, VehicleRow,
+    BodyRow, Event, EventLog, InputRow, RunDir, TrackWriter, TruthWriter, VehicleRow,
 };
 
+mod summary;
+
 use crate::fleet::Fleet;
-use crate::plan::Plan;
 use crate::planner::{Command, Report};
-use crate::truth::{self, BodyOutcome, TruthStats};
+use crate::truth::{self, TruthStats};
 
 /// The running figures of `summary.json` (checkpointed with the coordinator).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -365,74 +365,6 @@ impl Recorder {
             events: self.events.len(),
             formation,
             truth,
-        }
-    }
-
-    /// The mission figures of `summary.json` (message counts, latency and wall time are
-    /// filled in by the caller).
-    pub fn summary(&self, planner: &impl Plan, mode: &str) -> Summary {
-        let m = &self.mission;
-        let t = self.stats.last_t;
-        let r = self.stats.last_r;
-        let optimum = self.field.optimum(t, m.mission.goal);
-        let distance = optimum.map(|o| (r - o).norm());
-        let (verdict, reasons) = truth::verdict(
-            &self.stats.truth,
-            &BodyOutcome {
-                ticks: self.stats.ticks,
-                planned: m.ticks(),
-                distance,
-                tolerance: m.mission.tolerance,
-                t,
-                unit: m.mission.length_unit.clone(),
-            },
-        );
-        // Converged: the body within tolerance AND every live vehicle in formation.
-        let converged = truth::is_converged(&verdict);
-        let time_to_converge_s = if converged {
-            Some(
-                self.stats
-                    .last_outside
-                    .map_or(0.0, |t_out| t_out + m.mission.dt),
-            )
-        } else {
-            None
-        };
-        let final_grad_norm = self.field.gradient(&r, t).norm();
-        let bound = planner.filter().and_then(|f| {
-            let eps =
-                theorem_5_1_bound(m.estimator.confidence, &f.covariance(), m.mission.dim, 0.0)
-                    .ok()?;
-            Some(eps + m.estimator.delta_m.unwrap_or_else(|| default_delta_m(eps)))
-        });
-        Summary {
-            mission: m.mission.name.clone(),
-            mode: mode.to_string(),
-            seed: m.mission.seed,
-            converged,
-            final_distance_to_optimum: distance,
-            final_grad_norm,
-            theorem_5_1_bound: bound,
-            in_set_m: bound.map(|b| final_grad_norm <= b),
-            time_to_converge_s,
-            vehicles_started: self.stats.vehicles_started,
-            vehicles_lost: self.stats.vehicles_lost,
-            vehicles_rejoined: self.stats.vehicles_rejoined,
-            reconfigurations: planner.reconfigurations(),
-            // The TRUE figure (from the vehicles' true states); the coordinator's own is
-            // `formation.max_V_seen_over_VU`.
-            max_v_over_vu: self.stats.truth.max_v_true,
-            ticks: self.stats.ticks,
-            final_time_s: t,
-            final_body_position: [r.x, r.y, r.z],
-            final_scale: self.stats.last_scale,
-            optimum: optimum.map(|o| [o.x, o.y, o.z]),
-            estimated_sigma_m: Some(planner.sigma_m()),
-            holding_ticks: self.stats.holding_ticks,
-            verdict,
-            reasons,
-            formation: Some(truth::summary(&self.stats.truth)),
-            ..Summary::default()
         }
     }
 }

@@ -1,0 +1,310 @@
+//! The coordinator's pure step: the formation's membership and design
+//! (`redesign`), the gradient estimate (`estimate`), the body's direction and scale
+//! rate (`direction`), the Lyapunov function and the formation speed (`speed`).
+
+use std::collections::BTreeMap;
+
+use vbap_math::adapt::NoiseEstimator;
+use vbap_math::body::{BodyRates, VirtualBody};
+use vbap_math::formation::{design_regular, FormationDesign, FormationError};
+use vbap_math::kalman::GradientFilter;
+use vbap_math::lyapunov::LyapunovTerms;
+use vbap_math::potential::PairPotential;
+use vbap_math::speed::formation_speed;
+use vbap_math::{Mat3, Vec3};
+use vbap_mission::config::{Goal, Mission};
+
+mod direction;
+mod estimate;
+mod redesign;
+mod speed;
+
+use direction::direction;
+
+/// One vehicle's report for a tick, as the coordinator received it.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Report {
+    /// Vehicle id.
+    pub id: u32,
+    /// Tick at which the state and the reading were taken (possibly older than the
+    /// planner's tick when links delay it).
+    pub tick: u64,
+    /// Position x_i at the tick, length unit.
+    pub position: Vec3,
+    /// Velocity, length unit/s.
+    pub velocity: Vec3,
+    /// Sensor reading T_m(x_i), field unit.
+    pub measurement: f64,
+}
+
+/// The planner's tunables, taken from the mission file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PlannerParams {
+    pub dim: usize,
+    pub goal: Goal,
+    pub radius: f64,
+    pub alpha: f64,
+    pub damping: f64,
+    pub adapt: bool,
+    pub adapt_gain: f64,
+    pub min_scale: f64,
+    pub max_scale: f64,
+    pub sigma_h: f64,
+    pub hessian_guess: Mat3,
+    pub v0: f64,
+    pub v_u: f64,
+    pub delta: f64,
+    pub grad_saturation: f64,
+    pub kalman_b: f64,
+    pub sigma_m: Option<f64>,
+    pub sigma_m_prior: f64,
+    pub initial_variance: f64,
+}
+
+impl PlannerParams {
+    /// The planner's view of a mission (no ground truth in here).
+    pub fn from_mission(m: &Mission) -> Self {
+        Self {
+            dim: m.mission.dim,
+            goal: m.mission.goal,
+            radius: m.formation.radius,
+            alpha: m.formation.alpha,
+            damping: m.vehicles.damping,
+            adapt: m.formation.adapt,
+            adapt_gain: m.formation.adapt_gain,
+            min_scale: m.formation.min_scale,
+            max_scale: m.formation.max_scale,
+            sigma_h: m.formation.sigma_h,
+            hessian_guess: m.hessian_guess_mat(),
+            v0: m.body.v0,
+            v_u: m.body.v_u,
+            delta: m.body.delta,
+            grad_saturation: m.body.grad_saturation,
+            kalman_b: m.estimator.kalman_b,
+            sigma_m: m.estimator.sigma_m,
+            sigma_m_prior: m.field.noise_std,
+            initial_variance: m.estimator.initial_variance,
+        }
+    }
+}
+
+/// What the planner decided for one tick: the virtual body the agents steer by for the
+/// step from this tick to the next, and what the run directory records.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Command {
+    /// The virtual body at this tick (s_k, r_k, R_k, k_k).
+    pub body: VirtualBody,
+    /// Formation speed ṡ (IV.4); 0 when holding.
+    pub sdot: f64,
+    /// Velocity of the virtual body centre, dr/ds·ṡ, length unit/s: vehicles out of
+    /// contact dead-reckon the body with it.
+    pub velocity: Vec3,
+    /// Virtual leader positions b_l(s_k) (III.3).
+    pub leaders: Vec<Vec3>,
+    /// Scaled inter-vehicle potential.
+    pub inter: PairPotential,
+    /// Scaled vehicle–leader potential.
+    pub leader: PairPotential,
+    /// Damping gain of (II.1), 1/s.
+    pub damping: f64,
+    /// V, ∂V/∂s, (∂V/∂x)ᵀẋ at this tick.
+    pub terms: LyapunovTerms,
+    /// The filtered gradient estimate ∇T_KF at r_k (zero before the first estimate).
+    pub grad_est: Vec3,
+    /// Trace of the Kalman covariance P (0 before the first estimate).
+    pub p_trace: f64,
+    /// True when the body holds position (fewer than dim + 1 vehicles).
+    pub holding: bool,
+    /// True when the least-squares estimate of this tick failed (rank, too few).
+    pub estimate_failed: bool,
+    /// True when the formation was redesigned at this tick.
+    pub reconfigured: bool,
+    /// Vehicles in the formation at this tick, ordered by id.
+    pub members: Vec<u32>,
+    /// The members still rejoining at this tick and the slot each flies to (inertial,
+    /// length unit), ordered by id (`vbap_math::rejoin`).
+    pub rejoining: Vec<(u32, Vec3)>,
+}
+
+/// Errors of the planner.
+#[derive(Debug, thiserror::Error)]
+pub enum PlannerError {
+    /// No formation could be designed for the vehicles left.
+    #[error("formation design for {n} vehicles: {source}")]
+    Design { n: usize, source: FormationError },
+}
+
+/// The coordinator's state: virtual body, formation design, filter.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Planner {
+    params: PlannerParams,
+    design: FormationDesign,
+    members: Vec<u32>,
+    body: VirtualBody,
+    filter: Option<GradientFilter>,
+    noise: NoiseEstimator,
+    last_r: Vec3,
+    reconfigurations: usize,
+    /// Members that joined after the start and are not yet in their slot: vehicle → the
+    /// index of its slot in the design (None: to be chosen).
+    #[serde(default)]
+    rejoining: BTreeMap<u32, Option<usize>>,
+    /// Turn of the slots about the body's z axis (rad) that follows the settled members of
+    /// a 2-D central design (`vbap_math::rejoin::fit_turn`).
+    #[serde(default)]
+    turn: f64,
+    /// Velocity of the body centre in the last command, length unit/s: the feed-forward
+    /// of the rejoining vehicles' homing as the planner models it.
+    #[serde(default = "Vec3::zeros")]
+    last_velocity: Vec3,
+}
+
+impl Planner {
+    /// A planner with the virtual body at `start`, for the vehicles `ids`.
+    pub fn new(params: PlannerParams, start: Vec3, ids: &[u32]) -> Result<Self, PlannerError> {
+        let design = design_regular(
+            ids.len(),
+            params.dim,
+            params.radius,
+            params.alpha,
+            params.alpha,
+        )
+        .map_err(|source| PlannerError::Design {
+            n: ids.len(),
+            source,
+        })?;
+        let noise = NoiseEstimator::new(params.sigma_m_prior, 10.0);
+        Ok(Self {
+            params,
+            design,
+            members: ids.to_vec(),
+            body: VirtualBody {
+                s: 0.0,
+                r: start,
+                rotation: nalgebra::Rotation3::identity(),
+                scale: 1.0,
+            },
+            filter: None,
+            noise,
+            last_r: start,
+            reconfigurations: 0,
+            rejoining: BTreeMap::new(),
+            turn: 0.0,
+            last_velocity: Vec3::zeros(),
+        })
+    }
+
+    /// The current virtual body.
+    pub fn body(&self) -> &VirtualBody {
+        &self.body
+    }
+    /// The current formation design.
+    pub fn design(&self) -> &FormationDesign {
+        &self.design
+    }
+    /// The gradient filter, once the first estimate was made.
+    pub fn filter(&self) -> Option<&GradientFilter> {
+        self.filter.as_ref()
+    }
+    /// The σ_M in use (configured, or estimated online from residuals).
+    pub fn sigma_m(&self) -> f64 {
+        self.params.sigma_m.unwrap_or_else(|| self.noise.sigma())
+    }
+    /// How many times the formation was redesigned.
+    pub fn reconfigurations(&self) -> usize {
+        self.reconfigurations
+    }
+    /// The members still rejoining, with the index of their slot in the design.
+    pub fn rejoining(&self) -> &BTreeMap<u32, Option<usize>> {
+        &self.rejoining
+    }
+
+    /// One tick `k`. `members` holds the last known report of every vehicle in the
+    /// formation, ordered by id (the formation, the Lyapunov function and the swarm
+    /// snapshot use them); `fresh` the reports delivered since the last tick, in delivery
+    /// order, each with its own position and time (the estimator uses them: Remark 5.8).
+    /// With ideal links both are this tick's reports. `joined` lists the vehicles admitted
+    /// back at this tick (members from now on, at their restore state, even when they were
+    /// lost at this very tick): each rejoins (`vbap_math::rejoin`). `dt` is the tick
+    /// length, s.
+    pub fn step(
+        &mut self,
+        k: u64,
+        members: &[Report],
+        fresh: &[Report],
+        joined: &[u32],
+        dt: f64,
+    ) -> Result<Command, PlannerError> {
+        let ids: Vec<u32> = members.iter().map(|r| r.id).collect();
+        let reconfigured = self.follow_membership(&ids, members.is_empty(), joined)?;
+        self.bring_back_out_of_reach(members);
+        let holding = members.len() < self.params.dim + 1;
+        let rejoining = Self::update_rejoining(
+            &mut self.rejoining,
+            &mut self.turn,
+            &self.design,
+            &self.body,
+            members,
+        );
+        // A rejoining vehicle samples far from the formation the estimator's error model
+        // (V.6) assumes: its readings wait until it is in its slot.
+        let kept: Vec<Report>;
+        let fresh = if rejoining.is_empty() {
+            fresh
+        } else {
+            kept = fresh
+                .iter()
+                .filter(|q| !self.rejoining.contains_key(&q.id))
+                .copied()
+                .collect();
+            &kept[..]
+        };
+        let (grad_est, estimate_failed) = self.estimate(k, fresh, dt);
+        let p = &self.params;
+        let rates = BodyRates {
+            dr_ds: direction(&grad_est, p.goal, p.grad_saturation, holding),
+            omega_ds: Vec3::zeros(),
+            dk_ds: self.scale_rate(holding),
+        };
+        let (terms, waiting) = self.lyapunov(members, &rejoining, &rates);
+        let p = &self.params;
+        let sdot = if holding {
+            0.0
+        } else {
+            waiting * formation_speed(&terms, p.v0, p.v_u, p.delta)
+        };
+
+        let command = Command {
+            body: self.body,
+            sdot,
+            velocity: rates.dr_ds * sdot,
+            leaders: self.body.leader_positions(&self.design),
+            inter: self.body.scaled_inter(&self.design),
+            leader: self.body.scaled_leader(&self.design),
+            damping: p.damping,
+            terms,
+            grad_est,
+            p_trace: self.filter.as_ref().map_or(0.0, |f| f.covariance().trace()),
+            holding,
+            estimate_failed,
+            reconfigured,
+            members: ids,
+            rejoining,
+        };
+        self.last_velocity = command.velocity;
+        self.body = self.advanced(&rates, sdot * dt);
+        Ok(command)
+    }
+
+    /// The body of the next tick: moved by `ds` along `rates` ((III.4), (V.7)), its scale
+    /// kept within [min_scale, max_scale], its centre in the plane z = 0 in 2-D.
+    fn advanced(&self, rates: &BodyRates, ds: f64) -> VirtualBody {
+        let p = &self.params;
+        let mut next = self.body.advance(rates, ds);
+        next.scale = next.scale.clamp(p.min_scale, p.max_scale);
+        if p.dim == 2 {
+            next.r.z = 0.0;
+        }
+        next
+    }
+}
