@@ -5,6 +5,8 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use crate::planner::{Planner, PlannerParams};
+
 use vbap_ipc::process::{
     announce_ready, die_with_parent, finish, load_mission_or_exit, orphaned, EXIT_INVALID,
 };
@@ -35,7 +37,7 @@ pub struct Args {
 }
 
 /// Runs the coordinator of `args`, its recorder judging by `truth` (None: the mission's
-/// own field; see [`crate::record::set_process_truth`]), then exits the process (code 0,
+/// own field), then exits the process (code 0,
 /// or 1 with the error on stderr; 2 for an invalid mission or run directory).
 pub fn main_with(args: &Args, truth: Option<Arc<dyn ScalarField>>) -> ! {
     die_with_parent(args.parent);
@@ -44,12 +46,18 @@ pub fn main_with(args: &Args, truth: Option<Arc<dyn ScalarField>>) -> ! {
         eprintln!("coordinator: --run-dir {}: {e}", args.run_dir.display());
         std::process::exit(EXIT_INVALID);
     });
-    if let Some(field) = truth {
-        crate::record::set_process_truth(field);
-    }
     let log = vbap_ipc::telemetry::init("coordinator", args.log.as_deref());
     let msgs = vbap_ipc::process::message_log(args.log.as_deref());
-    let result = crate::run::run(&mission, &dir, msgs, announce_ready).and_then(|summary| {
+    let truth = truth.unwrap_or_else(|| Arc::new(mission.field()));
+    let new_planner = |ids: &[u32]| {
+        Planner::new(
+            PlannerParams::from_mission(&mission),
+            mission.start_vec(),
+            ids,
+        )
+    };
+    let result = crate::run::run_with(&mission, &dir, msgs, announce_ready, truth, new_planner);
+    let result = result.and_then(|summary| {
         let parent = args.parent.filter(|_| args.summary_to_parent);
         deliver(&summary, &dir, parent)
     });

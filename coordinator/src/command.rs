@@ -66,20 +66,15 @@ impl BodyRecord {
     }
 
     /// Fills the payload `body` (a reused buffer: the payload is large) with this record;
-    /// its header's `sent_ns` is left 0, for the publisher to stamp.
+    /// the publisher stamps its header's `sent_ns` again when it sends it.
     pub fn fill(&self, body: &mut BodyCommand) {
-        body.header = Header {
-            sender: Header::COORDINATOR,
-            flags: if self.holding {
-                BodyCommand::HOLDING
-            } else {
-                0
-            },
-            tick: self.tick,
-            t: self.t,
-            seq: self.seq,
-            sent_ns: 0,
+        let flags = if self.holding {
+            BodyCommand::HOLDING
+        } else {
+            0
         };
+        body.header =
+            Header::new(Header::COORDINATOR, self.tick, self.t, self.seq).with_flags(flags);
         body.s = self.s;
         body.sdot = self.sdot;
         body.r = self.r;
@@ -100,14 +95,8 @@ impl BodyRecord {
 /// Makes `body` the mission's last command, of tick `k` (length `dt`, s): flag
 /// [`BodyCommand::FINISHED`], no leaders, no vehicles; agents end on it.
 pub fn fill_finished(body: &mut BodyCommand, k: u64, dt: f64) {
-    body.header = Header {
-        sender: Header::COORDINATOR,
-        flags: BodyCommand::FINISHED,
-        tick: k,
-        t: k as f64 * dt,
-        seq: k + 1,
-        sent_ns: 0,
-    };
+    body.header =
+        Header::new(Header::COORDINATOR, k, k as f64 * dt, k + 1).with_flags(BodyCommand::FINISHED);
     body.n_leaders = 0;
     body.n_vehicles = 0;
 }

@@ -5,7 +5,7 @@
 //! coordinator process both use it, so their files are written by the same code.
 
 use std::io;
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 use vbap_math::formation::FormationDesign;
 use vbap_math::Vec3;
@@ -52,32 +52,10 @@ pub struct Recorder {
     stats: RecorderStats,
 }
 
-/// The field the recorders of this process judge by when none is given: set once by a
-/// process that runs the coordinator over a user's own field.
-static PROCESS_TRUTH: OnceLock<Arc<dyn ScalarField>> = OnceLock::new();
-
-/// Makes `field` the ground truth of every [`Recorder::open`] / [`Recorder::resume`] of
-/// this process (instead of the mission's `[field]`): a coordinator process that serves a
-/// user's own field calls it once, before `coordinator::run::run`, so its `truth.csv`,
-/// `body.csv` and verdict judge the field the field server samples. False when a truth
-/// was set already (the first stays).
-pub fn set_process_truth(field: Arc<dyn ScalarField>) -> bool {
-    PROCESS_TRUTH.set(field).is_ok()
-}
-
-/// The ground truth of `mission` in this process: [`set_process_truth`]'s field, or the
-/// mission's own.
-pub fn process_truth(mission: &Mission) -> Arc<dyn ScalarField> {
-    PROCESS_TRUTH
-        .get()
-        .cloned()
-        .unwrap_or_else(|| Arc::new(mission.field()))
-}
-
 impl Recorder {
-    /// Opens the CSV and event files of `dir` (appending), judging by [`process_truth`].
+    /// Opens the CSV and event files of `dir` (appending), judging by the mission's own field.
     pub fn open(mission: &Mission, dir: &RunDir) -> io::Result<Self> {
-        Self::open_with(mission, dir, process_truth(mission))
+        Self::open_with(mission, dir, Arc::new(mission.field()))
     }
 
     /// [`Recorder::open`] judging by `field` (the field the sensors sample).
@@ -105,9 +83,9 @@ impl Recorder {
     }
 
     /// Opens the files of `dir` (appending) with running figures `stats` (a checkpoint's),
-    /// judging by [`process_truth`].
+    /// judging by the mission's own field.
     pub fn resume(mission: &Mission, dir: &RunDir, stats: RecorderStats) -> io::Result<Self> {
-        Self::resume_with(mission, dir, stats, process_truth(mission))
+        Self::resume_with(mission, dir, stats, Arc::new(mission.field()))
     }
 
     /// [`Recorder::resume`] judging by `field`.

@@ -42,7 +42,10 @@ use crate::record::Recorder;
 use inbox::Inbox;
 use liveness::Liveness;
 use ports::Ports;
+use resume::Setup;
 use sensors::SensorReads;
+use std::sync::Arc;
+use vbap_mission::field::ScalarField;
 
 /// Wall time a lockstep tick waits for a silent vehicle before going on without it (a
 /// vehicle heard from before is then lost as `silent`: see [`liveness`]).
@@ -63,13 +66,20 @@ pub fn run(
     msgs: MsgLog,
     on_ready: impl FnOnce(),
 ) -> Result<Summary> {
-    run_with(mission, dir, msgs, on_ready, |ids| {
-        Planner::new(
-            PlannerParams::from_mission(mission),
-            mission.start_vec(),
-            ids,
-        )
-    })
+    run_with(
+        mission,
+        dir,
+        msgs,
+        on_ready,
+        Arc::new(mission.field()),
+        |ids| {
+            Planner::new(
+                PlannerParams::from_mission(mission),
+                mission.start_vec(),
+                ids,
+            )
+        },
+    )
 }
 
 /// [`run`] with any planner: `new_planner` makes the planner of a new run for the vehicles
@@ -79,6 +89,7 @@ pub fn run_with<P: Plan + Serialize + DeserializeOwned>(
     dir: &RunDir,
     msgs: MsgLog,
     on_ready: impl FnOnce(),
+    truth: Arc<dyn ScalarField>,
     new_planner: impl FnOnce(&[u32]) -> Result<P, PlannerError>,
 ) -> Result<Summary> {
     let opened = Ports::open(mission)?;
@@ -89,8 +100,11 @@ pub fn run_with<P: Plan + Serialize + DeserializeOwned>(
         &opened.ports,
         opened.sensors,
         opened.live,
-        msgs,
-        new_planner,
+        Setup {
+            msgs,
+            truth,
+            new_planner,
+        },
     )?;
     info!(
         vehicles = mission.vehicles.count,

@@ -11,7 +11,8 @@ use vbap_ipc::msg::agent_to_coordinator::VehicleState;
 use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
 use vbap_ipc::msg::coordinator_to_field::SampleBatch;
 use vbap_ipc::msg::wall_ns;
-use vbap_ipc::topics::{self, wait_for_wake_ids, Domain, Limits, Wake};
+use vbap_ipc::topics::{self, Domain, Limits};
+use vbap_ipc::wait::{wait_once, Waiter, Wake, WakeListener};
 use vbap_mission::config::Mission;
 
 use super::liveness::Liveness;
@@ -29,8 +30,7 @@ pub(super) struct Ports {
     /// Vehicle `id`'s wake-up, at index `id`.
     notifiers: Vec<iceoryx2::port::notifier::Notifier<ipc::Service>>,
     body: iceoryx2::port::publisher::Publisher<ipc::Service, BodyCommand, ()>,
-    wake: iceoryx2::port::listener::Listener<ipc::Service>,
-    waitset: iceoryx2::waitset::WaitSet<ipc::Service>,
+    wake: WakeListener,
     /// Dropped last: every port above belongs to it.
     _node: Node<ipc::Service>,
 }
@@ -110,22 +110,13 @@ impl Ports {
             since_ns: wall_ns(),
             resumed: false,
         };
-        let wake = domain
-            .coordinator_wake(&node, &limits)?
-            .listener_builder()
-            .create()
-            .map_err(port_err("coordinator wake listener"))?;
-        let waitset = WaitSetBuilder::new()
-            .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
-            .create::<ipc::Service>()
-            .map_err(port_err("creating the waitset"))?;
+        let wake = WakeListener::new(&domain.coordinator_wake(&node, &limits)?)?;
         let ports = Ports {
             domain,
             subscribers,
             notifiers,
             body,
             wake,
-            waitset,
             _node: node,
         };
         Ok(Opened {
@@ -135,17 +126,20 @@ impl Ports {
         })
     }
 
-    /// Attaches the wake listener to the WaitSet (for as long as the guard lives).
-    pub fn attach(&self) -> Result<iceoryx2::waitset::WaitSetGuard<'_, '_, ipc::Service>> {
-        self.waitset
-            .attach_notification(&self.wake)
-            .map_err(port_err("attaching"))
+    /// Attaches the wake listener to its WaitSet (for as long as the waiter lives).
+    pub fn attach(&self) -> Result<Waiter<'_>> {
+        Ok(self.wake.attach()?)
     }
 
     /// Waits at most `timeout` for a wake-up; the ids of the events that arrived go into
     /// `ids`.
     pub fn wait(&self, timeout: Duration, ids: &mut Vec<usize>) -> Result<Wake> {
-        Ok(wait_for_wake_ids(&self.waitset, &self.wake, timeout, ids)?)
+        Ok(wait_once(
+            self.wake.waitset(),
+            self.wake.listener(),
+            timeout,
+            |id| ids.push(id),
+        )?)
     }
 
     /// Publishes `body` (copied into the subscribers' shared memory), its `sent_ns` stamped

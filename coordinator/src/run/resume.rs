@@ -26,6 +26,8 @@ use crate::fleet::Fleet;
 use crate::plan::Plan;
 use crate::planner::PlannerError;
 use crate::record::Recorder;
+use std::sync::Arc;
+use vbap_mission::field::ScalarField;
 
 /// What a new or resumed coordinator starts from.
 struct Start<P> {
@@ -39,19 +41,33 @@ struct Start<P> {
     republish: Option<BodyRecord>,
 }
 
+/// What a coordinator starts with besides its ports.
+pub(super) struct Setup<F> {
+    /// The message records of this process.
+    pub msgs: MsgLog,
+    /// The field the run is judged by (the field server's).
+    pub truth: Arc<dyn ScalarField>,
+    /// Makes the planner of a new run for the vehicles it is given.
+    pub new_planner: F,
+}
+
 impl<'a, P: Plan + Serialize + DeserializeOwned> Coordinator<'a, P> {
     /// The coordinator of `mission` writing into `dir` through `ports`: resumed from the
     /// checkpoint of `dir` when there is one (with the command to publish again), else new
-    /// (with the planner `new_planner` makes).
+    /// (with the planner `new_planner` makes); the run is judged by the field `truth`.
     pub(super) fn start(
         mission: &'a Mission,
         dir: &'a RunDir,
         ports: &'a Ports,
         sensors: SensorReads,
         mut live: Liveness,
-        msgs: MsgLog,
-        new_planner: impl FnOnce(&[u32]) -> Result<P, PlannerError>,
+        setup: Setup<impl FnOnce(&[u32]) -> Result<P, PlannerError>>,
     ) -> Result<(Self, Option<BodyRecord>)> {
+        let Setup {
+            msgs,
+            truth,
+            new_planner,
+        } = setup;
         let n = mission.vehicles.count;
         let dt = mission.mission.dt;
         let ids: Vec<u32> = (0..n as u32).collect();
@@ -60,11 +76,11 @@ impl<'a, P: Plan + Serialize + DeserializeOwned> Coordinator<'a, P> {
             Checkpoint::load(dir).context("reading the checkpoint")?;
         let resumed_marks = resumed.as_ref().map(|cp| cp.journal);
         let start = match resumed {
-            Some(cp) => resume(cp, mission, dir, &mut inbox, &mut live)?,
+            Some(cp) => resume(cp, mission, dir, &mut inbox, &mut live, truth)?,
             None => Start {
                 planner: new_planner(&ids)?,
                 fleet: Fleet::new(mission, &ids),
-                recorder: Recorder::open(mission, dir)
+                recorder: Recorder::open_with(mission, dir, truth)
                     .context("opening the run directory files")?,
                 next_tick: 0,
                 books: Books::default(),
@@ -146,13 +162,15 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
 }
 
 /// A restarted coordinator's start from checkpoint `cp`: the run files of `dir` cut back
-/// to it, the peers and counts of `inbox` restored, `live` told it resumed.
+/// to it, the peers and counts of `inbox` restored, `live` told it resumed, the run judged
+/// by `truth`.
 fn resume<P>(
     cp: Checkpoint<P>,
     mission: &Mission,
     dir: &RunDir,
     inbox: &mut Inbox,
     live: &mut Liveness,
+    truth: Arc<dyn ScalarField>,
 ) -> Result<Start<P>> {
     dir.truncate_to(&cp.offsets)
         .context("cutting the run files back to the checkpoint")?;
@@ -175,8 +193,8 @@ fn resume<P>(
         clock.start = Some(Instant::now().checked_sub(ago).unwrap_or_else(Instant::now));
         clock.start_ns = Some(ns);
     }
-    let recorder =
-        Recorder::resume(mission, dir, cp.stats).context("opening the run directory files")?;
+    let recorder = Recorder::resume_with(mission, dir, cp.stats, truth)
+        .context("opening the run directory files")?;
     Ok(Start {
         planner: cp.planner,
         fleet: cp.fleet,

@@ -12,7 +12,7 @@ use tracing::{info, warn};
 use vbap_ipc::msg::agent_to_coordinator::VehicleState;
 use vbap_ipc::msg::coordinator_to_field::{SampleBatch, SensorRead};
 use vbap_ipc::msg::field_to_coordinator::ReadingBatch;
-use vbap_ipc::msg::{wall_ns, Header, MAX_VEHICLES};
+use vbap_ipc::msg::{Header, MAX_VEHICLES};
 use vbap_ipc::msglog::MsgLog;
 use vbap_ipc::topics::{self, Wake};
 
@@ -101,14 +101,7 @@ impl SensorReads {
         }
         self.seq += 1;
         self.batch.n = keys.len() as u32;
-        self.batch.header = Header {
-            sender: Header::COORDINATOR,
-            flags: 0,
-            tick: k,
-            t: k as f64 * dt,
-            seq: self.seq,
-            sent_ns: wall_ns(),
-        };
+        self.batch.header = Header::new(Header::COORDINATOR, k, k as f64 * dt, self.seq);
         let pending = self
             .client
             .send_copy(*self.batch)
