@@ -2,7 +2,7 @@
 //! [`draw_run`] is called by `vbap sim` and `vbap run` at their end (and `vbap analyze`
 //! draws the analysis plots). It reads only the run directory's files (`mission.toml`,
 //! `body.csv`, `vehicles.csv`, `events.jsonl`, the truth files, the message records of
-//! `logs/`), never a process, and draws every picture with plotters ([`shared::plot`]):
+//! `logs/`), never a process, and draws every picture with plotters ([`crate::plot`]):
 //!
 //! - `plot.svg` ([`crate::mission_plot`]): tracks on the field, the body path, formation snapshots;
 //! - `timeseries_formation.svg`, `timeseries_estimate.svg`, `contact.svg`
