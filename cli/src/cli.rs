@@ -89,7 +89,7 @@ pub fn main() -> i32 {
 
 /// Runs the command line of a user's own vbap (`plugins`: its field and law,
 /// [`crate::custom`]); `None`: `vbap` itself. Returns the exit code.
-pub fn main_with(plugins: Option<&crate::custom::Plugins>) -> i32 {
+pub fn main_with(plugins: Option<&crate::plugins::Plugins>) -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
@@ -109,7 +109,7 @@ pub fn main_with(plugins: Option<&crate::custom::Plugins>) -> i32 {
     }
 }
 
-fn dispatch(cmd: Cmd, plugins: Option<&crate::custom::Plugins>) -> Result<i32> {
+fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> {
     if let (Some(_), Cmd::Replay(_) | Cmd::Batch(_) | Cmd::Chaos(_) | Cmd::Bench(_)) =
         (plugins, &cmd)
     {
@@ -151,7 +151,7 @@ fn check(mission: &Path) -> Result<i32> {
 }
 
 /// `vbap sim`: the mission in this process, with a progress bar on a terminal.
-fn sim(args: &RunArgs, plugins: Option<&crate::custom::Plugins>) -> Result<i32> {
+fn sim(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> {
     let (mission, dir) = prepare(args)?;
     let show = !args.quiet && std::io::stderr().is_terminal();
     let bar = indicatif::ProgressBar::new(mission.ticks());
@@ -193,7 +193,7 @@ fn sim(args: &RunArgs, plugins: Option<&crate::custom::Plugins>) -> Result<i32> 
 }
 
 /// `vbap run`: the mission as a process set, under the mission's lock.
-fn run(args: &RunArgs, plugins: Option<&crate::custom::Plugins>) -> Result<i32> {
+fn run(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> {
     vbap_ipc::msglog::parse_records_switch(
         std::env::var(vbap_ipc::msglog::RECORDS_ENV).ok().as_deref(),
     )

@@ -24,52 +24,12 @@
 //! ```
 
 use std::ffi::OsString;
-use std::sync::Arc;
 
 use clap::Parser;
 use field_server::{Sensors, World};
 use vbap_ipc::process::EXIT_INVALID;
-use vbap_math::law::{ControlLaw, PaperLaw};
-use vbap_mission::config::Mission;
-use vbap_mission::field::ScalarField;
 
-/// The first argument of this executable started in a role by its own supervisor.
-pub const ROLE_COMMAND: &str = "role";
-
-/// A user's own parts; `None`: the shipped one (the mission's `[field]`, the paper's law).
-#[derive(Clone, Debug, Default)]
-pub struct Plugins {
-    /// The field the sensors sample and the run is judged by.
-    pub field: Option<Arc<dyn ScalarField>>,
-    /// The vehicles' control law.
-    pub law: Option<Arc<dyn ControlLaw>>,
-}
-
-impl Plugins {
-    /// These plugins with the field `field`.
-    pub fn with_field(mut self, field: impl ScalarField + 'static) -> Self {
-        self.field = Some(Arc::new(field));
-        self
-    }
-
-    /// These plugins with the control law `law`.
-    pub fn with_law(mut self, law: impl ControlLaw + 'static) -> Self {
-        self.law = Some(Arc::new(law));
-        self
-    }
-
-    /// The field of `mission` under these plugins.
-    pub fn field_of(&self, mission: &Mission) -> Arc<dyn ScalarField> {
-        self.field
-            .clone()
-            .unwrap_or_else(|| Arc::new(mission.field()))
-    }
-
-    /// The control law under these plugins.
-    pub fn law_of(&self) -> Arc<dyn ControlLaw> {
-        self.law.clone().unwrap_or_else(|| Arc::new(PaperLaw))
-    }
-}
+pub use crate::plugins::{Plugins, ROLE_COMMAND};
 
 /// This executable in a role (`THIS role ...`): the roles' own command lines.
 #[derive(Parser, Debug)]

@@ -5,7 +5,7 @@
 //! - [`progress`]: the progress bar of `vbap run`.
 //! - [`replay`], [`batch`], [`bench`]: study a run, many runs, the speed.
 //! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).
-//! - [`custom`]: a user's own vbap, over its own field and control law.
+//! - [`custom`]: a user's own vbap, over its own field and control law ([`plugins`]).
 //! - [`cli`]: the command line ([`formation`]: `vbap formation`; [`summary_text`]: the
 //!   terminal summary of a run); [`errors`]: the user's errors and the exit codes;
 //!   [`rundirs`]: where runs go by default; [`domain`]: a mission's iceoryx2 domain on this
@@ -24,6 +24,7 @@ pub mod domain;
 pub mod errors;
 pub mod formation;
 pub mod lock;
+pub mod plugins;
 pub mod progress;
 pub mod replay;
 pub mod rundirs;

@@ -7,7 +7,7 @@
 
 use std::time::Instant;
 
-use crate::custom::Plugins;
+use crate::plugins::Plugins;
 use anyhow::{Context, Result};
 use coordinator::fleet::Fleet;
 use coordinator::membership::{self, Loss};

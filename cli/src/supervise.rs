@@ -247,7 +247,7 @@ impl Executables {
         let exe = std::env::current_exe().context("locating this executable")?;
         let role = |name: &str| Executable {
             program: exe.clone(),
-            args: vec![crate::custom::ROLE_COMMAND.to_string(), name.to_string()],
+            args: vec![crate::plugins::ROLE_COMMAND.to_string(), name.to_string()],
         };
         Ok(Self {
             field_server: role("field-server"),

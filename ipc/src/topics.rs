@@ -478,29 +478,6 @@ pub const FIELD_SERVER_NODE: &str = "field_server";
 /// Node name of the supervisor (`vbap run`).
 pub const SUPERVISOR_NODE: &str = "supervisor";
 
-pub use crate::wait::Wake;
-
-/// [`wait_for_wake`] that also collects the ids of the events that arrived into `ids`
-/// ([`crate::wait::wait_once`]; prefer [`crate::wait::Waiter`] in new code).
-pub fn wait_for_wake_ids(
-    waitset: &iceoryx2::waitset::WaitSet<ipc::Service>,
-    listener: &iceoryx2::port::listener::Listener<ipc::Service>,
-    timeout: std::time::Duration,
-    ids: &mut Vec<usize>,
-) -> Result<Wake, TopicError> {
-    crate::wait::wait_once(waitset, listener, timeout, |id| ids.push(id))
-}
-
-/// Blocks in `waitset` (which has `listener` attached) until an event, the timeout or a
-/// termination signal; drains the listener so the next wait blocks again.
-pub fn wait_for_wake(
-    waitset: &iceoryx2::waitset::WaitSet<ipc::Service>,
-    listener: &iceoryx2::port::listener::Listener<ipc::Service>,
-    timeout: std::time::Duration,
-) -> Result<Wake, TopicError> {
-    wait_for_wake_ids(waitset, listener, timeout, &mut Vec::new())
-}
-
 #[cfg(test)]
 mod prefix_tests {
     use super::*;

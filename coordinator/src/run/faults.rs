@@ -6,7 +6,8 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use serde::Serialize;
 use tracing::{info, warn};
-use vbap_ipc::topics::{self, Wake};
+use vbap_ipc::topics;
+use vbap_ipc::wait::Wake;
 
 use super::{Coordinator, Flow, GO, LOCKSTEP_TIMEOUT, STOP};
 use crate::membership::{self, Loss};

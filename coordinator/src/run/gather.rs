@@ -8,7 +8,8 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use serde::Serialize;
 use tracing::{debug, warn};
-use vbap_ipc::topics::{self, Wake};
+use vbap_ipc::topics;
+use vbap_ipc::wait::Wake;
 
 use super::liveness::SUSPECT_AFTER;
 use super::{Coordinator, Flow, GO, LOCKSTEP_TIMEOUT, STOP};

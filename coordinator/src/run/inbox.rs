@@ -13,8 +13,11 @@ use vbap_ipc::msglog::MsgLog;
 use vbap_ipc::topics::{self, Limits};
 use vbap_mission::rundir::MessageCounts;
 
-use super::ports::StateSubscriber;
 use crate::fleet::Fleet;
+
+/// A vehicle's state subscriber.
+pub(super) type StateSubscriber =
+    iceoryx2::port::subscriber::Subscriber<iceoryx2::prelude::ipc::Service, VehicleState, ()>;
 
 /// What the coordinator knows of each vehicle's process.
 #[derive(Clone, Copy, Debug, Default)]

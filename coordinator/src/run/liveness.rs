@@ -56,6 +56,21 @@ pub(super) struct Liveness {
 }
 
 impl Liveness {
+    /// The liveness watch of a coordinator starting now, told of process exits by `exits`.
+    pub fn new(
+        exits: iceoryx2::port::subscriber::Subscriber<ipc::Service, ProcessExit, ()>,
+    ) -> Self {
+        Self {
+            exits,
+            agent_exits: Vec::new(),
+            last_scan: Instant::now(),
+            scan_cost: Duration::ZERO,
+            since: Instant::now(),
+            since_ns: wall_ns(),
+            resumed: false,
+        }
+    }
+
     /// Takes in the supervisor's reports; true when one says the field server died.
     pub fn hear(&mut self) -> Result<bool> {
         let mut field_died = false;

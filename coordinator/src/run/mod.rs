@@ -45,6 +45,7 @@ use ports::Ports;
 use resume::Setup;
 use sensors::SensorReads;
 use std::sync::Arc;
+use vbap_ipc::msg::coordinator_to_field::SampleBatch;
 use vbap_mission::field::ScalarField;
 
 /// Wall time a lockstep tick waits for a silent vehicle before going on without it (a
@@ -98,8 +99,12 @@ pub fn run_with<P: Plan + Serialize + DeserializeOwned>(
         mission,
         dir,
         &opened.ports,
-        opened.sensors,
-        opened.live,
+        SensorReads::new(
+            opened.sample.0,
+            opened.sample.1,
+            Box::new(SampleBatch::empty()),
+        ),
+        Liveness::new(opened.exits),
         Setup {
             msgs,
             truth,

@@ -3,24 +3,20 @@
 //! process exits, and the wake listener with its WaitSet (the one place the coordinator
 //! blocks).
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::Result;
 use iceoryx2::prelude::*;
-use vbap_ipc::msg::agent_to_coordinator::VehicleState;
 use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
 use vbap_ipc::msg::coordinator_to_field::SampleBatch;
+use vbap_ipc::msg::field_to_coordinator::ReadingBatch;
+use vbap_ipc::msg::supervisor_to_coordinator::ProcessExit;
 use vbap_ipc::msg::wall_ns;
 use vbap_ipc::topics::{self, Domain, Limits};
 use vbap_ipc::wait::{wait_once, Waiter, Wake, WakeListener};
 use vbap_mission::config::Mission;
 
-use super::liveness::Liveness;
-use super::sensors::SensorReads;
-
-/// A vehicle's state subscriber.
-pub(super) type StateSubscriber =
-    iceoryx2::port::subscriber::Subscriber<ipc::Service, VehicleState, ()>;
+use super::inbox::StateSubscriber;
 
 /// The ports the tick loop uses without changing them.
 pub(super) struct Ports {
@@ -35,11 +31,23 @@ pub(super) struct Ports {
     _node: Node<ipc::Service>,
 }
 
-/// Every port of the coordinator: the fixed ones, the sensor reads, the liveness watch.
+/// The field server's request-response client.
+pub(super) type SampleClient =
+    iceoryx2::port::client::Client<ipc::Service, SampleBatch, (), ReadingBatch, ()>;
+/// The supervisor's process exits.
+pub(super) type ExitSubscriber =
+    iceoryx2::port::subscriber::Subscriber<ipc::Service, ProcessExit, ()>;
+
+/// Every port of the coordinator: the fixed ones, and those its sensor reads
+/// (`SensorReads`) and its liveness watch (`Liveness`) own.
 pub(super) struct Opened {
     pub ports: Ports,
-    pub sensors: SensorReads,
-    pub live: Liveness,
+    /// The field server's client and wake-up notifier.
+    pub sample: (
+        SampleClient,
+        iceoryx2::port::notifier::Notifier<ipc::Service>,
+    ),
+    pub exits: ExitSubscriber,
 }
 
 /// Wraps an iceoryx2 port error with what was being created.
@@ -83,7 +91,7 @@ impl Ports {
             .map_err(port_err(
                 "publishing the body (is another coordinator running?)",
             ))?;
-        let sensors = SensorReads::new(
+        let sample = (
             domain
                 .sample_service(&node, &limits)?
                 .client_builder()
@@ -95,21 +103,12 @@ impl Ports {
                 .default_event_id(topics::EVENT_DATA)
                 .create()
                 .map_err(port_err("field notifier"))?,
-            Box::new(SampleBatch::empty()),
         );
-        let live = Liveness {
-            exits: domain
-                .exits_service(&node, &limits)?
-                .subscriber_builder()
-                .create()
-                .map_err(port_err("subscribing to the supervisor's process exits"))?,
-            agent_exits: Vec::new(),
-            last_scan: Instant::now(),
-            scan_cost: Duration::ZERO,
-            since: Instant::now(),
-            since_ns: wall_ns(),
-            resumed: false,
-        };
+        let exits = domain
+            .exits_service(&node, &limits)?
+            .subscriber_builder()
+            .create()
+            .map_err(port_err("subscribing to the supervisor's process exits"))?;
         let wake = WakeListener::new(&domain.coordinator_wake(&node, &limits)?)?;
         let ports = Ports {
             domain,
@@ -121,8 +120,8 @@ impl Ports {
         };
         Ok(Opened {
             ports,
-            sensors,
-            live,
+            sample,
+            exits,
         })
     }
 

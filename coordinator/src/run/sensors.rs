@@ -14,7 +14,8 @@ use vbap_ipc::msg::coordinator_to_field::{SampleBatch, SensorRead};
 use vbap_ipc::msg::field_to_coordinator::ReadingBatch;
 use vbap_ipc::msg::{Header, MAX_VEHICLES};
 use vbap_ipc::msglog::MsgLog;
-use vbap_ipc::topics::{self, Wake};
+use vbap_ipc::topics;
+use vbap_ipc::wait::Wake;
 
 use super::liveness::Liveness;
 use super::ports::Ports;
