@@ -41,6 +41,9 @@ enum Cmd {
     Chaos(crate::chaos::ChaosArgs),
     /// Benchmarks: IPC hop against its floor, lockstep scaling, real-time capacity.
     Bench(crate::bench::BenchArgs),
+    /// Are two run directories the same run? (files from mission time byte for byte,
+    /// summary.json without its wall-clock fields; exit 0 same, 1 different)
+    Compare(crate::compare::CompareArgs),
     /// Timing analysis of a run from its tracing logs.
     Analyze {
         /// The run directory.
@@ -128,6 +131,7 @@ fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> 
         Cmd::Batch(args) => crate::batch::main(&args),
         Cmd::Chaos(args) => crate::chaos::main(&args),
         Cmd::Bench(args) => crate::bench::main(&args),
+        Cmd::Compare(args) => crate::compare::main(&args),
         Cmd::Analyze { run_dir, json } => vbap_report::analyze::main(&run_dir, json),
     }
 }

@@ -3,7 +3,8 @@
 //! - [`sim`]: the in-process reference simulator (`vbap sim`).
 //! - [`supervise`]: the multi-process run (`vbap run`), tokio.
 //! - [`progress`]: the progress bar of `vbap run`.
-//! - [`replay`], [`batch`], [`bench`]: study a run, many runs, the speed.
+//! - [`replay`], [`batch`], [`bench`]: study a run, many runs, the speed; [`compare`]: are
+//!   two run directories the same run?
 //! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).
 //! - [`custom`]: a user's own vbap, over its own field and control law ([`plugins`]).
 //! - [`cli`]: the command line ([`formation`]: `vbap formation`; [`summary_text`]: the
@@ -19,6 +20,7 @@ pub mod batch;
 pub mod bench;
 pub mod chaos;
 pub mod cli;
+pub mod compare;
 pub mod custom;
 pub mod domain;
 pub mod errors;
