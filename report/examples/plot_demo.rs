@@ -88,7 +88,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     chart::write_svg(&fig, std::path::Path::new("/tmp/plot_demo_ts.svg"))?;
     println!("wrote /tmp/plot_demo.svg and /tmp/plot_demo_ts.svg");
 
-    // A crowded, non-dimensional variant: 24 vehicles and a field undefined on part of the plane.
+    crowded_plot()?;
+    println!("wrote /tmp/plot_demo_crowded.svg");
+    Ok(())
+}
+
+/// A crowded, non-dimensional variant: 24 vehicles and a field undefined on part of the plane.
+fn crowded_plot() -> Result<(), Box<dyn std::error::Error>> {
     let holey = |x: f64, y: f64| {
         if x > 1.5 && y < -1.0 {
             f64::NAN
@@ -130,7 +136,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ],
     };
     write_mission_svg(&crowded, std::path::Path::new("/tmp/plot_demo_crowded.svg"))?;
-    println!("wrote /tmp/plot_demo_crowded.svg");
     Ok(())
 }
 

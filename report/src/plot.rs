@@ -37,6 +37,7 @@ use style::{nice_step, TimeUnit};
 use vbap_mission::rundir::Event;
 
 mod bounds;
+mod contour;
 mod events;
 mod field;
 mod labels;
@@ -46,7 +47,7 @@ mod side;
 pub use bounds::{bounds_around, choose_bounds};
 pub use events::{event_snapshots, read_events, MAX_EVENT_SNAPSHOTS};
 pub use mission::{render_mission_svg, write_mission_svg};
-use {field::*, labels::*, mission::*, side::*};
+use {contour::contour_lines, field::*, labels::*, mission::*, side::*};
 
 /// One vehicle's planar track: positions (x, y) in the mission's length unit, in time order.
 #[derive(Debug, Clone, PartialEq)]
