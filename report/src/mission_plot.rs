@@ -1,7 +1,8 @@
 //! `plot.svg`, the mission plot, from the run directory alone: tracks and formation
 //! snapshots read back from `vehicles.csv`, the body path from `body.csv`, the field at the
-//! final time from the resolved `mission.toml`, snapshots at the telling events of
-//! `events.jsonl`. Drawn by [`crate::plot::write_mission_svg`].
+//! final time from the resolved `mission.toml` (or a user's own [`ScalarField`], which no
+//! file describes), snapshots at the telling events of `events.jsonl`. Drawn by
+//! [`crate::plot::write_mission_svg`].
 
 use std::collections::BTreeMap;
 
@@ -9,6 +10,7 @@ use crate::plot::{MissionPlot, Snapshot, Track};
 use anyhow::{Context, Result};
 use vbap_math::Vec3;
 use vbap_mission::config::Mission;
+use vbap_mission::field::ScalarField;
 use vbap_mission::rundir::RunDir;
 
 use super::rows::{for_each_row_of, BodyPathCsv, VehicleCsv};
@@ -22,7 +24,13 @@ const EVENT_SNAPSHOT_GAP: u64 = 50;
 
 /// Writes `plot.svg` of `dir`: tracks on the field's contours, the body path, formation
 /// snapshots (evenly spaced, and at the telling events of `events.jsonl`) and the optimum.
-pub fn write_mission_plot(dir: &RunDir, mission: &Mission) -> Result<()> {
+/// `field`: the field the run sensed when it was not the mission's `[field]` (a user's own,
+/// `vbap_cli::custom::Plugins`); None: the mission's.
+pub fn write_mission_plot(
+    dir: &RunDir,
+    mission: &Mission,
+    field: Option<&dyn ScalarField>,
+) -> Result<()> {
     let m = mission;
     let events = crate::plot::read_events(&dir.events())
         .with_context(|| format!("reading {}", dir.events().display()))?;
@@ -36,7 +44,14 @@ pub fn write_mission_plot(dir: &RunDir, mission: &Mission) -> Result<()> {
     let data = plot_data(dir, m.ticks(), &at_events)?;
     // The field at the final time (the last tick recorded), at the body's depth in 3-D.
     let (t, r) = data.last.unwrap_or((0.0, m.start_vec()));
-    let field = m.field();
+    let own;
+    let field: &dyn ScalarField = match field {
+        Some(f) => f,
+        None => {
+            own = m.field();
+            &own
+        }
+    };
     let z = if m.mission.dim == 3 { r.z } else { 0.0 };
     let sample = |x: f64, y: f64| field.value(&Vec3::new(x, y, z), t);
     let plot = MissionPlot {
