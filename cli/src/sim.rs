@@ -150,7 +150,8 @@ pub fn simulate_with(
     summary.messages = tally.counts(&fleet);
     summary.wall_time_s = wall.elapsed().as_secs_f64();
     summary.write(dir).context("writing summary.json")?;
-    vbap_report::draw_run(dir).context("drawing the run's pictures")?;
+    vbap_report::draw_run_with(dir, None, plugins.field.as_deref())
+        .context("drawing the run's pictures")?;
     Ok(summary)
 }
 

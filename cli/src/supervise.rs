@@ -586,6 +586,7 @@ pub async fn run_with(
     }
     info!(startup_s, processes = set.procs.len(), "process set up");
 
+    let plot_field = field.clone(); // a user's own field, for plot.svg
     let field = field.unwrap_or_else(|| std::sync::Arc::new(mission.field()));
     let mut view = ProgressView::start(mission, field, show_progress && !interrupted);
     let mut coordinator_ok = false;
@@ -659,7 +660,7 @@ pub async fn run_with(
     stop_all(&mut set, &mut exits).await;
     notices.stop();
     let _ = clean_domain(&domain);
-    let summary = final_summary(&set, dir, wall, interrupted)?;
+    let summary = final_summary(&set, dir, wall, interrupted, plot_field.as_deref())?;
     Ok(RunOutcome {
         summary,
         interrupted,
@@ -684,16 +685,18 @@ async fn await_the_rest(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedRec
 
 /// The coordinator's summary (handed over; read back if it had to write it itself),
 /// completed with what only the supervisor knows and written once; None without one.
+/// `field`: a user's own field, drawn under `plot.svg` (None: the mission's).
 fn final_summary(
     set: &ProcessSet<'_>,
     dir: &RunDir,
     wall: Instant,
     interrupted: bool,
+    field: Option<&dyn vbap_mission::field::ScalarField>,
 ) -> Result<Option<Summary>> {
     let handed = set.handed.lock().unwrap_or_else(|e| e.into_inner()).take();
     let mut summary = handed.or_else(|| Summary::read(dir).ok());
     if let Some(s) = summary.as_mut() {
-        complete_summary(s, dir, wall.elapsed().as_secs_f64(), interrupted)?;
+        complete_summary(s, dir, wall.elapsed().as_secs_f64(), interrupted, field)?;
     }
     Ok(summary)
 }
@@ -701,8 +704,14 @@ fn final_summary(
 /// Completes the coordinator's summary `s` with what the supervisor knows once every
 /// process has ended (`wall_s`, the analysis of the message records, the agents'
 /// rejections, whether a signal stopped the run), writes `summary.json`, then draws every
-/// picture of the run.
-fn complete_summary(s: &mut Summary, dir: &RunDir, wall_s: f64, interrupted: bool) -> Result<()> {
+/// picture of the run (`field`: a user's own field under `plot.svg`; None: the mission's).
+fn complete_summary(
+    s: &mut Summary,
+    dir: &RunDir,
+    wall_s: f64,
+    interrupted: bool,
+    field: Option<&dyn vbap_mission::field::ScalarField>,
+) -> Result<()> {
     s.wall_time_s = wall_s;
     let analysis = analyze::compute(dir).ok();
     if let Some((report, _)) = &analysis {
@@ -720,7 +729,7 @@ fn complete_summary(s: &mut Summary, dir: &RunDir, wall_s: f64, interrupted: boo
     s.write(dir).context("writing summary.json")?;
     // Every picture, once, from the written run directory (the analysis already computed).
     let analysis = analysis.as_ref().map(|(r, d)| (r, d));
-    if let Err(e) = vbap_report::draw_run_with(dir, analysis) {
+    if let Err(e) = vbap_report::draw_run_with(dir, analysis, field) {
         warn!(error = %format!("{e:#}"), "drawing the run's pictures failed");
     }
     Ok(())

@@ -1,10 +1,14 @@
 //! Renders demonstration plots: /tmp/plot_demo.svg (a Gaussian field, four vehicles
-//! spiralling in towards its peak), /tmp/plot_demo_ts.svg (time series with event markers) and
-//! /tmp/plot_demo_crowded.svg (24 vehicles, non-dimensional, a field with a hole).
+//! spiralling in towards its peak), /tmp/plot_demo_ts.svg (two stacked panel charts with
+//! event markers, drawn like a run's time series) and /tmp/plot_demo_crowded.svg (24 vehicles,
+//! non-dimensional, a field with a hole).
 //!
-//! `cargo run -p shared --example plot_demo`
+//! `cargo run --release -p vbap-report --example plot_demo`
 
-use vbap_report::plot::{write_mission_svg, write_timeseries_svg, MissionPlot, Snapshot, Track};
+use vbap_mission::rundir::Event;
+use vbap_report::plot::chart::{self, Axis, Figure, Panel, Series};
+use vbap_report::plot::style::{self, TimeUnit};
+use vbap_report::plot::{write_mission_svg, MissionPlot, Snapshot, Track};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (ox, oy) = (120.0, 80.0);
@@ -80,38 +84,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     write_mission_svg(&plot, std::path::Path::new("/tmp/plot_demo.svg"))?;
 
-    let times: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
-    let series = vec![
-        (
-            "V / V_U".to_string(),
-            times
-                .iter()
-                .map(|&t| (t, 0.9 * (-t / 150.0).exp() + 0.05 * (t / 20.0).sin().abs()))
-                .collect(),
-        ),
-        (
-            "speed (m/s)".to_string(),
-            times
-                .iter()
-                .map(|&t| (t, 0.6 * (-t / 300.0).exp()))
-                .collect(),
-        ),
-    ];
-    let markers = vec![
-        (kill_k as f64 * dt, "kill 2".to_string()),
-        (rejoin_k as f64 * dt, "rejoin 2".to_string()),
-    ];
-    write_timeseries_svg(
-        std::path::Path::new("/tmp/plot_demo_ts.svg"),
-        "Demo: Lyapunov ratio and speed",
-        "t (s)",
-        &series,
-        "value",
-        &markers,
-    )?;
+    let fig = timeseries_figure(n, dt, kill_k, rejoin_k);
+    chart::write_svg(&fig, std::path::Path::new("/tmp/plot_demo_ts.svg"))?;
     println!("wrote /tmp/plot_demo.svg and /tmp/plot_demo_ts.svg");
 
-    // A crowded, non-dimensional variant: 24 vehicles and a field undefined on part of the plane.
+    crowded_plot()?;
+    println!("wrote /tmp/plot_demo_crowded.svg");
+    Ok(())
+}
+
+/// A crowded, non-dimensional variant: 24 vehicles and a field undefined on part of the plane.
+fn crowded_plot() -> Result<(), Box<dyn std::error::Error>> {
     let holey = |x: f64, y: f64| {
         if x > 1.5 && y < -1.0 {
             f64::NAN
@@ -153,6 +136,73 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ],
     };
     write_mission_svg(&crowded, std::path::Path::new("/tmp/plot_demo_crowded.svg"))?;
-    println!("wrote /tmp/plot_demo_crowded.svg");
     Ok(())
+}
+
+/// The demo's time series as a run's are drawn: V/V_U and the speed over mission time in
+/// stacked panels, with the vehicle-2 loss and rejoin as event markers.
+fn timeseries_figure(n: usize, dt: f64, kill_k: usize, rejoin_k: usize) -> Figure {
+    let last_t = (n - 1) as f64 * dt;
+    let unit = TimeUnit::for_span(last_t);
+    let curve = |f: &dyn Fn(f64) -> f64| -> Vec<(f64, f64)> {
+        (0..n)
+            .map(|k| k as f64 * dt)
+            .map(|t| (unit.of(t), f(t)))
+            .collect()
+    };
+    let time_axis = |label: bool| Axis {
+        label: if label {
+            unit.axis_label("mission time t")
+        } else {
+            String::new()
+        },
+        range: Some((0.0, unit.of(last_t))),
+        time: Some(unit),
+        ..Axis::default()
+    };
+    let event = |k: usize, kind: &str| Event {
+        t: k as f64 * dt,
+        k: k as u64,
+        kind: kind.into(),
+        vehicle: Some(2),
+        detail: serde_json::Value::Null,
+    };
+    let markers = chart::event_markers(&[event(kill_k, "lost"), event(rejoin_k, "rejoin")], unit);
+    let mut v = Panel::new(
+        "Lyapunov ratio",
+        time_axis(false),
+        Axis {
+            label: "V/V_{U}".into(),
+            from_zero: true,
+            ..Axis::default()
+        },
+    );
+    v.series.push(Series::line(
+        "V/V_{U}",
+        curve(&|t| 0.9 * (-t / 150.0).exp() + 0.05 * (t / 20.0).sin().abs()),
+        style::palette(0),
+    ));
+    let mut speed = Panel::new(
+        "Speed of the virtual body",
+        time_axis(true),
+        Axis {
+            label: "speed (m/s)".into(),
+            from_zero: true,
+            ..Axis::default()
+        },
+    );
+    speed.series.push(Series::line(
+        "speed",
+        curve(&|t| 0.6 * (-t / 300.0).exp()),
+        style::palette(1),
+    ));
+    let mut fig = Figure {
+        title: "Demo: Lyapunov ratio and speed".into(),
+        subtitle: format!("4 vehicles, {n} ticks of {}", style::fmt_duration(dt)),
+        panels: vec![v, speed],
+    };
+    for p in &mut fig.panels {
+        p.markers = markers.clone();
+    }
+    fig
 }

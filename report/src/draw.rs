@@ -11,22 +11,30 @@
 
 use anyhow::{Context, Result};
 use vbap_mission::config::Mission;
+use vbap_mission::field::ScalarField;
 use vbap_mission::rundir::RunDir;
 
 use crate::analyze::{self, Distributions, Report};
 
-/// Draws every picture of the run in `dir`. The analysis plots are drawn when the run has
-/// message records (their failure is a warning: they are not the run's result).
+/// Draws every picture of the run in `dir`, over the mission's own `[field]`. The analysis
+/// plots are drawn when the run has message records (their failure is a warning: they are
+/// not the run's result).
 pub fn draw_run(dir: &RunDir) -> Result<()> {
-    draw_run_with(dir, None)
+    draw_run_with(dir, None, None)
 }
 
 /// [`draw_run`] with the analysis of the message records already computed (`vbap run`
-/// computes it for `summary.json`).
-pub fn draw_run_with(dir: &RunDir, analysis: Option<(&Report, &Distributions)>) -> Result<()> {
+/// computes it for `summary.json`; None: computed here when there are records) and the
+/// field the run sensed when it was not the mission's `[field]` (a user's own
+/// [`ScalarField`], under `plot.svg`; None: the mission's).
+pub fn draw_run_with(
+    dir: &RunDir,
+    analysis: Option<(&Report, &Distributions)>,
+    field: Option<&dyn ScalarField>,
+) -> Result<()> {
     let mission = Mission::load(&dir.mission())
         .with_context(|| format!("reading {}", dir.mission().display()))?;
-    crate::mission_plot::write_mission_plot(dir, &mission)?;
+    crate::mission_plot::write_mission_plot(dir, &mission, field)?;
     crate::report_plots::write_run_plots(dir, &mission).context("writing the time-series plots")?;
     let computed;
     let analysis = match analysis {

@@ -1,7 +1,8 @@
 //! `plot.svg`, the mission plot, from the run directory alone: tracks and formation
 //! snapshots read back from `vehicles.csv`, the body path from `body.csv`, the field at the
-//! final time from the resolved `mission.toml`, snapshots at the telling events of
-//! `events.jsonl`. Drawn by [`crate::plot::write_mission_svg`].
+//! final time from the resolved `mission.toml` (or a user's own [`ScalarField`], which no
+//! file describes), snapshots at the telling events of `events.jsonl`. Drawn by
+//! [`crate::plot::write_mission_svg`].
 
 use std::collections::BTreeMap;
 
@@ -9,6 +10,7 @@ use crate::plot::{MissionPlot, Snapshot, Track};
 use anyhow::{Context, Result};
 use vbap_math::Vec3;
 use vbap_mission::config::Mission;
+use vbap_mission::field::ScalarField;
 use vbap_mission::rundir::RunDir;
 
 use super::rows::{for_each_row_of, BodyPathCsv, VehicleCsv};
@@ -22,7 +24,13 @@ const EVENT_SNAPSHOT_GAP: u64 = 50;
 
 /// Writes `plot.svg` of `dir`: tracks on the field's contours, the body path, formation
 /// snapshots (evenly spaced, and at the telling events of `events.jsonl`) and the optimum.
-pub fn write_mission_plot(dir: &RunDir, mission: &Mission) -> Result<()> {
+/// `field`: the field the run sensed when it was not the mission's `[field]` (a user's own,
+/// `vbap_cli::custom::Plugins`); None: the mission's.
+pub fn write_mission_plot(
+    dir: &RunDir,
+    mission: &Mission,
+    field: Option<&dyn ScalarField>,
+) -> Result<()> {
     let m = mission;
     let events = crate::plot::read_events(&dir.events())
         .with_context(|| format!("reading {}", dir.events().display()))?;
@@ -36,7 +44,14 @@ pub fn write_mission_plot(dir: &RunDir, mission: &Mission) -> Result<()> {
     let data = plot_data(dir, m.ticks(), &at_events)?;
     // The field at the final time (the last tick recorded), at the body's depth in 3-D.
     let (t, r) = data.last.unwrap_or((0.0, m.start_vec()));
-    let field = m.field();
+    let own;
+    let field: &dyn ScalarField = match field {
+        Some(f) => f,
+        None => {
+            own = m.field();
+            &own
+        }
+    };
     let z = if m.mission.dim == 3 { r.z } else { 0.0 };
     let sample = |x: f64, y: f64| field.value(&Vec3::new(x, y, z), t);
     let plot = MissionPlot {
@@ -165,6 +180,62 @@ mod tests {
         assert_eq!(at5.positions.len(), 3);
         let (t, r) = d.last.unwrap();
         assert!((t - 1.1).abs() < 1e-12 && r == Vec3::new(11.0, 22.0, 0.5));
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
+    /// A user's own field: a tilted plane with its optimum at (5, 3), known to no file.
+    #[derive(Debug)]
+    struct Tilted;
+
+    impl ScalarField for Tilted {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn value(&self, p: &Vec3, _t: f64) -> f64 {
+            p.x - 2.0 * p.y
+        }
+        fn gradient(&self, _p: &Vec3, _t: f64) -> Vec3 {
+            Vec3::new(1.0, -2.0, 0.0)
+        }
+        fn hessian(&self, _p: &Vec3, _t: f64) -> vbap_math::Mat3 {
+            vbap_math::Mat3::zeros()
+        }
+        fn optimum(&self, _t: f64, _goal: vbap_mission::config::Goal) -> Option<Vec3> {
+            Some(Vec3::new(5.0, 3.0, 0.0))
+        }
+    }
+
+    #[test]
+    fn the_plot_is_drawn_over_the_field_it_is_given() {
+        let root = std::env::temp_dir().join(format!("vbap-plot-field-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = RunDir::create(&root).unwrap();
+        let paper =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../deploy/missions/paper.toml");
+        std::fs::copy(&paper, dir.mission()).unwrap();
+        let mission = Mission::load(&dir.mission()).unwrap();
+        let mut body = String::from("k,t,rx,ry,rz\n");
+        let mut vehicles = String::from("k,id,x,y\n");
+        for k in 0..20u64 {
+            let s = k as f64;
+            body.push_str(&format!("{k},{},{},{},0\n", 0.1 * s, s, 0.5 * s));
+            for id in 0..3 {
+                vehicles.push_str(&format!("{k},{id},{},{}\n", s + f64::from(id), 0.5 * s));
+            }
+        }
+        std::fs::write(dir.body(), body).unwrap();
+        std::fs::write(dir.vehicles(), vehicles).unwrap();
+        let draw = |field: Option<&dyn ScalarField>| {
+            write_mission_plot(&dir, &mission, field).unwrap();
+            std::fs::read_to_string(dir.plot()).unwrap()
+        };
+        let own = draw(None);
+        // The mission's field handed over as a user's field: the same bytes.
+        assert_eq!(draw(Some(&mission.field())), own);
+        // Another field: other contours and the optimum star elsewhere.
+        let tilted = draw(Some(&Tilted));
+        assert_ne!(tilted, own);
+        assert!(tilted.contains("optimum") && own.contains("optimum"));
         let _ = std::fs::remove_dir_all(&root);
     }
 }

@@ -1,4 +1,4 @@
-//! The mission plot (`plot.svg` in the run directory) and simple time-series plots.
+//! The mission plot (`plot.svg` in the run directory) and the stacked panel charts.
 //!
 //! SVG only (plotters' SVG backend, no font files: text is written as SVG `<text>` and the
 //! viewer renders it). Output is deterministic: the same input gives the same bytes (no clock,
@@ -37,18 +37,17 @@ use style::{nice_step, TimeUnit};
 use vbap_mission::rundir::Event;
 
 mod bounds;
+mod contour;
 mod events;
 mod field;
 mod labels;
 mod mission;
 mod side;
-mod timeseries;
 
 pub use bounds::{bounds_around, choose_bounds};
 pub use events::{event_snapshots, read_events, MAX_EVENT_SNAPSHOTS};
 pub use mission::{render_mission_svg, write_mission_svg};
-pub use timeseries::{render_timeseries_svg, write_timeseries_svg};
-use {field::*, labels::*, mission::*, side::*};
+use {contour::contour_lines, field::*, labels::*, mission::*, side::*};
 
 /// One vehicle's planar track: positions (x, y) in the mission's length unit, in time order.
 #[derive(Debug, Clone, PartialEq)]
@@ -172,13 +171,9 @@ pub const BOUNDS_MARGIN: f64 = 0.08;
 /// Mission-plot canvas size in pixels (width, height).
 pub const MISSION_SIZE: (u32, u32) = (1200, 950);
 
-/// Time-series canvas size in pixels (width, height).
-pub const TIMESERIES_SIZE: (u32, u32) = (1100, 560);
-
 use canvas::FONT;
 const TITLE_H: u32 = 50;
 const MISSION_CHART_W: u32 = 900;
-const TS_CHART_W: u32 = 860;
 /// Fraction of white mixed into the field colours so that the tracks stand out.
 const FIELD_WASH: f64 = 0.4;
 /// Target number of colour bands in the field.
@@ -236,15 +231,6 @@ fn extend(r: Option<(f64, f64)>, v: f64) -> (f64, f64) {
     match r {
         None => (v, v),
         Some((lo, hi)) => (lo.min(v), hi.max(v)),
-    }
-}
-
-fn widen_if_flat(lo: f64, hi: f64) -> (f64, f64) {
-    if hi > lo {
-        (lo, hi)
-    } else {
-        let d = 1.0_f64.max(0.1 * lo.abs());
-        (lo - d, hi + d)
     }
 }
 

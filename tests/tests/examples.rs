@@ -4,7 +4,8 @@
 //! started again in every role). Checks: both write the same run directory byte for byte;
 //! the run is judged by the user's field; every vehicle flies the user's law (its
 //! acceleration never exceeds the thrust limit, which the paper's law does), so the tracks
-//! differ from those of the paper's law over the same field.
+//! differ from those of the paper's law over the same field; `plot.svg` is drawn over the
+//! user's field (its optimum star at the user's optimum), alike by both.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -75,6 +76,62 @@ fn max_acceleration(run: &Path, dt: f64) -> f64 {
     max
 }
 
+/// Attribute `name` of an SVG element's opening tag `tag` (what follows the element's name).
+fn attr<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
+    let start = tag.find(&format!(" {name}=\""))? + name.len() + 3;
+    tag[start..].split('"').next()
+}
+
+/// Where the optimum star of a `plot.svg` stands, in the plot's length unit: the centre of
+/// the first star drawn (the plot's; the legend's comes after), mapped back through the
+/// axis tick labels (font size 14: the x axis's centred under it, the y axis's right
+/// aligned left of it). Pixels are whole: about 1/30 of a length unit at this plot's scale.
+fn optimum_on_plot(svg: &str) -> (f64, f64) {
+    let (mut x_ticks, mut y_ticks) = (Vec::new(), Vec::new());
+    for part in svg.split("<text").skip(1) {
+        let (tag, rest) = part.split_once('>').expect("a text tag");
+        let Ok(value) = rest.split("</text>").next().unwrap().trim().parse::<f64>() else {
+            continue;
+        };
+        if attr(tag, "font-size") != Some("14") {
+            continue;
+        }
+        let px = |a: &str| -> f64 { attr(tag, a).unwrap().parse().unwrap() };
+        match attr(tag, "text-anchor") {
+            Some("middle") => x_ticks.push((px("x"), value)),
+            Some("end") => y_ticks.push((px("y"), value)),
+            _ => {}
+        }
+    }
+    assert!(
+        x_ticks.len() >= 2 && y_ticks.len() >= 2,
+        "axis ticks in plot.svg"
+    );
+    let map = |ticks: &[(f64, f64)], p: f64| {
+        let ((p0, v0), (p1, v1)) = (ticks[0], ticks[ticks.len() - 1]);
+        v0 + (p - p0) * (v1 - v0) / (p1 - p0)
+    };
+    let star = svg
+        .split("<polygon")
+        .skip(1)
+        .map(|p| p.split_once("/>").expect("a polygon").0)
+        .find(|tag| attr(tag, "fill") == Some("#E41A1C"))
+        .expect("the optimum star in plot.svg");
+    let vertices: Vec<(f64, f64)> = attr(star, "points")
+        .unwrap()
+        .split_whitespace()
+        .map(|xy| {
+            let (x, y) = xy.split_once(',').unwrap();
+            (x.parse().unwrap(), y.parse().unwrap())
+        })
+        .collect();
+    assert_eq!(vertices.len(), 10, "a five-pointed star");
+    let n = vertices.len() as f64;
+    let cx = vertices.iter().map(|v| v.0).sum::<f64>() / n;
+    let cy = vertices.iter().map(|v| v.1).sum::<f64>() / n;
+    (map(&x_ticks, cx), map(&y_ticks, cy))
+}
+
 #[test]
 fn a_users_field_and_law_run_alike_in_process_and_as_processes() {
     let tmp = TempDir::new("examples");
@@ -116,6 +173,16 @@ fn a_users_field_and_law_run_alike_in_process_and_as_processes() {
     assert!(
         (true_grad_x - expected).abs() <= 1e-12 * expected.abs(),
         "true_grad_x {true_grad_x}, the log bowl's {expected}"
+    );
+
+    // plot.svg is drawn over the user's field, by both: its optimum star stands at the log
+    // bowl's bottom (18, 12), not at the mission's quadratic's centre (20, 10).
+    let plot = read(&sim.join("plot.svg"));
+    assert_eq!(plot, read(&run.join("plot.svg")), "plot.svg of sim and run");
+    let (ox, oy) = optimum_on_plot(&plot);
+    assert!(
+        (ox - 18.0).abs() < 0.15 && (oy - 12.0).abs() < 0.15,
+        "the plot's optimum at ({ox}, {oy}), the user's field's at (18, 12)"
     );
 
     // Flown by the user's law: never more than U_MAX, in both runs; the paper's law over

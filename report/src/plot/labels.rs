@@ -7,8 +7,6 @@ pub(super) enum LabelSide {
     /// Centred above the anchor or below this y (px), moving away when taken, then around
     /// the anchor.
     AboveOrBelow(i32),
-    /// Right of the anchor's vertical line, moving down when taken.
-    Below,
     /// Any of the four diagonal positions, then further out.
     Around,
 }
@@ -65,7 +63,6 @@ impl LabelPlacer {
                     (ax - w / 2, ay - h - step * (h + 2)),
                     (ax - w / 2, below + step * (h + 2)),
                 ]),
-                LabelSide::Below => candidates.push((ax + 3, ay + step * (h + 2))),
                 LabelSide::Around => {
                     let d = 8 + step * (h + 2);
                     candidates.extend([

@@ -120,7 +120,6 @@ pub(super) fn draw_mission_side(
 
 #[derive(Debug, Clone, Copy)]
 pub(super) enum LegendSymbol {
-    Line(RGBColor),
     Track(RGBColor),
     DashedLine(RGBColor),
     StartEnd,
@@ -183,9 +182,6 @@ pub(super) fn draw_symbol(
 ) -> Result<(), PlotError> {
     let seg = vec![(x, y), (x + 34, y)];
     match symbol {
-        LegendSymbol::Line(c) => area
-            .draw(&PathElement::new(seg, c.stroke_width(2)))
-            .map_err(draw_err),
         LegendSymbol::Track(c) => {
             area.draw(&PathElement::new(seg, c.stroke_width(2)))
                 .map_err(draw_err)?;

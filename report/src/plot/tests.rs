@@ -375,68 +375,6 @@ fn simplify_keeps_corners_and_drops_collinear_points() {
     );
 }
 
-#[test]
-fn timeseries_svg_is_written_with_labels() {
-    let dir = TempDir::new("ts");
-    let path = dir.0.join("v.svg");
-    let series = vec![
-        (
-            "V / V_U".to_string(),
-            (0..500)
-                .map(|k| (k as f64 * 0.2, (-(k as f64) * 0.01).exp()))
-                .collect(),
-        ),
-        (
-            "speed (m/s)".to_string(),
-            (0..500).map(|k| (k as f64 * 0.2, 0.5)).collect(),
-        ),
-    ];
-    let markers = vec![(30.0, "kill 2".to_string()), (60.0, "rejoin 2".to_string())];
-    write_timeseries_svg(
-        &path,
-        "Lyapunov <check>",
-        "t (s)",
-        &series,
-        "value",
-        &markers,
-    )
-    .unwrap();
-    let text = std::fs::read_to_string(&path).unwrap();
-    assert!(text.starts_with("<svg"));
-    for s in [
-        "Lyapunov &lt;check&gt;",
-        "V / V_U",
-        "speed (m/s)",
-        "kill 2",
-        "rejoin 2",
-        "t (s)",
-        "value",
-    ] {
-        assert!(text.contains(s), "missing {s}");
-    }
-    assert!(text.len() < 500_000, "{} bytes", text.len());
-    let again =
-        render_timeseries_svg("Lyapunov <check>", "t (s)", &series, "value", &markers).unwrap();
-    assert_eq!(text, again);
-}
-
-#[test]
-fn timeseries_rejects_empty_and_non_finite() {
-    let empty: Vec<(String, Vec<(f64, f64)>)> = vec![("a".into(), vec![])];
-    assert!(matches!(
-        render_timeseries_svg("t", "x", &empty, "y", &[]),
-        Err(PlotError::Empty(_))
-    ));
-    let nan = vec![("a".to_string(), vec![(0.0, 1.0), (1.0, f64::INFINITY)])];
-    assert!(matches!(
-        render_timeseries_svg("t", "x", &nan, "y", &[]),
-        Err(PlotError::NonFinite { index: 1, .. })
-    ));
-    // A single flat point still plots.
-    let one = vec![("a".to_string(), vec![(2.0, 3.0)])];
-    assert!(render_timeseries_svg("t", "x", &one, "y", &[]).is_ok());
-}
-
 fn event(k: u64, kind: &str, vehicle: Option<u32>, detail: serde_json::Value) -> Event {
     Event {
         t: k as f64 * 10.0,
