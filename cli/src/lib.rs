@@ -18,6 +18,7 @@
 pub mod batch;
 pub mod bench;
 pub mod chaos;
+pub mod child_run;
 pub mod cli;
 pub mod custom;
 pub mod domain;
