@@ -70,3 +70,20 @@ fn run_names_fit() {
     assert_eq!(long.len(), MAX_NAME_LEN);
     assert!(long.ends_with("_c012"));
 }
+
+#[test]
+fn run_missions_last_the_window_and_tail_in_wall_time() {
+    let text = "[mission]\nname = \"c\"\ndt = 0.1\n[field]\ncenter = [1.0, 2.0]\namplitude = 1.0\nwidth = 2.0\n";
+    let base = Mission::from_toml_str(text, "m.toml").unwrap();
+    let wall = 4.0 + TAIL;
+    let paced = args::run_mission(&base, Pace::Factor(10.0), 4.0, None);
+    assert!((paced.mission.duration - 10.0 * wall).abs() < 1e-9);
+    // Lockstep: 1.5 × the wall time at the measured rate (1000 ticks/s when not measured).
+    let measured = args::run_mission(&base, Pace::Lockstep, 4.0, Some(200.0));
+    assert!((measured.mission.duration - 200.0 * wall * 1.5 * 0.1).abs() < 1e-9);
+    let unmeasured = args::run_mission(&base, Pace::Lockstep, 4.0, None);
+    assert!((unmeasured.mission.duration - 1000.0 * wall * 1.5 * 0.1).abs() < 1e-9);
+    // Never shorter than 20 ticks.
+    let slow = args::run_mission(&base, Pace::Lockstep, 4.0, Some(1e-6));
+    assert!((slow.mission.duration - 20.0 * 0.1).abs() < 1e-9);
+}
