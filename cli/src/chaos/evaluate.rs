@@ -7,7 +7,7 @@ use std::path::Path;
 use serde_json::Value;
 use vbap_mission::config::RestartPolicy;
 
-use super::procs::{json_lines, Seen, Slot};
+use super::procs::{json_lines, message, Seen, Slot};
 use super::report::{action_failure, Action, RunReport};
 use super::MARGIN;
 
@@ -267,9 +267,7 @@ impl<'a> Evidence<'a> {
         let mission_end = log
             .iter()
             .rev()
-            .find(|(_, l)| {
-                l.pointer("/fields/message").and_then(Value::as_str) == Some("coordinator done")
-            })
+            .find(|(_, l)| message(l) == Some("coordinator done"))
             .map_or(end_unix, |(t, _)| *t);
         let kill_times = actions
             .iter()

@@ -80,7 +80,6 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use serde_json::Value;
 use vbap_mission::config::{FaultKind, Mission, Overrides, Pace, RestartPolicy};
 
 pub use args::{plan, run_name, ChaosArgs};
@@ -267,7 +266,7 @@ fn lockstep_rate(r: &RunReport) -> Option<f64> {
     let log = json_lines(&r.run_dir.join("logs").join("coordinator.jsonl"));
     let at = |msg: &str| {
         log.iter()
-            .find(|l| l.pointer("/fields/message").and_then(Value::as_str) == Some(msg))
+            .find(|l| procs::message(l) == Some(msg))
             .and_then(|l| vbap_report::analyze::parse_utc(l.get("timestamp")?.as_str()?))
     };
     let span = match (at("coordinator up"), at("coordinator done")) {

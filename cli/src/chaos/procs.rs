@@ -130,12 +130,7 @@ pub(super) fn is_up(run_dir: &Path, pid: u32, slot: Slot) -> bool {
         Slot::Agent(i) => format!("vehicle_agent_{i}"),
     };
     let lines = json_lines(&run_dir.join("logs").join(format!("{name}.jsonl")));
-    let message = |l: &Value| {
-        l.pointer("/fields/message")
-            .and_then(Value::as_str)
-            .unwrap_or("")
-            .to_string()
-    };
+    let message = |l: &Value| message(l).unwrap_or("").to_string();
     let Some(start) = lines.iter().rposition(|l| {
         message(l) == "started"
             && l.pointer("/fields/pid").and_then(Value::as_u64) == Some(u64::from(pid))
@@ -185,6 +180,11 @@ pub(super) fn leftover_processes(mission_arg: &str, seen: &BTreeMap<u32, Seen>) 
         }
     }
     out.into_iter().map(|(p, c)| format!("{p} {c}")).collect()
+}
+
+/// The `message` of a tracing JSON line (`fields.message`).
+pub(super) fn message(line: &Value) -> Option<&str> {
+    line.pointer("/fields/message").and_then(Value::as_str)
 }
 
 /// A line of a JSON-lines file, parsed; None for a line that is not JSON.
