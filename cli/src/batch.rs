@@ -45,8 +45,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
-use vbap_ipc::process::{EXIT_FAILURE, EXIT_OK};
-use vbap_mission::config::{Mission, MAX_NAME_LEN};
+use vbap_mission::config::Mission;
 use vbap_mission::rundir::{Percentiles, RunDir, Summary};
 
 use crate::errors::InvalidInput;
@@ -407,6 +406,18 @@ pub fn aggregate(rows: &[SeedResult], criteria: &Criteria) -> Aggregate {
         criteria: criteria.clone(),
         ..Aggregate::default()
     };
+    let failures = criteria_failures(rows, &a, criteria);
+    a.passed = failures.is_empty();
+    a.failures = failures;
+    a
+}
+
+/// What `rows` fail: failed runs, then each criterion of `criteria` not met (aggregate
+/// `a` of the rows holds the counts).
+fn criteria_failures(rows: &[SeedResult], a: &Aggregate, criteria: &Criteria) -> Vec<String> {
+    let done: Vec<&SeedResult> = rows.iter().filter(|r| r.ok()).collect();
+    let converged: Vec<&SeedResult> = done.iter().copied().filter(|r| r.converged).collect();
+    let (runs, rate) = (a.runs, a.convergence_rate);
     let mut failures = Vec::new();
     if a.failed_runs > 0 {
         let seeds: Vec<String> = rows
@@ -462,16 +473,12 @@ pub fn aggregate(rows: &[SeedResult], criteria: &Criteria) -> Aggregate {
             ));
         }
     }
-    a.passed = failures.is_empty();
-    a.failures = failures;
-    a
+    failures
 }
 
 /// A name for seed `seed` of mission `name`: `<name>_s<seed>`, the name cut to fit.
 pub fn seed_name(name: &str, seed: u64) -> String {
-    let suffix = format!("_s{seed}");
-    let keep = MAX_NAME_LEN.saturating_sub(suffix.len()).min(name.len());
-    format!("{}{suffix}", &name[..keep])
+    crate::child_run::suffixed_name(name, &format!("_s{seed}"))
 }
 
 /// Runs the command; returns the exit code.
@@ -512,37 +519,10 @@ pub fn main(args: &BatchArgs) -> Result<i32> {
 
     let seeds: Vec<u64> = (0..args.seeds).map(|i| first + i).collect();
     let start = Instant::now();
-    let results: Mutex<Vec<SeedResult>> = Mutex::new(Vec::with_capacity(seeds.len()));
-    let next = AtomicUsize::new(0);
     let jobs = args.jobs.min(seeds.len());
     let exe = std::env::current_exe().context("locating the vbap executable")?;
-    std::thread::scope(|scope| {
-        for _ in 0..jobs {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&seed) = seeds.get(i) else { break };
-                let row = if args.in_process {
-                    run_in_process(&mission, seed, &out)
-                } else {
-                    run_process(&exe, &mission, seed, &out)
-                };
-                if !args.quiet {
-                    eprintln!("{}", describe(&row));
-                }
-                results.lock().expect("results lock").push(row);
-            });
-        }
-    });
-    let mut rows = results.into_inner().expect("results lock");
-    rows.sort_by_key(|r| r.seed);
-
-    let mut csv = String::from(BATCH_HEADER);
-    csv.push('\n');
-    for r in &rows {
-        csv.push_str(&csv_row(r));
-        csv.push('\n');
-    }
-    std::fs::write(out.join("batch.csv"), csv).context("writing batch.csv")?;
+    let rows = run_seeds(args, &mission, &seeds, jobs, &exe, &out);
+    write_table(&rows, &out)?;
     let mut agg = aggregate(&rows, &criteria);
     agg.mission = mission.mission.name.clone();
     agg.mode = if args.in_process {
@@ -567,15 +547,51 @@ pub fn main(args: &BatchArgs) -> Result<i32> {
         out.join("batch.csv").display(),
         out.join("batch.json").display()
     );
-    if agg.passed {
-        eprintln!("PASS");
-        Ok(EXIT_OK)
-    } else {
-        for f in &agg.failures {
-            eprintln!("FAIL: {f}");
+    Ok(crate::child_run::pass_or_fail(agg.passed, &agg.failures))
+}
+
+/// Every seed, `jobs` at a time, in this process or as `vbap run`; the rows by seed.
+fn run_seeds(
+    args: &BatchArgs,
+    mission: &Mission,
+    seeds: &[u64],
+    jobs: usize,
+    exe: &Path,
+    out: &Path,
+) -> Vec<SeedResult> {
+    let results: Mutex<Vec<SeedResult>> = Mutex::new(Vec::with_capacity(seeds.len()));
+    let next = AtomicUsize::new(0);
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                let Some(&seed) = seeds.get(i) else { break };
+                let row = if args.in_process {
+                    run_in_process(mission, seed, out)
+                } else {
+                    run_process(exe, mission, seed, out)
+                };
+                if !args.quiet {
+                    eprintln!("{}", describe(&row));
+                }
+                results.lock().expect("results lock").push(row);
+            });
         }
-        Ok(EXIT_FAILURE)
+    });
+    let mut rows = results.into_inner().expect("results lock");
+    rows.sort_by_key(|r| r.seed);
+    rows
+}
+
+/// `batch.csv`: the header, a row per seed.
+fn write_table(rows: &[SeedResult], out: &Path) -> Result<()> {
+    let mut csv = String::from(BATCH_HEADER);
+    csv.push('\n');
+    for r in rows {
+        csv.push_str(&csv_row(r));
+        csv.push('\n');
     }
+    std::fs::write(out.join("batch.csv"), csv).context("writing batch.csv")
 }
 
 fn describe(r: &SeedResult) -> String {
@@ -639,19 +655,7 @@ fn run_process(exe: &Path, mission: &Mission, seed: u64, out: &Path) -> SeedResu
         std::fs::write(&file, m.to_toml_string())
             .with_context(|| format!("writing {}", file.display()))?;
         std::fs::create_dir_all(&root)?;
-        let log_path = root.join("vbap.log");
-        let log = std::fs::File::create(&log_path)
-            .with_context(|| format!("creating {}", log_path.display()))?;
-        let mut cmd = std::process::Command::new(exe);
-        cmd.arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(&root)
-            .arg("--quiet")
-            .stdin(std::process::Stdio::null())
-            .stdout(log.try_clone()?)
-            .stderr(log);
-        vbap_ipc::process::stop_with_parent(&mut cmd);
+        let (mut cmd, log_path) = crate::child_run::vbap_run(exe, &file, &root)?;
         let status = cmd
             .status()
             .with_context(|| format!("starting {}", exe.display()))?;
@@ -670,6 +674,7 @@ fn run_process(exe: &Path, mission: &Mission, seed: u64, out: &Path) -> SeedResu
 #[cfg(test)]
 mod tests {
     use super::*;
+    use vbap_mission::config::MAX_NAME_LEN;
 
     /// A mission with a `[batch]` table after `table` (TOML lines).
     fn mission(table: &str) -> Result<Mission, vbap_mission::config::ConfigError> {

@@ -19,6 +19,7 @@
 pub mod batch;
 pub mod bench;
 pub mod chaos;
+pub mod child_run;
 pub mod cli;
 pub mod compare;
 pub mod custom;

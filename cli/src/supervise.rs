@@ -597,59 +597,17 @@ pub async fn run_with(
             _ = shutdown_signal() => { interrupted = true; None }
         };
         let Some(exit) = exit else { break };
-        let slot = exit.slot;
-        if set.procs[slot].generation != exit.generation {
-            continue;
-        }
-        set.procs[slot].pid = None;
-        let role = set.procs[slot].role;
-        let failed = !exit.status.as_ref().is_ok_and(|s| s.success());
-        if role == Role::Coordinator && !failed {
-            coordinator_ok = true;
-            break;
-        }
-        if !failed && policy_is_not_always(set.policy(role)) {
-            continue; // a normal end (the mission finished)
-        }
-        let policy = set.policy(role);
-        let restart = match policy {
-            RestartPolicy::Never => false,
-            RestartPolicy::OnFailure => failed,
-            RestartPolicy::Always => true,
-        };
-        // Past the mission's final command nothing is restarted: the processes end
-        // normally on it (policy `always` would otherwise start them all again).
-        if restart && notices.mission_finished().await {
-            info!(process = %role.name(), "ended after the mission's final command: not restarted");
-            continue;
-        }
-        warn!(process = %role.name(), status = ?exit.status, ?policy, restart, "process ended");
-        if !restart {
-            if role == Role::Coordinator || role == Role::FieldServer {
-                break; // the mission cannot go on
-            }
-            continue;
-        }
-        // Restart with backoff, at most max_restarts per window.
-        let Some(backoff) = set.next_restart(slot) else {
-            warn!(process = %role.name(), "restart limit reached: not restarting");
-            if role == Role::Coordinator || role == Role::FieldServer {
+        match on_exit(&mut set, &notices, &domain, exit, &mut restarts_done).await {
+            AfterExit::GoOn => {}
+            AfterExit::CoordinatorDone => {
+                coordinator_ok = true;
                 break;
             }
-            continue;
-        };
-        tokio::select! {
-            _ = tokio::time::sleep(backoff) => {}
-            _ = shutdown_signal() => { interrupted = true; break; }
-        }
-        // Clean the dead node first so the restarted process can take its services.
-        domain.cleanup_dead_nodes();
-        match set.start(slot).await {
-            Ok(()) => {
-                restarts_done += 1;
-                info!(process = %role.name(), restarts_done, "restarted");
+            AfterExit::Stop => break,
+            AfterExit::Interrupted => {
+                interrupted = true;
+                break;
             }
-            Err(e) => warn!(process = %role.name(), error = %e, "restart failed"),
         }
     }
     view.finish();
@@ -667,6 +625,88 @@ pub async fn run_with(
         coordinator_ok,
         startup_s,
     })
+}
+
+/// What supervising does after a process of the set ended.
+enum AfterExit {
+    /// Wait for the next end.
+    GoOn,
+    /// The coordinator ended with success: the mission is over.
+    CoordinatorDone,
+    /// The mission cannot go on (the coordinator or the field server is gone for good).
+    Stop,
+    /// SIGINT/SIGTERM during a restart's backoff.
+    Interrupted,
+}
+
+/// One ended process of the set: a normal end, or restarted by its policy (with backoff,
+/// at most `max_restarts` per window; never past the mission's final command), or the end
+/// of the mission when the coordinator or the field server cannot be restarted.
+async fn on_exit(
+    set: &mut ProcessSet<'_>,
+    notices: &Notices,
+    domain: &Domain,
+    exit: Exit,
+    restarts_done: &mut u32,
+) -> AfterExit {
+    let slot = exit.slot;
+    if set.procs[slot].generation != exit.generation {
+        return AfterExit::GoOn;
+    }
+    set.procs[slot].pid = None;
+    let role = set.procs[slot].role;
+    let failed = !exit.status.as_ref().is_ok_and(|s| s.success());
+    if role == Role::Coordinator && !failed {
+        return AfterExit::CoordinatorDone;
+    }
+    if !failed && policy_is_not_always(set.policy(role)) {
+        return AfterExit::GoOn; // a normal end (the mission finished)
+    }
+    let policy = set.policy(role);
+    let restart = match policy {
+        RestartPolicy::Never => false,
+        RestartPolicy::OnFailure => failed,
+        RestartPolicy::Always => true,
+    };
+    // Past the mission's final command nothing is restarted: the processes end
+    // normally on it (policy `always` would otherwise start them all again).
+    if restart && notices.mission_finished().await {
+        info!(process = %role.name(), "ended after the mission's final command: not restarted");
+        return AfterExit::GoOn;
+    }
+    warn!(process = %role.name(), status = ?exit.status, ?policy, restart, "process ended");
+    let essential = role == Role::Coordinator || role == Role::FieldServer;
+    if !restart {
+        // Without the coordinator or the field server the mission cannot go on.
+        return if essential {
+            AfterExit::Stop
+        } else {
+            AfterExit::GoOn
+        };
+    }
+    // Restart with backoff, at most max_restarts per window.
+    let Some(backoff) = set.next_restart(slot) else {
+        warn!(process = %role.name(), "restart limit reached: not restarting");
+        return if essential {
+            AfterExit::Stop
+        } else {
+            AfterExit::GoOn
+        };
+    };
+    tokio::select! {
+        _ = tokio::time::sleep(backoff) => {}
+        _ = shutdown_signal() => { return AfterExit::Interrupted; }
+    }
+    // Clean the dead node first so the restarted process can take its services.
+    domain.cleanup_dead_nodes();
+    match set.start(slot).await {
+        Ok(()) => {
+            *restarts_done += 1;
+            info!(process = %role.name(), restarts_done = *restarts_done, "restarted");
+        }
+        Err(e) => warn!(process = %role.name(), error = %e, "restart failed"),
+    }
+    AfterExit::GoOn
 }
 
 /// Waits, at most [`GRACE`], for the processes still running to end by themselves.

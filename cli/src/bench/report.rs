@@ -1,0 +1,345 @@
+//! What `vbap bench` records: the plan of a run, the machine, every table's rows, the
+//! goals and their ratios (`--out` JSON).
+
+use std::path::PathBuf;
+
+use serde::Serialize;
+use vbap_mission::rundir::Percentiles;
+
+use super::floors::HopFloor;
+use super::system::Footprint;
+
+/// Sample counts and mission lengths of one bench run.
+#[derive(Clone, Debug, Serialize)]
+pub(super) struct Plan {
+    /// Round trips of each ping-pong (after the warm-up).
+    pub(super) pingpong_samples: usize,
+    /// Warm-up round trips, not recorded.
+    pub(super) pingpong_warmup: usize,
+    /// The lockstep scaling runs.
+    pub(super) lockstep: Vec<LockstepPlan>,
+    /// N of the real-time sweep (stops at the first N with a late tick).
+    pub(super) realtime: Vec<usize>,
+    /// Mission time of each real-time run, s.
+    pub(super) realtime_duration_s: f64,
+    /// N of the footprint runs (start-up, PSS).
+    pub(super) footprint: Vec<usize>,
+    /// Mission time of each footprint run, s.
+    pub(super) footprint_duration_s: f64,
+    /// Mission time of the glider runs, s.
+    pub(super) glider_duration_s: f64,
+}
+
+impl Plan {
+    pub(super) fn new(quick: bool) -> Self {
+        if quick {
+            Self {
+                pingpong_samples: 3000,
+                pingpong_warmup: 300,
+                lockstep: vec![lp(4, 1000, 1000), lp(16, 500, 500), lp(64, 150, 200)],
+                realtime: vec![16, 32],
+                realtime_duration_s: 3.0,
+                footprint: vec![16],
+                footprint_duration_s: 4.0,
+                glider_duration_s: 21_600.0,
+            }
+        } else {
+            Self {
+                pingpong_samples: 20_000,
+                pingpong_warmup: 2000,
+                lockstep: vec![
+                    lp(4, 4000, 5000),
+                    lp(16, 2000, 3000),
+                    lp(64, 600, 1000),
+                    lp(256, 200, 300),
+                ],
+                realtime: vec![16, 32, 64, 128, 256],
+                realtime_duration_s: 10.0,
+                footprint: vec![16, 256],
+                footprint_duration_s: 8.0,
+                glider_duration_s: 129_600.0,
+            }
+        }
+    }
+}
+
+/// One N of the lockstep scaling.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub(super) struct LockstepPlan {
+    pub(super) vehicles: usize,
+    /// Ticks of `vbap run` and `vbap sim`.
+    pub(super) ticks: u64,
+    /// Rounds of the wake-up floor.
+    pub(super) floor_rounds: usize,
+}
+
+const fn lp(vehicles: usize, ticks: u64, floor_rounds: usize) -> LockstepPlan {
+    LockstepPlan {
+        vehicles,
+        ticks,
+        floor_rounds,
+    }
+}
+
+/// The machine the figures come from.
+#[derive(Clone, Debug, Default, Serialize)]
+pub(super) struct Machine {
+    pub(super) cpus: usize,
+    pub(super) cpu_model: String,
+    pub(super) kernel: String,
+    /// UTC date and time of the run.
+    pub(super) date: String,
+    /// Share of all CPU time during the bench used by processes other than the bench and
+    /// its children (a build, another test): figures taken with a busy machine are low.
+    pub(super) other_load: Option<f64>,
+}
+
+/// CPU time counters (clock ticks): the machine's (/proc/stat) and the bench's own with
+/// its reaped children (/proc/self/stat).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CpuMark {
+    pub(super) busy: u64,
+    pub(super) total: u64,
+    pub(super) ours: u64,
+}
+
+impl CpuMark {
+    pub(super) fn read() -> Option<Self> {
+        let stat = std::fs::read_to_string("/proc/stat").ok()?;
+        let cpu: Vec<u64> = stat
+            .lines()
+            .next()?
+            .split_whitespace()
+            .skip(1)
+            .filter_map(|v| v.parse().ok())
+            .collect();
+        // user nice system idle iowait irq softirq steal ...
+        let busy = cpu.iter().take(3).sum::<u64>();
+        let total = cpu.iter().take(8).sum::<u64>();
+        let own = std::fs::read_to_string("/proc/self/stat").ok()?;
+        // Fields after the command name (which may hold spaces): state is field 3; utime,
+        // stime, cutime, cstime are fields 14 to 17.
+        let rest = own.rsplit_once(')')?.1;
+        let fields: Vec<&str> = rest.split_whitespace().collect();
+        let ours = fields
+            .get(11..15)?
+            .iter()
+            .filter_map(|v| v.parse::<i64>().ok())
+            .sum::<i64>()
+            .max(0) as u64;
+        Some(Self { busy, total, ours })
+    }
+
+    /// Share of all CPU time between `self` and `later` used by other processes.
+    pub(super) fn other_share(&self, later: &Self) -> Option<f64> {
+        let total = later.total.checked_sub(self.total)?;
+        let busy = later.busy.checked_sub(self.busy)?;
+        let ours = later.ours.checked_sub(self.ours)?;
+        (total > 0).then(|| busy.saturating_sub(ours) as f64 / total as f64)
+    }
+}
+
+impl Machine {
+    pub(super) fn probe() -> Self {
+        let cpu_model = std::fs::read_to_string("/proc/cpuinfo")
+            .ok()
+            .and_then(|s| {
+                s.lines()
+                    .find(|l| l.starts_with("model name"))
+                    .and_then(|l| l.split_once(':'))
+                    .map(|(_, v)| v.trim().to_string())
+            })
+            .unwrap_or_else(|| "unknown".into());
+        let kernel = std::fs::read_to_string("/proc/sys/kernel/osrelease")
+            .map(|s| s.trim().to_string())
+            .unwrap_or_else(|_| "unknown".into());
+        let date = time::OffsetDateTime::now_utc()
+            .format(&time::format_description::well_known::Rfc3339)
+            .unwrap_or_default();
+        Self {
+            cpus: std::thread::available_parallelism().map_or(0, |n| n.get()),
+            cpu_model,
+            kernel,
+            date,
+            other_load: None,
+        }
+    }
+}
+
+/// The state hop of one `vbap run`.
+#[derive(Clone, Debug, Serialize)]
+pub(super) struct SystemHop {
+    pub(super) vehicles: usize,
+    pub(super) transport_us: Percentiles,
+    pub(super) samples: u64,
+}
+
+/// One row of the lockstep scaling table.
+#[derive(Clone, Debug, Serialize)]
+pub(super) struct LockstepRow {
+    pub(super) vehicles: usize,
+    pub(super) ticks: u64,
+    /// `vbap run`, ticks/s of the mission itself (start-up excluded).
+    pub(super) run_ticks_per_s: Option<f64>,
+    /// `vbap sim` on the same mission, ticks/s.
+    pub(super) in_process_ticks_per_s: f64,
+    /// One blocking iceoryx2 event round through N + 1 processes, rounds/s.
+    pub(super) wake_floor_ticks_per_s: f64,
+    /// Wall time per tick and vehicle, µs: run, in-process, floor.
+    pub(super) run_us_per_tick_vehicle: Option<f64>,
+    pub(super) in_process_us_per_tick_vehicle: f64,
+    pub(super) floor_us_per_tick_vehicle: f64,
+    /// Why the run failed (no figures), if it did.
+    pub(super) error: Option<String>,
+    /// What makes the figures suspect (rejected states, lost vehicles), if anything.
+    pub(super) note: Option<String>,
+}
+
+/// One row of the real-time sweep.
+#[derive(Clone, Debug, Serialize)]
+pub(super) struct RealtimeRow {
+    pub(super) vehicles: usize,
+    pub(super) ticks: u64,
+    pub(super) late_ticks: u64,
+    /// States the coordinator rejected, and how many of them were from the future (an
+    /// agent stepped on its own: it held station while the coordinator was silent).
+    pub(super) rejected: u64,
+    pub(super) rejected_future: u64,
+    pub(super) vehicles_lost: usize,
+    /// Every tick run, none late, no vehicle lost.
+    pub(super) holds: bool,
+    pub(super) startup_s: Option<f64>,
+    pub(super) error: Option<String>,
+}
+
+/// The real-time capacity.
+#[derive(Clone, Debug, Serialize)]
+pub(super) struct Realtime {
+    pub(super) dt_s: f64,
+    pub(super) duration_s: f64,
+    pub(super) rows: Vec<RealtimeRow>,
+    /// Largest N of the sweep such that it and every smaller N held pace.
+    pub(super) largest_vehicles: Option<usize>,
+}
+
+/// Glider-days per wall minute of one mode.
+#[derive(Clone, Debug, Serialize)]
+pub(super) struct GliderRate {
+    /// Wall time of the whole command (start-up, mission, files), s.
+    pub(super) wall_s: f64,
+    /// Simulated days per wall minute, end to end.
+    pub(super) days_per_wall_min: f64,
+    /// Simulated days per wall minute of the mission loop alone (start-up excluded).
+    pub(super) mission_days_per_wall_min: Option<f64>,
+    pub(super) error: Option<String>,
+}
+
+/// The glider figures.
+#[derive(Clone, Debug, Serialize)]
+pub(super) struct Glider {
+    pub(super) vehicles: usize,
+    pub(super) simulated_days: f64,
+    pub(super) surfacing_period_s: f64,
+    pub(super) surfacing_window_s: f64,
+    pub(super) sim: GliderRate,
+    pub(super) run: GliderRate,
+    /// What makes the run's figures suspect, if anything.
+    pub(super) note: Option<String>,
+}
+
+/// A goal of the issue and the ratio that checks it.
+#[derive(Clone, Debug, Serialize)]
+pub(super) struct Goal {
+    pub(super) goal: String,
+    pub(super) value: Option<f64>,
+    pub(super) target: String,
+    pub(super) met: Option<bool>,
+}
+
+/// Everything `vbap bench` measured.
+#[derive(Clone, Debug, Serialize)]
+pub(super) struct Report {
+    pub(super) command: String,
+    pub(super) quick: bool,
+    pub(super) machine: Machine,
+    pub(super) plan: Plan,
+    /// The floors with idle CPUs (nothing else running).
+    pub(super) hop_iceoryx2: HopFloor,
+    pub(super) hop_udp: HopFloor,
+    /// The floors with every CPU kept out of idle by a lowest-priority spinner, as in a
+    /// loaded `vbap run` (the reference of the hop goal when measured).
+    pub(super) hop_iceoryx2_warm: Option<HopFloor>,
+    pub(super) hop_udp_warm: Option<HopFloor>,
+    /// The floors with both sides busy polling (no event, no sleep): the payload path
+    /// alone, which a blocking system never sees (a rule of this system: nothing busy-polls, docs/ARCHITECTURE.md §2).
+    pub(super) hop_iceoryx2_poll: HopFloor,
+    pub(super) hop_udp_poll: HopFloor,
+    pub(super) hop_system: Vec<SystemHop>,
+    pub(super) lockstep: Vec<LockstepRow>,
+    pub(super) realtime: Realtime,
+    pub(super) glider: Glider,
+    pub(super) footprint: Vec<Footprint>,
+    pub(super) goals: Vec<Goal>,
+    /// Where the run directories are (kept), if they are.
+    pub(super) work_dir: Option<PathBuf>,
+    /// Runs that failed, lost vehicles, rejected states or ran late: their directories are
+    /// kept even without `--work-dir`.
+    pub(super) suspect_runs: Vec<PathBuf>,
+    pub(super) total_wall_s: f64,
+}
+
+pub(super) fn goals(r: &Report) -> Vec<Goal> {
+    let hop4 = r.hop_system.iter().find(|h| h.vehicles == 4);
+    let (floor, udp) = reference_floors(r);
+    let ratio_floor = hop4.map(|h| h.transport_us.p50 / floor);
+    let faster_udp = hop4.map(|h| udp / h.transport_us.p50);
+    let l16 = r.lockstep.iter().find(|l| l.vehicles == 16);
+    let tick16 = l16.and_then(|l| l.run_ticks_per_s.map(|run| l.wake_floor_ticks_per_s / run));
+    let rt256 = if r.plan.realtime.contains(&256) {
+        Some(r.realtime.largest_vehicles.unwrap_or(0) >= 256)
+    } else {
+        None
+    };
+    let days = r.glider.run.days_per_wall_min;
+    vec![
+        Goal {
+            goal: "hop p50 / raw iceoryx2 p50 (N = 4; warm floor)".into(),
+            value: ratio_floor,
+            target: "≤ 1.5".into(),
+            met: ratio_floor.map(|v| v <= 1.5),
+        },
+        Goal {
+            goal: "UDP loopback p50 (warm) / hop p50 (N = 4)".into(),
+            value: faster_udp,
+            target: "≥ 10".into(),
+            met: faster_udp.map(|v| v >= 10.0),
+        },
+        Goal {
+            goal: "lockstep tick / wake-up floor tick (N = 16)".into(),
+            value: tick16,
+            target: "≤ 2".into(),
+            met: tick16.map(|v| v <= 2.0),
+        },
+        Goal {
+            goal: "N = 256 at real-time pace (dt = 0.1 s, no late tick)".into(),
+            value: r.realtime.largest_vehicles.map(|n| n as f64),
+            target: "largest N ≥ 256".into(),
+            met: rt256,
+        },
+        Goal {
+            goal: "glider-days per wall minute (vbap run, 6 gliders)".into(),
+            value: Some(days),
+            target: "≥ 30".into(),
+            met: Some(days >= 30.0),
+        },
+    ]
+}
+
+/// The p50s the hop is compared with: the warm floors when measured (a loaded `vbap run`
+/// keeps the CPUs awake too), else the idle ones.
+pub(super) fn reference_floors(r: &Report) -> (f64, f64) {
+    match (&r.hop_iceoryx2_warm, &r.hop_udp_warm) {
+        (Some(i), Some(u)) => (i.one_way_us.p50, u.one_way_us.p50),
+        _ => (r.hop_iceoryx2.one_way_us.p50, r.hop_udp.one_way_us.p50),
+    }
+}
