@@ -1,4 +1,4 @@
-//! The `vbap` command line (docs/ARCHITECTURE.md §9). Exit codes: 0 success, 1 runtime failure,
+//! The `vbap` command line (docs/ARCHITECTURE.md §10). Exit codes: 0 success, 1 runtime failure,
 //! 2 invalid input.
 
 use std::io::IsTerminal;

@@ -25,10 +25,9 @@ use vbap_ipc::wait::Event;
 use vbap_mission::config::{Mission, RestartPolicy};
 use vbap_mission::rundir::{RunDir, Summary};
 
-use vbap_report::analyze;
-// Re-exported for the benchmarks, which take them from here.
-pub use crate::domain::{await_domain_free, clean_domain, leftover_files};
+use crate::domain::clean_domain;
 use crate::progress::ProgressView;
+use vbap_report::analyze;
 
 /// Grace period between SIGTERM and SIGKILL.
 const GRACE: Duration = Duration::from_secs(5);

@@ -1,4 +1,4 @@
-//! The coordinator's checkpoint (docs/ARCHITECTURE.md §7): everything a restarted coordinator needs to
+//! The coordinator's checkpoint (docs/ARCHITECTURE.md §8): everything a restarted coordinator needs to
 //! resume exactly where the dead one stopped — virtual body, filter, fleet and link state,
 //! running figures, counters, and the lengths of the files it had written.
 //!

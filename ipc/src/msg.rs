@@ -2,7 +2,7 @@
 //!
 //! Every payload is `#[repr(C)]`, `Copy`, fixed size and `ZeroCopySend`, with an explicit,
 //! versioned type name: change the version whenever the layout changes, so an old process
-//! can never read a new layout. Every payload starts with a [`Header`] (docs/ARCHITECTURE.md §4).
+//! can never read a new layout. Every payload starts with a [`Header`] (docs/ARCHITECTURE.md §5).
 
 use iceoryx2::prelude::ZeroCopySend;
 

@@ -1,4 +1,4 @@
-//! The formation designer (Sec. II, Figs. 3–4; docs/ARCHITECTURE.md §5): from a number of vehicles (or a
+//! The formation designer (Sec. II, Figs. 3–4; docs/ARCHITECTURE.md §6): from a number of vehicles (or a
 //! wanted shape) to virtual leaders `b̄_l` and potentials `V_I(d0, d1)`, `V_h(h0, h1)`
 //! whose equilibrium of (II.1) is that shape.
 //!

@@ -4,7 +4,7 @@
 //! the *identity* of the draw (what it is for, which vehicle or link, which tick), never
 //! from a shared RNG consumed in arrival order. That is what makes a lockstep run
 //! independent of OS scheduling and lets the in-process simulator and the multi-process
-//! system draw exactly the same numbers (docs/ARCHITECTURE.md §3).
+//! system draw exactly the same numbers (docs/ARCHITECTURE.md §4).
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

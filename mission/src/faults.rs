@@ -1,4 +1,4 @@
-//! Scheduled faults of a mission (`[[faults]]`, docs/ARCHITECTURE.md §7), as ticks and pure functions.
+//! Scheduled faults of a mission (`[[faults]]`, docs/ARCHITECTURE.md §8), as ticks and pure functions.
 //!
 //! `kill` at time t means: the vehicle is gone from tick ⌈t/dt⌉ on (its last report is
 //! the one of the tick before); with `until`, it is admitted back at tick ⌈until/dt⌉ at

@@ -3,7 +3,7 @@
 //! A [`Field`] is the scalar field T(x, t) the vehicles measure (temperature in °C, say, over
 //! positions in metres and mission time in seconds, or the paper's non-dimensional units). It
 //! knows its own value, gradient, Hessian and optimum analytically: that is the *ground truth*
-//! the evaluator and the recorder use, never the coordinator's estimator (docs/ARCHITECTURE.md §8).
+//! the evaluator and the recorder use, never the coordinator's estimator (docs/ARCHITECTURE.md §9).
 //!
 //! Positions are always [`Vec3`]. A 2-D field (`dim = 2`) is a function of x and y only: the
 //! z component of a query point is ignored, and the z components of the gradient and of the
@@ -11,7 +11,7 @@
 //!
 //! Sensor noise is drawn from [`vbap_math::rng::keyed`] with the key (seed, [`Stream::SensorNoise`],
 //! vehicle, tick), so the same reading is noisy in exactly the same way in the in-process
-//! simulator and in the multi-process system (docs/ARCHITECTURE.md §3).
+//! simulator and in the multi-process system (docs/ARCHITECTURE.md §4).
 
 use crate::config::{FieldConfig, FieldKind, Goal};
 use rand_distr::{Distribution, Normal};

@@ -1,4 +1,4 @@
-//! The emulated glider link (docs/ARCHITECTURE.md §6): delay and jitter, Bernoulli or bursty
+//! The emulated glider link (docs/ARCHITECTURE.md §7): delay and jitter, Bernoulli or bursty
 //! (Gilbert–Elliott) loss, link-down faults and surfacing windows with store-and-forward.
 //!
 //! Pure and seeded: the fate of a message is drawn from `rng::keyed(seed, Link, link, tick)`

@@ -1,4 +1,4 @@
-//! The run directory (docs/ARCHITECTURE.md §9): `mission.toml`, `summary.json`, `vehicles.csv`,
+//! The run directory (docs/ARCHITECTURE.md §10): `mission.toml`, `summary.json`, `vehicles.csv`,
 //! `body.csv`, `events.jsonl`, `logs/` (`<process>.jsonl` tracing, `<process>.msgs.csv`
 //! message records), `plot.svg`.
 //!
@@ -513,7 +513,7 @@ pub struct MessageCounts {
     pub rejected: u64,
 }
 
-/// `summary.json` (docs/ARCHITECTURE.md §9). Fields may be added, never removed.
+/// `summary.json` (docs/ARCHITECTURE.md §10). Fields may be added, never removed.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
     pub mission: String,

@@ -4,7 +4,7 @@
 //! `logs/<process>.msgs.csv` ([`vbap_ipc::msglog`], the format and its units), with the
 //! sender's wall-clock send time `sent_ns` and its own receive time `recv_ns` (all
 //! processes share one host clock): their difference is the hop's *transport* latency. The
-//! link model (docs/ARCHITECTURE.md §6) works in mission time after reception and records its verdicts
+//! link model (docs/ARCHITECTURE.md §7) works in mission time after reception and records its verdicts
 //! separately: `held` (with `injected_ns`, the delay it added) and `drop` (with `reason`:
 //! `"loss"`, `"burst"`, `"link_down"`, … are counted as *injected* drops, `"overflow"` as
 //! queue overflow). A hop's deliveries are then its receptions minus its injected drops,

@@ -65,7 +65,7 @@ impl Agent {
         u
     }
 
-    /// Holds station when nothing is heard from the coordinator (docs/ARCHITECTURE.md §6): damping and
+    /// Holds station when nothing is heard from the coordinator (docs/ARCHITECTURE.md §7): damping and
     /// the last known virtual leaders only, no neighbours.
     pub fn hold_station(
         &mut self,
@@ -356,7 +356,7 @@ impl Vehicle {
     }
 
     /// Nothing heard from the coordinator: hold station around the last visible leaders
-    /// (damping and leader forces only, docs/ARCHITECTURE.md §6).
+    /// (damping and leader forces only, docs/ARCHITECTURE.md §7).
     pub fn hold_station(&mut self, dt: f64) {
         let g = &self.current;
         self.agent

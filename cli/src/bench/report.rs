@@ -271,7 +271,7 @@ pub(super) struct Report {
     pub(super) hop_iceoryx2_warm: Option<HopFloor>,
     pub(super) hop_udp_warm: Option<HopFloor>,
     /// The floors with both sides busy polling (no event, no sleep): the payload path
-    /// alone, which a blocking system never sees (a rule of this system: nothing busy-polls, docs/ARCHITECTURE.md §2).
+    /// alone, which a blocking system never sees (a rule of this system: nothing busy-polls, docs/ARCHITECTURE.md §3).
     pub(super) hop_iceoryx2_poll: HopFloor,
     pub(super) hop_udp_poll: HopFloor,
     pub(super) hop_system: Vec<SystemHop>,

@@ -39,7 +39,7 @@ use vbap_mission::config::Mission;
 use vbap_mission::rundir::{RunDir, Summary};
 
 use super::StopFlag;
-use crate::supervise::{clean_domain, leftover_files};
+use crate::domain::{clean_domain, leftover_files};
 use vbap_report::analyze::{analyze, HopReport};
 
 /// The longest a single `vbap run` of the bench may take.

@@ -1,4 +1,4 @@
-//! Turns ticks into the run-directory files and the summary (docs/ARCHITECTURE.md §9).
+//! Turns ticks into the run-directory files and the summary (docs/ARCHITECTURE.md §10).
 //!
 //! The recorder is the omniscient logger of a simulator: it knows the true field and the
 //! true optimum, which the planner never sees. The in-process simulator and the

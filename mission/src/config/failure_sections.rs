@@ -14,7 +14,7 @@ pub enum SurfacingPhase {
     Together,
 }
 
-/// `[links]`: the vehicle ↔ coordinator link model, both directions (docs/ARCHITECTURE.md §6).
+/// `[links]`: the vehicle ↔ coordinator link model, both directions (docs/ARCHITECTURE.md §7).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LinksSection {
@@ -71,7 +71,7 @@ pub enum RestartPolicy {
     Always,
 }
 
-/// `[restart]`: what the supervisor does when a process of the set dies (docs/ARCHITECTURE.md §7).
+/// `[restart]`: what the supervisor does when a process of the set dies (docs/ARCHITECTURE.md §8).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RestartSection {
@@ -128,7 +128,7 @@ impl FaultKind {
     }
 }
 
-/// One scheduled fault (`[[faults]]`, docs/ARCHITECTURE.md §7).
+/// One scheduled fault (`[[faults]]`, docs/ARCHITECTURE.md §8).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FaultConfig {

@@ -1,4 +1,4 @@
-//! The mission file (TOML), parsed and validated (docs/ARCHITECTURE.md §9).
+//! The mission file (TOML), parsed and validated (docs/ARCHITECTURE.md §10).
 //!
 //! A mission file must give `[mission] name` and the `[field]` keys that shape its kind of
 //! field (see [`FieldKind::required_keys`]): they have no meaningful default, so an empty or

@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
-/// How mission time is paced against wall time (docs/ARCHITECTURE.md §3).
+/// How mission time is paced against wall time (docs/ARCHITECTURE.md §4).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum Pace {
     /// As fast as possible, each tick released when every live participant has reported.

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 use vbap_mission::rundir::{Percentiles, Summary};
 
-/// Figures of one hop (docs/ARCHITECTURE.md §9, `vbap analyze --json`).
+/// Figures of one hop (docs/ARCHITECTURE.md §10, `vbap analyze --json`).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct HopReport {
     /// Transport latency (receive − send wall clock − injected delay), µs.
