@@ -29,6 +29,9 @@ use crate::domain::clean_domain;
 use crate::progress::ProgressView;
 use vbap_report::analyze;
 
+/// How often the supervisor reads the body service while the mission runs (to see its
+/// final command; a few reads a second cost nothing).
+const BODY_READ_EVERY: Duration = Duration::from_millis(20);
 /// Grace period between SIGTERM and SIGKILL.
 const GRACE: Duration = Duration::from_secs(5);
 /// How long a process may take to print `ready`.
@@ -103,10 +106,16 @@ struct Notices {
 
 impl Notices {
     /// Starts the thread (after the domain was cleaned: its node is a live node of the
-    /// mission). Without its ports (an error, logged) the run goes on: the coordinator
-    /// finds deaths by itself, only later.
+    /// mission) and returns once its ports exist, before any process of the set starts:
+    /// the coordinator's body publisher then connects to the body subscriber when it is
+    /// created, so the mission's final command is never missed (a subscriber made later
+    /// could come after a fast mission's coordinator is gone, and every agent ending on
+    /// FINISHED would look like a process to restart under policy `always`). Without its
+    /// ports (an error, logged) the run goes on: the coordinator finds deaths by itself,
+    /// only later.
     fn start(domain: &Domain, vehicles: usize) -> Self {
         let (tx, rx) = std::sync::mpsc::channel::<Notice>();
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel::<()>();
         let domain = domain.clone();
         let thread = std::thread::spawn(move || {
             let ports = (|| -> Result<_> {
@@ -124,9 +133,36 @@ impl Notices {
             if let Err(e) = &ports {
                 warn!(error = %e, "no process-exit reports to the coordinator");
             }
+            let _ = ready_tx.send(());
             let mut finished = false;
             let mut seq = 0;
-            while let Ok(notice) = rx.recv() {
+            // The body subscriber is read while the mission runs (every BODY_READ_EVERY),
+            // not only when asked: a subscriber connects to a publisher when it reads, and a
+            // coordinator that exits right after its final command would otherwise be gone
+            // before the first read, its FINISHED never seen.
+            let read_body = |body: &iceoryx2::port::subscriber::Subscriber<
+                iceoryx2::prelude::ipc::Service,
+                BodyCommand,
+                (),
+            >,
+                             finished: &mut bool| {
+                while let Ok(Some(sample)) = body.receive() {
+                    let h = sample.header;
+                    *finished |=
+                        h.sender == Header::COORDINATOR && h.flags & BodyCommand::FINISHED != 0;
+                }
+            };
+            loop {
+                let notice = match rx.recv_timeout(BODY_READ_EVERY) {
+                    Ok(notice) => notice,
+                    Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                        if let Ok((_, body, _)) = &ports {
+                            read_body(body, &mut finished);
+                        }
+                        continue;
+                    }
+                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => break,
+                };
                 match (notice, &ports) {
                     (Notice::Stop, _) => break,
                     (Notice::Exit(mut e), Ok((exits, _, _))) => {
@@ -136,11 +172,7 @@ impl Notices {
                         let _ = exits.notify();
                     }
                     (Notice::Finished(reply), Ok((_, body, _))) => {
-                        while let Ok(Some(sample)) = body.receive() {
-                            let h = sample.header;
-                            finished |= h.sender == Header::COORDINATOR
-                                && h.flags & BodyCommand::FINISHED != 0;
-                        }
+                        read_body(body, &mut finished);
                         let _ = reply.send(finished);
                     }
                     (Notice::Finished(reply), Err(_)) => {
@@ -150,6 +182,9 @@ impl Notices {
                 }
             }
         });
+        // The thread answers as soon as its ports exist (or failed); a thread that died
+        // first drops the sender and ends the wait too.
+        let _ = ready_rx.recv();
         Self {
             tx,
             thread: Some(thread),
