@@ -241,13 +241,6 @@ impl Waiter<'_> {
         })
     }
 
-    /// [`Waiter::wait`] with the raw ids collected into `ids` (the coordinator's use).
-    pub fn wait_ids(&self, timeout: Duration, ids: &mut Vec<usize>) -> Result<Wake, TopicError> {
-        wait_once(&self.wake.waitset, &self.wake.listener, timeout, |v| {
-            ids.push(v)
-        })
-    }
-
     /// Waits until at least one event is drained, the timeout passes or a stop: a wake-up
     /// that finds no event (its events drained by an earlier wait, or another signal) waits
     /// again for the time left.

@@ -83,12 +83,7 @@ impl Recorder {
     }
 
     /// Opens the files of `dir` (appending) with running figures `stats` (a checkpoint's),
-    /// judging by the mission's own field.
-    pub fn resume(mission: &Mission, dir: &RunDir, stats: RecorderStats) -> io::Result<Self> {
-        Self::resume_with(mission, dir, stats, Arc::new(mission.field()))
-    }
-
-    /// [`Recorder::resume`] judging by `field`.
+    /// judging by `field` (the field the sensors sample).
     pub fn resume_with(
         mission: &Mission,
         dir: &RunDir,
