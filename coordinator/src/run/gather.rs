@@ -77,6 +77,45 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         }
     }
 
+    /// Lockstep, before the mission's last message: waits until every alive agent has
+    /// room for it in its command buffer (has acknowledged reading all but
+    /// `Limits::BODY_BUFFER − 1` commands). An agent that ran ahead to the end and still
+    /// had a full buffer would otherwise lose its oldest unread command to the buffer's
+    /// overflow, and with it that command's link fate and its receive record. Bounded by
+    /// [`LOCKSTEP_TIMEOUT`] (a dead agent needs no room); [`STOP`] on a termination signal.
+    pub(super) fn await_room_for_the_end(&mut self) -> Result<Flow> {
+        if self.paced.is_some() {
+            return Ok(GO);
+        }
+        let k = self.k;
+        let start = Instant::now();
+        loop {
+            self.inbox
+                .drain_some(&self.ports.subscribers, &self.fleet, k, None)?;
+            let behind: Vec<u32> = self
+                .fleet
+                .alive()
+                .filter(|&v| self.inbox.behind(v, k))
+                .collect();
+            if behind.is_empty() {
+                return Ok(GO);
+            }
+            let left = LOCKSTEP_TIMEOUT.saturating_sub(start.elapsed());
+            if left.is_zero() {
+                warn!(
+                    tick = k,
+                    ?behind,
+                    "the end of the mission: agents still behind, ending anyway"
+                );
+                return Ok(GO);
+            }
+            let mut ids = Vec::new();
+            if let Wake::Stop = self.ports.wait(left.min(SUSPECT_AFTER), &mut ids)? {
+                return Ok(STOP);
+            }
+        }
+    }
+
     /// The alive vehicles whose state of the tick is not in yet, and in lockstep those
     /// whose agent could not take command `k` without overflowing its buffer.
     fn missing(&self, admitted: &BTreeSet<u32>) -> Vec<u32> {

@@ -128,6 +128,9 @@ pub fn run_with<P: Plan + Serialize + DeserializeOwned>(
             break;
         }
     }
+    if !stopped {
+        stopped = c.await_room_for_the_end()?.is_break();
+    }
     c.finish(stopped)
 }
 
