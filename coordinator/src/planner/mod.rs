@@ -12,7 +12,7 @@ use vbap_math::lyapunov::LyapunovTerms;
 use vbap_math::potential::PairPotential;
 use vbap_math::speed::formation_speed;
 use vbap_math::{Mat3, Vec3};
-use vbap_mission::config::{Goal, Mission};
+use vbap_mission::config::{Goal, LawKind, Mission};
 
 mod direction;
 mod estimate;
@@ -59,6 +59,8 @@ pub struct PlannerParams {
     pub sigma_m: Option<f64>,
     pub sigma_m_prior: f64,
     pub initial_variance: f64,
+    /// `control.law`: the paper's planner, or the one built for real links.
+    pub law: LawKind,
 }
 
 impl PlannerParams {
@@ -84,6 +86,7 @@ impl PlannerParams {
             sigma_m: m.estimator.sigma_m,
             sigma_m_prior: m.field.noise_std,
             initial_variance: m.estimator.initial_variance,
+            law: m.control.law,
         }
     }
 }

@@ -18,6 +18,7 @@
 //! checks (`validate/`, one file per group of sections), the time step against the
 //! formation's stiffness (`stiffness.rs`) and numbers as TOML writes them (`toml_text.rs`).
 
+mod control;
 mod error;
 mod failure_sections;
 mod pace;
@@ -30,6 +31,7 @@ mod validate;
 #[cfg(test)]
 mod tests;
 
+pub use control::{ControlSection, LawKind};
 pub use error::ConfigError;
 pub use failure_sections::{
     FaultConfig, FaultKind, LinksSection, RestartPolicy, RestartSection, SurfacingPhase,
@@ -81,6 +83,8 @@ pub struct Mission {
     pub links: LinksSection,
     /// `[restart]`.
     pub restart: RestartSection,
+    /// `[control]`.
+    pub control: ControlSection,
     /// `[[faults]]`, in file order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub faults: Vec<FaultConfig>,
@@ -103,6 +107,7 @@ impl PartialEq for Mission {
             && self.estimator == other.estimator
             && self.links == other.links
             && self.restart == other.restart
+            && self.control == other.control
             && self.faults == other.faults
     }
 }

@@ -1,0 +1,39 @@
+//! `[control]`: which control law and planner the fleet flies.
+//!
+//! `law = "paper"` is the method of the paper as written: every vehicle acts on the
+//! neighbour positions it was last sent as if they were current, and the body moves by
+//! (IV.4) on the coordinator's newest view. `law = "robust"` is built for the links the
+//! vehicles really have (docs/ARCHITECTURE.md §6): it equals the paper's law whenever the
+//! information is fresh (ideal links), and otherwise commits the body's path ahead of time,
+//! fades stale neighbour terms and redesigns without a bump.
+
+use serde::{Deserialize, Serialize};
+
+/// The control law and planner of a mission (`control.law`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LawKind {
+    /// The paper's law and planner, unchanged.
+    #[default]
+    Paper,
+    /// Age-aware control over the links the fleet really has (beyond the paper).
+    Robust,
+}
+
+impl LawKind {
+    /// The name of the law as the mission file writes it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LawKind::Paper => "paper",
+            LawKind::Robust => "robust",
+        }
+    }
+}
+
+/// `[control]`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ControlSection {
+    /// `"paper"` | `"robust"`.
+    pub law: LawKind,
+}
