@@ -12,9 +12,10 @@
 //! - `batch.csv`: `seed,converged,time_to_converge_s,final_distance_to_optimum,
 //!   final_grad_norm,max_V_over_VU,in_set_m,wall_time_s,status,verdict,max_V_seen_over_VU,
 //!   min_pair_ratio,near_collision_ticks,worst_slot_error,alive_at_end,in_formation_at_end,
-//!   longest_contact_gap_s,stalled_s` (empty = not applicable; `max_V_over_VU` is the true
-//!   figure, the formation columns are the run's `summary.json` `formation` object, the
-//!   contact gap the longest over its vehicles);
+//!   longest_contact_gap_s,stalled_s,share_V_above_VU_after_contact` (empty = not
+//!   applicable; `max_V_over_VU` is the true figure, the formation columns are the run's
+//!   `summary.json` `formation` object, the contact gap the longest over its vehicles, the
+//!   last column the share of ticks with the true V above V_U once every vehicle was heard);
 //! - `batch.json`: the aggregate: convergence rate, distributions (n, min, mean, p50, p90,
 //!   p99, max) of the time to converge (converged runs), the final distance to the optimum
 //!   and the final gradient norm (completed runs), the rate of every run verdict
@@ -173,6 +174,9 @@ pub struct SeedResult {
     pub in_formation_at_end: Option<usize>,
     pub longest_contact_gap_s: Option<f64>,
     pub stalled_s: Option<f64>,
+    /// Share of ticks with the true V above V_U once every vehicle was heard.
+    #[serde(rename = "share_V_above_VU_after_contact")]
+    pub share_v_above_vu_after_contact: Option<f64>,
 }
 
 impl SeedResult {
@@ -204,6 +208,8 @@ impl SeedResult {
                     .reduce(f64::max)
             }),
             stalled_s: f.map(|f| f.stalled_s),
+            share_v_above_vu_after_contact: f
+                .and_then(|f| f.share_ticks_v_true_above_vu_after_contact),
         }
     }
     fn failed(seed: u64, why: String, wall: f64, run_dir: PathBuf) -> Self {
@@ -221,7 +227,7 @@ impl SeedResult {
 }
 
 /// Header of `batch.csv`.
-pub const BATCH_HEADER: &str = "seed,converged,time_to_converge_s,final_distance_to_optimum,final_grad_norm,max_V_over_VU,in_set_m,wall_time_s,status,verdict,max_V_seen_over_VU,min_pair_ratio,near_collision_ticks,worst_slot_error,alive_at_end,in_formation_at_end,longest_contact_gap_s,stalled_s";
+pub const BATCH_HEADER: &str = "seed,converged,time_to_converge_s,final_distance_to_optimum,final_grad_norm,max_V_over_VU,in_set_m,wall_time_s,status,verdict,max_V_seen_over_VU,min_pair_ratio,near_collision_ticks,worst_slot_error,alive_at_end,in_formation_at_end,longest_contact_gap_s,stalled_s,share_V_above_VU_after_contact";
 
 fn csv_row(r: &SeedResult) -> String {
     use vbap_mission::rundir::Num;
@@ -238,7 +244,7 @@ fn csv_row(r: &SeedResult) -> String {
     let status = quote(&r.status);
     let verdict = quote(&r.verdict);
     format!(
-        "{},{},{},{},{},{},{},{},{status},{verdict},{},{},{},{},{},{},{},{}",
+        "{},{},{},{},{},{},{},{},{status},{verdict},{},{},{},{},{},{},{},{},{}",
         r.seed,
         r.converged,
         opt(r.time_to_converge_s.map(Num)),
@@ -254,7 +260,8 @@ fn csv_row(r: &SeedResult) -> String {
         opt(r.alive_at_end),
         opt(r.in_formation_at_end),
         opt(r.longest_contact_gap_s.map(Num)),
-        opt(r.stalled_s.map(Num))
+        opt(r.stalled_s.map(Num)),
+        opt(r.share_v_above_vu_after_contact.map(Num))
     )
 }
 
@@ -803,9 +810,9 @@ mod tests {
         }
         assert_eq!(
             csv_row(&rows[2]),
-            "3,false,,3,3,0.2,false,1,ok,,,,,,,,,",
+            "3,false,,3,3,0.2,false,1,ok,,,,,,,,,,",
             "empty cells for missing values"
         );
-        assert_eq!(csv_row(&rows[3]), "4,false,,,,,,0.5,boom,,,,,,,,,");
+        assert_eq!(csv_row(&rows[3]), "4,false,,,,,,0.5,boom,,,,,,,,,,");
     }
 }

@@ -100,6 +100,20 @@ fn formation_rows(o: &mut String, s: &Summary, f: &FormationSummary) {
             coordinator::truth::fmt(f.max_v_seen_over_vu)
         ),
     );
+    if let (Some(t), Some(share)) = (
+        f.all_in_contact_t.filter(|t| *t > 0.0),
+        f.share_ticks_v_true_above_vu_after_contact,
+    ) {
+        row(
+            o,
+            "  after first contact",
+            format!(
+                "V above 1 in {:.1}% of ticks once every vehicle was heard (t = {})",
+                100.0 * share,
+                duration(t)
+            ),
+        );
+    }
     if let (Some(r), Some(t), Some([a, b])) = (f.min_pair_ratio, f.min_pair_t, f.min_pair_vehicles)
     {
         row(

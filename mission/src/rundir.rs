@@ -580,6 +580,13 @@ pub struct FormationSummary {
     /// Share of ticks with the true V above V_U, 0..1.
     #[serde(rename = "share_ticks_V_true_above_VU")]
     pub share_ticks_v_true_above_vu: f64,
+    /// Mission time by which every vehicle had been in contact at least once, s (a glider
+    /// that has not surfaced yet flies the plan it was deployed with); none if never.
+    #[serde(default)]
+    pub all_in_contact_t: Option<f64>,
+    /// Share of the ticks from `all_in_contact_t` on with the true V above V_U, 0..1.
+    #[serde(rename = "share_ticks_V_true_above_VU_after_contact", default)]
+    pub share_ticks_v_true_above_vu_after_contact: Option<f64>,
     /// Smallest distance between two live vehicles ÷ design spacing, when and which pair.
     pub min_pair_ratio: Option<f64>,
     pub min_pair_t: Option<f64>,

@@ -65,6 +65,8 @@ pub struct VehicleTruth {
     pub alive: bool,
     /// In formation at the last tick.
     pub in_formation: bool,
+    /// In contact (by the schedule) at least once so far: it has heard a plan.
+    pub heard: bool,
 }
 
 /// The running truth figures (checkpointed).
@@ -75,6 +77,12 @@ pub struct TruthStats {
     pub max_v_seen: f64,
     pub ticks: u64,
     pub ticks_v_above: u64,
+    /// Mission time when every vehicle had been in contact at least once (a glider that
+    /// has never surfaced flies the plan it was deployed with), s.
+    pub all_heard_t: Option<f64>,
+    /// Ticks since `all_heard_t`, and those of them with the true V above V_U.
+    pub ticks_after_contact: u64,
+    pub ticks_v_above_after_contact: u64,
     /// (ratio, t, a, b) of the closest pair.
     pub min_pair: Option<(f64, f64, u32, u32)>,
     pub near_collision_ticks: u64,
@@ -181,6 +189,7 @@ pub fn tick(
     let (rows, tally) = slots::vehicles(stats, &scene, &mut events);
     let at = At { k, t };
     running::extremes(stats, at, v_true, v_seen, &tally, &mut events);
+    running::after_first_contact(stats, t, v_true);
     running::formation_state(stats, at, &tally, &mut events);
     let sdot_ratio = running::stalls(
         stats,

@@ -15,6 +15,26 @@ pub(super) struct At {
     pub t: f64,
 }
 
+/// Counts the tick at time `t` (s) towards the share of ticks with the true V ÷ V_U
+/// (`v_true`) above 1 once every vehicle has been in contact at least once (dead ones
+/// count as heard): before that, some vehicle still flies the plan it was deployed with.
+pub(super) fn after_first_contact(stats: &mut TruthStats, t: f64, v_true: f64) {
+    for v in stats.vehicles.iter_mut() {
+        if matches!(v.contact.as_str(), "contact" | "surfaced") {
+            v.heard = true;
+        }
+    }
+    if stats.all_heard_t.is_none() && stats.vehicles.iter().all(|v| v.heard || !v.alive) {
+        stats.all_heard_t = Some(t);
+    }
+    if stats.all_heard_t.is_some() {
+        stats.ticks_after_contact += 1;
+        if v_true > 1.0 {
+            stats.ticks_v_above_after_contact += 1;
+        }
+    }
+}
+
 /// Brings the extremes up to date: V ÷ V_U (II.2) from the true states (`v_true`) and as
 /// the coordinator saw it (`v_seen`), the closest pair (a `near_collision` event when it
 /// comes below [`NEAR_COLLISION`] spacing, re-armed once it is back beyond twice that)
@@ -169,6 +189,39 @@ pub(super) fn stalls(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::truth::VehicleTruth;
+
+    /// The share after first contact counts only once every live vehicle was in contact.
+    #[test]
+    fn ticks_count_after_every_vehicle_was_heard() {
+        let glider = |contact: &str, alive: bool| VehicleTruth {
+            contact: contact.into(),
+            alive,
+            ..VehicleTruth::default()
+        };
+        let mut stats = TruthStats {
+            vehicles: vec![glider("surfaced", true), glider("submerged", true)],
+            ..TruthStats::default()
+        };
+        after_first_contact(&mut stats, 0.0, 5.0);
+        assert_eq!((stats.all_heard_t, stats.ticks_after_contact), (None, 0));
+        // Vehicle 0 dives again: it has still been heard.
+        stats.vehicles[0].contact = "submerged".into();
+        stats.vehicles[1].contact = "surfaced".into();
+        after_first_contact(&mut stats, 10.0, 5.0);
+        assert_eq!(stats.all_heard_t, Some(10.0));
+        stats.vehicles[1].contact = "submerged".into();
+        after_first_contact(&mut stats, 20.0, 0.5);
+        assert_eq!(stats.ticks_after_contact, 2);
+        assert_eq!(stats.ticks_v_above_after_contact, 1);
+        // A dead vehicle that never surfaced does not hold the count back.
+        let mut stats = TruthStats {
+            vehicles: vec![glider("contact", true), glider("dead", false)],
+            ..TruthStats::default()
+        };
+        after_first_contact(&mut stats, 3.0, 0.0);
+        assert_eq!(stats.all_heard_t, Some(3.0));
+    }
 
     #[test]
     fn the_reasons_of_a_stall_in_their_order() {

@@ -22,6 +22,9 @@ pub fn summary(stats: &TruthStats) -> FormationSummary {
         } else {
             0.0
         },
+        all_in_contact_t: stats.all_heard_t,
+        share_ticks_v_true_above_vu_after_contact: (stats.ticks_after_contact > 0)
+            .then(|| stats.ticks_v_above_after_contact as f64 / stats.ticks_after_contact as f64),
         min_pair_ratio: stats.min_pair.map(|p| p.0),
         min_pair_t: stats.min_pair.map(|p| p.1),
         min_pair_vehicles: stats.min_pair.map(|p| [p.2, p.3]),
