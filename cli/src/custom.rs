@@ -61,7 +61,10 @@ pub fn main(plugins: Plugins) -> i32 {
                 Sensors::in_world(m, World::with_field(m, plugins.field_of(m)))
             }),
             Role::Coordinator(a) => coordinator::cli::main_with(&a, plugins.field.clone()),
-            Role::Agent(a) => vehicle_agent::cli::main_with(&a, plugins.law_of()),
+            Role::Agent(a) => match plugins.law.clone() {
+                Some(law) => vehicle_agent::cli::main_with(&a, law),
+                None => vehicle_agent::cli::main(&a),
+            },
         }
     }
     crate::cli::main_with(Some(&plugins))

@@ -4,14 +4,15 @@
 
 use std::sync::Arc;
 
-use vbap_math::law::{ControlLaw, PaperLaw};
+use vbap_math::law::ControlLaw;
 use vbap_mission::config::Mission;
 use vbap_mission::field::ScalarField;
 
 /// The first argument of this executable started in a role by its own supervisor.
 pub const ROLE_COMMAND: &str = "role";
 
-/// A user's own parts; `None`: the shipped one (the mission's `[field]`, the paper's law).
+/// A user's own parts; `None`: the shipped one (the mission's `[field]`, the mission's
+/// `control.law`).
 #[derive(Clone, Debug, Default)]
 pub struct Plugins {
     /// The field the sensors sample and the run is judged by.
@@ -40,8 +41,11 @@ impl Plugins {
             .unwrap_or_else(|| Arc::new(mission.field()))
     }
 
-    /// The control law under these plugins.
-    pub fn law_of(&self) -> Arc<dyn ControlLaw> {
-        self.law.clone().unwrap_or_else(|| Arc::new(PaperLaw))
+    /// The control law of `mission` under these plugins: the user's own, or the mission's
+    /// (`control.law`: the paper's or the robust law, `vehicle_agent::mission_law`).
+    pub fn law_of(&self, mission: &Mission) -> Arc<dyn ControlLaw> {
+        self.law
+            .clone()
+            .unwrap_or_else(|| vehicle_agent::mission_law(mission))
     }
 }

@@ -64,7 +64,7 @@ pub fn simulate_with(
 ) -> Result<Summary> {
     let wall = Instant::now();
     let field = plugins.field_of(mission);
-    let law = plugins.law_of();
+    let law = plugins.law_of(mission);
     let dt = mission.mission.dt;
     let ticks = mission.ticks();
     let dim = mission.mission.dim;

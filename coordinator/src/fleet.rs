@@ -315,6 +315,7 @@ impl Fleet {
                 position: from_vec3(&r.position),
                 velocity: from_vec3(&r.velocity),
                 target: from_vec3(&target.unwrap_or_else(Vec3::zeros)),
+                ..SnapshotEntry::default()
             }
         };
         let mut rows: Vec<SnapshotEntry> = members

@@ -19,6 +19,7 @@ pub mod plan;
 pub mod planner;
 pub mod record;
 pub mod run;
+pub mod slots;
 pub mod tally;
 pub mod tick;
 pub mod truth;

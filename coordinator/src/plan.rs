@@ -6,6 +6,7 @@
 use vbap_math::body::VirtualBody;
 use vbap_math::formation::FormationDesign;
 use vbap_math::kalman::GradientFilter;
+use vbap_mission::config::LawKind;
 
 use crate::planner::{Command, Planner, PlannerError, Report};
 
@@ -34,6 +35,11 @@ pub trait Plan {
     fn sigma_m(&self) -> f64;
     /// How many times the formation was redesigned.
     fn reconfigurations(&self) -> usize;
+    /// The law the fleet flies (`control.law`): under [`LawKind::Robust`] the swarm
+    /// snapshot carries every member's slot ([`crate::slots`]). The paper's by default.
+    fn law(&self) -> LawKind {
+        LawKind::Paper
+    }
 }
 
 impl Plan for Planner {
@@ -62,6 +68,9 @@ impl Plan for Planner {
     fn reconfigurations(&self) -> usize {
         Planner::reconfigurations(self)
     }
+    fn law(&self) -> LawKind {
+        Planner::law(self)
+    }
 }
 
 impl<P: Plan + ?Sized> Plan for Box<P> {
@@ -89,6 +98,9 @@ impl<P: Plan + ?Sized> Plan for Box<P> {
     }
     fn reconfigurations(&self) -> usize {
         (**self).reconfigurations()
+    }
+    fn law(&self) -> LawKind {
+        (**self).law()
     }
 }
 

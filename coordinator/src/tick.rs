@@ -4,6 +4,7 @@
 //! byte-identical. The planner is any [`Plan`] (the binaries ship [`crate::planner::Planner`]).
 
 use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+use vbap_mission::config::LawKind;
 use vbap_mission::link::Fate;
 
 use crate::fleet::Fleet;
@@ -52,7 +53,12 @@ pub fn plan_tick(
     recorder.inputs(k, &members, &fresh, &joined)?;
     recorder.tick(k, truth, &command)?;
     recorder.truth(k, truth, &command, planner.design(), fleet)?;
-    let snapshot = fleet.snapshot(&members, &command.rejoining);
+    let mut snapshot = fleet.snapshot(&members, &command.rejoining);
+    crate::slots::annotate(&mut snapshot, k, dt, &members);
+    if planner.law() == LawKind::Robust {
+        let slots = crate::slots::member_slots(planner.design(), &command, &members);
+        crate::slots::give_slots(&mut snapshot, &slots);
+    }
     Ok(TickOutcome {
         fates,
         command,

@@ -144,6 +144,10 @@ mod tests {
             neighbour_sigmas: &[],
             neighbour_slots: &[],
             homing: None,
+            neighbour_velocities: &[],
+            neighbour_ages: &[],
+            slot: None,
+            body_velocity: Vec3::zeros(),
         };
         let law = Saturated { u_max: 4.0 };
         let (x, v) = (Vec3::zeros(), Vec3::new(0.0, 2.0, 0.0));

@@ -165,7 +165,7 @@ pub mod coordinator_to_agent {
         Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, serde::Serialize, serde::Deserialize,
     )]
     #[repr(C)]
-    #[type_name("vbap.SnapshotEntry.v3")]
+    #[type_name("vbap.SnapshotEntry.v4")]
     pub struct SnapshotEntry {
         /// Vehicle id.
         pub id: u32,
@@ -181,6 +181,21 @@ pub mod coordinator_to_agent {
         /// The slot a rejoining vehicle flies to, at this tick, length unit (zeros when not
         /// rejoining).
         pub target: [f64; 3],
+        /// This vehicle's own slot of the design at this tick (its virtual leader under
+        /// `control.law = "robust"`, `vbap_math::robust`), length unit; meaningful only when
+        /// `has_slot` is 1 (zeros otherwise).
+        #[serde(default)]
+        pub slot: [f64; 3],
+        /// Age of the coordinator's information on this vehicle, s: the command's time
+        /// minus the time of the state `position` and `velocity` were taken from (0 for a
+        /// state of this very tick; `position` is already moved with the body since then).
+        #[serde(default)]
+        pub age: f64,
+        /// 1 when `slot` holds this vehicle's slot, else 0.
+        #[serde(default)]
+        pub has_slot: u32,
+        #[serde(default)]
+        pub _pad2: u32,
     }
 
     impl SnapshotEntry {
@@ -287,7 +302,9 @@ pub mod coordinator_to_agent {
                         .iter()
                         .chain(e.velocity.iter())
                         .chain(e.target.iter())
+                        .chain(e.slot.iter())
                         .all(|v| v.is_finite())
+                        && e.age.is_finite()
                 })
         }
     }

@@ -1,13 +1,16 @@
 //! The vehicle's control law as an extension point: [`ControlLaw`] computes u_i of one
 //! vehicle from what it knows, [`PaperLaw`] is the law of the paper ((II.1), blended with
 //! the homing law of [`super::rejoin`] while vehicles rejoin), the one every shipped binary
-//! flies. A user's own law implements [`ControlLaw`] and is handed to the vehicle
+//! flies under `control.law = "paper"`; [`RobustLaw`] (`super::robust`) the one it flies under
+//! `control.law = "robust"`, equal to [`PaperLaw`] when every neighbour is fresh. A user's own law implements [`ControlLaw`] and is handed to the vehicle
 //! (`vehicle_agent::Vehicle::with_law`); integration (ẍ_i = u_i) stays the vehicle's.
 
 use super::control::control_law;
 use super::potential::PairPotential;
 use super::rejoin::{blended_control_law, Homing, Neighbour};
 use super::Vec3;
+
+pub use super::robust::RobustLaw;
 
 /// What one vehicle knows for one control step (from the newest body command it sees).
 #[derive(Clone, Copy, Debug)]
@@ -30,6 +33,15 @@ pub struct ControlInputs<'a> {
     pub neighbour_slots: &'a [Vec3],
     /// This vehicle's own homing while it rejoins (None: it flies (II.1)).
     pub homing: Option<Homing>,
+    /// Last known velocity of each neighbour (same order; empty: unknown), length unit/s.
+    pub neighbour_velocities: &'a [Vec3],
+    /// Age of each neighbour's position (same order; empty: all 0), s: how long ago the
+    /// state was taken that `neighbours` holds moved with the body.
+    pub neighbour_ages: &'a [f64],
+    /// This vehicle's own slot in the design, length unit (None: not known).
+    pub slot: Option<Vec3>,
+    /// Velocity of the virtual body centre, length unit/s.
+    pub body_velocity: Vec3,
 }
 
 impl ControlInputs<'_> {
@@ -49,7 +61,7 @@ pub trait ControlLaw: Send + Sync + std::fmt::Debug {
 }
 
 /// The law of the paper: u_i of (II.1) from the neighbours, the virtual leaders and the
-/// damping; while this vehicle or a neighbour rejoins, the blended law of
+/// damping (their velocities, ages, this vehicle's slot and the body's velocity unused); while this vehicle or a neighbour rejoins, the blended law of
 /// [`super::rejoin::blended_control_law`] (equal to (II.1) bit for bit when nobody does).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PaperLaw;
@@ -112,6 +124,10 @@ mod tests {
             neighbour_sigmas: &[0.0, 0.0],
             neighbour_slots: &[],
             homing: None,
+            neighbour_velocities: &[],
+            neighbour_ages: &[],
+            slot: None,
+            body_velocity: Vec3::zeros(),
         };
         assert!(!inputs.rejoining());
         let u = PaperLaw.control(&x, &v, &inputs);

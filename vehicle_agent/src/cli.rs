@@ -31,9 +31,21 @@ pub struct Args {
     pub parent: Option<u32>,
 }
 
+/// Runs the vehicle of `args` flying the mission's law ([`crate::mission_law`]: the
+/// paper's, or the robust law under `control.law = "robust"`), then exits as
+/// [`main_with`] does.
+pub fn main(args: &Args) -> ! {
+    main_flying(args, None)
+}
+
 /// Runs the vehicle of `args` flying `law`, then exits the process (code 0, or 1 with the
 /// error on stderr; 2 for an invalid mission or id).
 pub fn main_with(args: &Args, law: Arc<dyn ControlLaw>) -> ! {
+    main_flying(args, Some(law))
+}
+
+/// [`main_with`] flying `law`, or the mission's law when None.
+fn main_flying(args: &Args, law: Option<Arc<dyn ControlLaw>>) -> ! {
     die_with_parent(args.parent);
     let mission = load_mission_or_exit("vehicle_agent", &args.mission);
     if args.id as usize >= mission.vehicles.count {
@@ -46,6 +58,7 @@ pub fn main_with(args: &Args, law: Arc<dyn ControlLaw>) -> ! {
     let process = format!("vehicle_agent_{}", args.id);
     let log = vbap_ipc::telemetry::init(&process, args.log.as_deref());
     let msgs = vbap_ipc::process::message_log(args.log.as_deref());
+    let law = law.unwrap_or_else(|| crate::mission_law(&mission));
     let result = crate::run::run_with(&mission, args.id, args.rejoin, law, msgs, announce_ready);
     vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
     finish(&process, result.err().map(|e| format!("{e:#}")), log)

@@ -18,12 +18,12 @@ use rand::Rng;
 use vbap_math::body::VirtualBody;
 use vbap_math::control::integrate;
 use vbap_math::formation::FormationDesign;
-pub use vbap_math::law::{ControlInputs, ControlLaw, PaperLaw};
+pub use vbap_math::law::{ControlInputs, ControlLaw, PaperLaw, RobustLaw};
 use vbap_math::potential::PairPotential;
 use vbap_math::rejoin::{homing_weight, Homing};
 use vbap_math::rng::{keyed, Stream};
 use vbap_math::Vec3;
-use vbap_mission::config::Mission;
+use vbap_mission::config::{LawKind, Mission};
 use vbap_mission::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
 
 /// What an agent needs from the coordinator for one step (the inputs of a
@@ -99,8 +99,21 @@ impl Agent {
             neighbour_sigmas: &[],
             neighbour_slots: &[],
             homing: None,
+            neighbour_velocities: &[],
+            neighbour_ages: &[],
+            slot: None,
+            body_velocity: Vec3::zeros(),
         };
         self.step_with(law, &inputs, dt)
+    }
+}
+
+/// The control law the shipped binaries fly for `mission`: [`RobustLaw`] (with the memory
+/// `control.neighbour_memory`) under `control.law = "robust"`, [`PaperLaw`] otherwise.
+pub fn mission_law(mission: &Mission) -> Arc<dyn ControlLaw> {
+    match mission.control.law {
+        LawKind::Paper => Arc::new(PaperLaw),
+        LawKind::Robust => Arc::new(RobustLaw::new(mission.control.neighbour_memory)),
     }
 }
 
@@ -187,6 +200,14 @@ pub struct Guidance {
     pub neighbour_slots: Vec<Vec3>,
     /// The slot this vehicle flies to while it rejoins, length unit (None: not rejoining).
     pub target: Option<Vec3>,
+    /// Last known velocity of each neighbour (same order), length unit/s.
+    pub neighbour_velocities: Vec<Vec3>,
+    /// Age of the coordinator's information on each neighbour at the command's tick (same
+    /// order), s; the vehicle adds the command's own age when it steps on an old command.
+    pub neighbour_ages: Vec<f64>,
+    /// This vehicle's own slot at the command's tick, length unit (None: the coordinator
+    /// sent none; under `control.law = "robust"` it sends every member's).
+    pub slot: Option<Vec3>,
     /// Approach speed of the homing law relative to the body, length unit/s: the body's
     /// nominal speed `body.v0`, which every vehicle flies anyway.
     pub rejoin_speed: f64,
@@ -220,6 +241,7 @@ impl Guidance {
             })
             .collect();
         self.neighbour_slots = others
+            .clone()
             .map(|e| {
                 if e.rejoining != 0 {
                     to_vec3(&e.target)
@@ -228,10 +250,13 @@ impl Guidance {
                 }
             })
             .collect();
-        self.target = snapshot
+        self.neighbour_velocities = others.clone().map(|e| to_vec3(&e.velocity)).collect();
+        self.neighbour_ages = others.map(|e| e.age).collect();
+        let own = snapshot
             .iter()
-            .find(|e| e.id == id && e.alive != SnapshotEntry::LOST && e.rejoining != 0)
-            .map(|e| to_vec3(&e.target));
+            .find(|e| e.id == id && e.alive != SnapshotEntry::LOST);
+        self.target = own.filter(|e| e.rejoining != 0).map(|e| to_vec3(&e.target));
+        self.slot = own.filter(|e| e.has_slot != 0).map(|e| to_vec3(&e.slot));
         self
     }
 
@@ -260,6 +285,9 @@ impl Guidance {
             neighbour_slots: Vec::new(),
             target: None,
             rejoin_speed,
+            neighbour_velocities: Vec::new(),
+            neighbour_ages: Vec::new(),
+            slot: None,
         }
     }
 
@@ -284,6 +312,9 @@ impl Guidance {
             neighbour_slots: Vec::new(),
             target: None,
             rejoin_speed: mission.body.v0,
+            neighbour_velocities: Vec::new(),
+            neighbour_ages: Vec::new(),
+            slot: None,
         }
     }
 }
@@ -460,6 +491,7 @@ impl Vehicle {
             let leaders: Vec<Vec3> = g.leaders.iter().map(moved).collect();
             let neighbours: Vec<Vec3> = g.neighbours.iter().map(moved).collect();
             let slots: Vec<Vec3> = g.neighbour_slots.iter().map(moved).collect();
+            let ages: Vec<f64> = g.neighbour_ages.iter().map(|a| a + age).collect();
             let inputs = AgentInputs {
                 leaders: &leaders,
                 neighbours: &neighbours,
@@ -469,6 +501,10 @@ impl Vehicle {
                 neighbour_sigmas: &g.neighbour_sigmas,
                 neighbour_slots: &slots,
                 homing,
+                neighbour_velocities: &g.neighbour_velocities,
+                neighbour_ages: &ages,
+                slot: g.slot.as_ref().map(moved),
+                body_velocity: g.velocity,
             };
             self.agent.step_with(self.law.as_ref(), &inputs, dt);
         } else {
@@ -481,6 +517,10 @@ impl Vehicle {
                 neighbour_sigmas: &g.neighbour_sigmas,
                 neighbour_slots: &g.neighbour_slots,
                 homing,
+                neighbour_velocities: &g.neighbour_velocities,
+                neighbour_ages: &g.neighbour_ages,
+                slot: g.slot,
+                body_velocity: g.velocity,
             };
             self.agent.step_with(self.law.as_ref(), &inputs, dt);
         }

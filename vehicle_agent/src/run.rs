@@ -29,7 +29,7 @@ use vbap_ipc::msg::Header;
 use vbap_ipc::msglog::MsgLog;
 use vbap_ipc::topics::{self, Domain, Limits};
 use vbap_ipc::wait::Wake;
-use vbap_math::law::{ControlLaw, PaperLaw};
+use vbap_math::law::ControlLaw;
 use vbap_mission::config::{Mission, Pace};
 use vbap_mission::link::{Fate, LinkModel};
 
@@ -37,7 +37,8 @@ use self::commands::{CommandFilter, NewCommand};
 use self::outbox::Outbox;
 use crate::{initial_agent, initial_design, Agent, Guidance, Vehicle};
 
-/// Runs vehicle `id` of `mission` under the paper's control law until the mission ends or
+/// Runs vehicle `id` of `mission` under the mission's control law ([`crate::mission_law`])
+/// until the mission ends or
 /// a termination signal. `rejoin`: the process is a restart (the supervisor says so) and
 /// asks to join the mission under way instead of starting at tick 0. `msgs` receives the
 /// message records; `on_ready` is called once every port exists.
@@ -48,7 +49,14 @@ pub fn run(
     msgs: MsgLog,
     on_ready: impl FnOnce(),
 ) -> Result<()> {
-    run_with(mission, id, rejoin, Arc::new(PaperLaw), msgs, on_ready)
+    run_with(
+        mission,
+        id,
+        rejoin,
+        crate::mission_law(mission),
+        msgs,
+        on_ready,
+    )
 }
 
 /// [`run`] with the vehicle flying `law` (a user's own control law).

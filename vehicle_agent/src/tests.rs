@@ -36,6 +36,10 @@ fn no_one<'a>(leaders: &'a [Vec3], leader: PairPotential, damping: f64) -> Agent
         neighbour_sigmas: &[],
         neighbour_slots: &[],
         homing: None,
+        neighbour_velocities: &[],
+        neighbour_ages: &[],
+        slot: None,
+        body_velocity: Vec3::zeros(),
     }
 }
 
@@ -108,6 +112,10 @@ fn a_formation_at_its_slots_with_a_still_body_stays() {
             neighbour_sigmas: &[],
             neighbour_slots: &[],
             homing: None,
+            neighbour_velocities: &[],
+            neighbour_ages: &[],
+            slot: None,
+            body_velocity: Vec3::zeros(),
         };
         let mut agent = Agent {
             id: i as u32,

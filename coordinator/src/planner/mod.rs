@@ -221,6 +221,10 @@ impl Planner {
     pub fn rejoining(&self) -> &BTreeMap<u32, Option<usize>> {
         &self.rejoining
     }
+    /// The law the fleet flies (`control.law`).
+    pub fn law(&self) -> LawKind {
+        self.params.law
+    }
 
     /// One tick `k`. `members` holds the last known report of every vehicle in the
     /// formation, ordered by id (the formation, the Lyapunov function and the swarm

@@ -36,4 +36,10 @@ impl LawKind {
 pub struct ControlSection {
     /// `"paper"` | `"robust"`.
     pub law: LawKind,
+    /// s, > 0: under `law = "robust"`, how fast a relayed neighbour position is forgotten:
+    /// its term of (II.1) is weighed by exp(−age/neighbour_memory) and the vehicle's own slot
+    /// takes over (`vbap_math::robust`). Absent: K·d0²/α of the current (scaled)
+    /// inter-vehicle potential, the damping time of one neighbour spring, which keeps the
+    /// lag of stale neighbours from undoing the damping whatever their age.
+    pub neighbour_memory: Option<f64>,
 }

@@ -108,6 +108,8 @@ const BAD: &[(&str, &str)] = &[
     ("[links]\nburst_enter = 1.5", "links.burst_enter"),
     ("[links]\nburst_enter = 0.1\nburst_exit = 0.0", "links.burst_exit"),
     ("[restart]\nbackoff = 0", "restart.backoff"),
+    ("[control]\nneighbour_memory = 0", "control.neighbour_memory"),
+    ("[control]\nneighbour_memory = -3.0", "control.neighbour_memory"),
     ("[restart]\nvehicles = \"sometimes\"", "restart.vehicles"),
     ("[[faults]]\nkind = \"kill\"\nvehicle = 1\nat = 10.0\nuntil = 20.0", "faults[0].until"),
     ("[[faults]]\nkind = \"kill\"\nvehicle = 4\nat = 1.0", "faults[0].vehicle"),

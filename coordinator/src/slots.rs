@@ -1,0 +1,140 @@
+//! What the swarm snapshot tells a vehicle beyond the paper's neighbour positions: the age
+//! of the coordinator's information on each member and, under `control.law = "robust"`,
+//! every member's own slot (the virtual leader its law falls back on as its neighbours'
+//! positions age, `vbap_math::robust`).
+
+use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+use vbap_ipc::msg::from_vec3;
+use vbap_math::fit::fit_slots;
+use vbap_math::formation::FormationDesign;
+use vbap_math::Vec3;
+
+use crate::planner::{Command, Report};
+
+/// Stamps every member's entry of `snapshot` (ordered by id) with the age of the state it
+/// holds, s: `(k − tick)·dt` for the command of tick `k` (length `dt`, s), `tick` that of
+/// the member's last report in `members` (ordered by id). Other entries keep age 0.
+pub fn annotate(snapshot: &mut [SnapshotEntry], k: u64, dt: f64, members: &[Report]) {
+    for e in snapshot.iter_mut() {
+        if let Ok(i) = members.binary_search_by_key(&e.id, |r| r.id) {
+            e.age = k.saturating_sub(members[i].tick) as f64 * dt;
+        }
+    }
+}
+
+/// Every member's slot at the tick of `command` (inertial, length unit), by id: a
+/// rejoining member's is the slot it flies to (`command.rejoining`); the others' are the
+/// slots of `design`, moved by the command's body, fitted to the members' positions as the
+/// coordinator knows them (`vbap_math::fit::fit_slots`: each vehicle to a distinct slot
+/// and, for central designs, free to turn about the centre, the turn that fits them best).
+/// A member left without a slot (more members than slots) has none.
+pub fn member_slots(
+    design: &FormationDesign,
+    command: &Command,
+    members: &[Report],
+) -> Vec<(u32, Vec3)> {
+    let body = &command.body;
+    let positions: Vec<Vec3> = members.iter().map(|r| r.position).collect();
+    let fit = fit_slots(&positions, design, body, design.dim);
+    members
+        .iter()
+        .zip(&fit.slot)
+        .filter_map(|(r, slot)| {
+            if let Some((_, target)) = command.rejoining.iter().find(|(id, _)| *id == r.id) {
+                return Some((r.id, *target));
+            }
+            let p = design.slots.get((*slot)?)?;
+            Some((r.id, body.r + fit.rotation * (body.scale * p)))
+        })
+        .collect()
+}
+
+/// Writes `slots` (by id) into the entries of `snapshot`.
+pub fn give_slots(snapshot: &mut [SnapshotEntry], slots: &[(u32, Vec3)]) {
+    for (id, slot) in slots {
+        if let Some(e) = snapshot.iter_mut().find(|e| e.id == *id) {
+            e.slot = from_vec3(slot);
+            e.has_slot = 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vbap_math::formation::design_regular;
+
+    #[test]
+    fn ages_count_from_each_members_last_report() {
+        let report = |id, tick| Report {
+            id,
+            tick,
+            position: Vec3::zeros(),
+            velocity: Vec3::zeros(),
+            measurement: 0.0,
+        };
+        let members = [report(0, 10), report(2, 7)];
+        let mut snapshot: Vec<SnapshotEntry> = [0, 1, 2]
+            .iter()
+            .map(|&id| SnapshotEntry {
+                id,
+                ..SnapshotEntry::default()
+            })
+            .collect();
+        annotate(&mut snapshot, 10, 0.5, &members);
+        let ages: Vec<f64> = snapshot.iter().map(|e| e.age).collect();
+        assert_eq!(ages, vec![0.0, 0.0, 1.5]);
+    }
+
+    #[test]
+    fn members_in_a_turned_polygon_get_the_turned_slots() {
+        // A hexagon turned by 0.2 rad about its centre, vehicles a little off their slots:
+        // each gets its own vertex of the turned hexagon.
+        let design = design_regular(6, 2, 1.5, 1.0, 1.0).unwrap();
+        let body = vbap_math::body::VirtualBody {
+            s: 0.0,
+            r: Vec3::new(3.0, -1.0, 0.0),
+            rotation: nalgebra::Rotation3::identity(),
+            scale: 1.0,
+        };
+        let turn = nalgebra::Rotation3::from_axis_angle(&Vec3::z_axis(), 0.2);
+        let truth: Vec<Vec3> = design.slots.iter().map(|p| body.r + turn * p).collect();
+        let members: Vec<Report> = (0..6)
+            .map(|i| Report {
+                id: i as u32,
+                tick: 0,
+                position: truth[i] + Vec3::new(0.05, -0.03 * i as f64, 0.0),
+                velocity: Vec3::zeros(),
+                measurement: 0.0,
+            })
+            .collect();
+        let command = Command {
+            body,
+            sdot: 0.0,
+            velocity: Vec3::zeros(),
+            leaders: vec![],
+            inter: design.inter,
+            leader: design.leader,
+            damping: 1.0,
+            terms: Default::default(),
+            grad_est: Vec3::zeros(),
+            p_trace: 0.0,
+            holding: false,
+            estimate_failed: false,
+            reconfigured: false,
+            members: (0..6).collect(),
+            rejoining: vec![(5, Vec3::new(9.0, 9.0, 0.0))],
+        };
+        let slots = member_slots(&design, &command, &members);
+        assert_eq!(slots.len(), 6);
+        for (id, slot) in &slots[..5] {
+            let e = (slot - truth[*id as usize]).norm();
+            assert!(e < 0.1, "vehicle {id}: {e} from its turned slot");
+        }
+        assert_eq!(
+            slots[5],
+            (5, Vec3::new(9.0, 9.0, 0.0)),
+            "a rejoiner's target"
+        );
+    }
+}

@@ -1,0 +1,180 @@
+use super::*;
+use crate::control::integrate;
+use crate::rejoin::Homing;
+
+fn pots() -> (PairPotential, PairPotential) {
+    // A hexagon of radius 1.5: side d0 = 1.5, leader h0 = 1.5.
+    (
+        PairPotential::new(1.0, 1.5, 2.25).unwrap(),
+        PairPotential::new(1.0, 1.5, 6.0).unwrap(),
+    )
+}
+
+fn inputs<'a>(
+    leaders: &'a [Vec3],
+    neighbours: &'a [Vec3],
+    velocities: &'a [Vec3],
+    ages: &'a [f64],
+    slot: Option<Vec3>,
+) -> ControlInputs<'a> {
+    let (inter, leader) = pots();
+    ControlInputs {
+        leaders,
+        neighbours,
+        inter,
+        leader,
+        damping: 1.0,
+        neighbour_sigmas: &[],
+        neighbour_slots: &[],
+        homing: None,
+        neighbour_velocities: velocities,
+        neighbour_ages: ages,
+        slot,
+        body_velocity: Vec3::new(0.3, 0.1, 0.0),
+    }
+}
+
+#[test]
+fn fresh_information_gives_the_paper_law_bit_for_bit() {
+    let x = Vec3::new(1.4, 0.2, 0.0);
+    let v = Vec3::new(0.2, -0.1, 0.0);
+    let leaders = [Vec3::new(0.05, 0.0, 0.0)];
+    let nb = [Vec3::new(0.8, 1.2, 0.0), Vec3::new(0.7, -1.4, 0.0)];
+    let vel = [Vec3::new(0.5, 0.0, 0.0), Vec3::new(-0.2, 0.4, 0.0)];
+    let slot = Some(Vec3::new(1.5, 0.0, 0.0));
+    for ages in [&[0.0, 0.0][..], &[][..]] {
+        let inp = inputs(&leaders, &nb, &vel, ages, slot);
+        for memory in [None, Some(3.0)] {
+            let u = RobustLaw::new(memory).control(&x, &v, &inp);
+            assert_eq!(u, PaperLaw.control(&x, &v, &inp), "ages {ages:?}");
+        }
+    }
+    // While a neighbour rejoins too (the blended law of `rejoin`).
+    let mut inp = inputs(&leaders, &nb, &vel, &[0.0, 0.0], slot);
+    let ghosts = [Vec3::new(0.75, 1.3, 0.0), Vec3::zeros()];
+    inp.neighbour_sigmas = &[0.6, 0.0];
+    inp.neighbour_slots = &ghosts;
+    inp.homing = Some(Homing {
+        sigma: 0.3,
+        velocity: Vec3::new(0.1, 0.2, 0.0),
+    });
+    let u = RobustLaw::default().control(&x, &v, &inp);
+    assert_eq!(u, PaperLaw.control(&x, &v, &inp));
+}
+
+#[test]
+fn fading_is_monotone_and_takes_the_neighbour_force_with_it() {
+    let tau = 2.0;
+    assert_eq!(fade(0.0, tau), 1.0);
+    assert_eq!(fade(-1.0, tau), 1.0);
+    assert_eq!(fade(5.0, f64::INFINITY), 1.0);
+    let mut last = 1.0;
+    for i in 1..200 {
+        let w = fade(0.05 * i as f64, tau);
+        assert!(
+            w < last && w > 0.0,
+            "age {}: {w} after {last}",
+            0.05 * i as f64
+        );
+        last = w;
+    }
+    assert!((fade(tau, tau) - (-1.0f64).exp()).abs() < 1e-15);
+    // One neighbour too close, no leader, no slot, at rest: the repulsion alone, which
+    // shrinks with the age of the neighbour's position.
+    let x = Vec3::zeros();
+    let nb = [Vec3::new(1.0, 0.0, 0.0)];
+    let mut last = f64::INFINITY;
+    for age in [0.0, 0.1, 0.5, 1.0, 3.0, 10.0] {
+        let ages = [age];
+        let inp = inputs(&[], &nb, &[], &ages, None);
+        let u = RobustLaw::new(Some(tau)).control(&x, &Vec3::zeros(), &inp);
+        let expected = fade(age, tau) * pots().0.force(1.0).abs();
+        assert!(
+            (u.norm() - expected).abs() < 1e-12 * expected.max(1.0),
+            "{age}"
+        );
+        assert!(u.x < 0.0 && u.norm() < last, "repelled, less with age");
+        last = u.norm();
+    }
+}
+
+#[test]
+fn a_vehicle_with_only_stale_neighbours_holds_its_slot() {
+    // One central leader (a hexagon's): its potential alone leaves the vehicle's angle free.
+    // Neighbours known only from hours ago, wrongly placed: the slot spring brings the
+    // vehicle to its slot, moving with the body, and keeps it there.
+    let (inter, leader) = pots();
+    let body_velocity = Vec3::new(0.3, 0.1, 0.0);
+    let slot0 = Vec3::new(0.0, 1.5, 0.0);
+    let (mut x, mut v) = (Vec3::new(1.2, 0.6, 0.0), Vec3::zeros());
+    let stale = [Vec3::new(0.9, 0.9, 0.0), Vec3::new(-1.0, 0.3, 0.0)];
+    let vel = [Vec3::new(0.4, 0.0, 0.0), Vec3::zeros()];
+    let ages = [3600.0, 7200.0];
+    let dt = 0.02;
+    let law = RobustLaw::default();
+    let mut paper = (x, v);
+    for step in 0..6000 {
+        let shift = body_velocity * (step as f64 * dt);
+        let leaders = [shift];
+        let neighbours: Vec<Vec3> = stale.iter().map(|p| p + shift).collect();
+        let mut inp = inputs(&leaders, &neighbours, &vel, &ages, Some(slot0 + shift));
+        inp.inter = inter;
+        inp.leader = leader;
+        let u = law.control(&x, &v, &inp);
+        (x, v) = integrate(&x, &v, &u, dt);
+        let u = PaperLaw.control(&paper.0, &paper.1, &inp);
+        paper = integrate(&paper.0, &paper.1, &u, dt);
+    }
+    let shift = body_velocity * (6000.0 * dt);
+    let error = (x - (slot0 + shift)).norm();
+    assert!(error < 0.01 * 1.5, "slot error {error}");
+    assert!(
+        (v - body_velocity).norm() < 1e-3,
+        "moves with the body: {v}"
+    );
+    // The paper's law, acting on the same stale neighbours, stays far from the slot.
+    let paper_error = (paper.0 - (slot0 + shift)).norm();
+    assert!(
+        paper_error > 0.25 * 1.5,
+        "paper law slot error {paper_error}"
+    );
+}
+
+#[test]
+fn the_prediction_follows_the_relative_velocity_as_damping_takes_it() {
+    let v = Vec3::new(1.0, -2.0, 0.0);
+    let body = Vec3::new(0.5, 0.0, 0.0);
+    let moved = Vec3::new(3.0, 4.0, 0.0);
+    assert_eq!(predict_neighbour(&moved, &v, &body, 0.0, 0.5), moved);
+    // Short ages: (v − ṙ) a; long ages: (v − ṙ)/K.
+    let short = relative_drift(&v, &body, 1e-4, 0.5);
+    // The next term is −K a²/2 (v − ṙ): 5e-9 here.
+    assert!((short - (v - body) * 1e-4).norm() < 1e-8);
+    let long = relative_drift(&v, &body, 1e3, 0.5);
+    assert!((long - (v - body) / 0.5).norm() < 1e-12);
+    assert_eq!(relative_drift(&v, &body, 2.0, 0.0), (v - body) * 2.0);
+    let p = predict_neighbour(&moved, &v, &body, 2.0, 0.5);
+    let reach = (1.0 - (-1.0f64).exp()) / 0.5;
+    assert!((p - (moved + (v - body) * reach)).norm() < 1e-14);
+}
+
+#[test]
+fn the_default_memory_is_the_damping_time_of_a_neighbour_spring() {
+    let (inter, leader) = pots();
+    // K = 1/s, κ_I = α/d0² = 1/2.25 per s²: τ = 2.25 s.
+    assert!((derived_memory(&inter, 1.0) - 2.25).abs() < 1e-15);
+    // A formation shrunk to k = 0.2 is 25 × stiffer: it forgets 25 × sooner.
+    let small = PairPotential::new(1.0, 0.3, 0.45).unwrap();
+    assert!((derived_memory(&small, 1.0) - 0.09).abs() < 1e-15);
+    assert!((slot_stiffness(&leader) - 1.0 / 2.25).abs() < 1e-15);
+    // The anti-damping κ a w(a) never exceeds K/e.
+    let kappa = inter.alpha / (inter.d0 * inter.d0);
+    let tau = derived_memory(&inter, 1.0);
+    let worst = (1..10_000)
+        .map(|i| {
+            let a = 0.001 * i as f64;
+            kappa * a * fade(a, tau)
+        })
+        .fold(0.0, f64::max);
+    assert!(worst <= 1.0 / std::f64::consts::E + 1e-12, "{worst}");
+}
