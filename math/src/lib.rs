@@ -6,7 +6,8 @@
 //! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`] (and
 //! [`law`], the control law as an extension point),
 //! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design;
-//! bringing a vehicle back from anywhere: [`rejoin`].
+//! bringing a vehicle back from anywhere: [`rejoin`]; the body's path committed ahead for
+//! vehicles out of contact (beyond the paper): [`schedule`].
 //! Gradient estimation (Section V): [`estimate`], [`optimal`], [`kalman`], [`convergence`],
 //! [`adapt`].
 //!
@@ -29,6 +30,7 @@ pub mod optimal;
 pub mod potential;
 pub mod rejoin;
 pub mod rng;
+pub mod schedule;
 pub mod speed;
 
 /// A point or vector in the inertial frame (length unit of the mission).

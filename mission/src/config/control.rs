@@ -36,4 +36,8 @@ impl LawKind {
 pub struct ControlSection {
     /// `"paper"` | `"robust"`.
     pub law: LawKind,
+    /// Plan horizon H of the robust law, s, ≥ 0: how far ahead the body's path is
+    /// committed (the longest a vehicle may go without a fresh command). Absent: derived
+    /// from `[links]` (`crate::horizon::plan_horizon`). Unused by `law = "paper"`.
+    pub plan_horizon: Option<f64>,
 }
