@@ -67,6 +67,10 @@ pub struct PlannerParams {
     /// `Mission::plan_horizon_ticks`.
     #[serde(default)]
     pub plan_ticks: u64,
+    /// True when the mission configures `formation.hessian_guess` (the identity stands in
+    /// otherwise): only a configured curvature predicts the gradient ahead of the plan.
+    #[serde(default)]
+    pub hessian_configured: bool,
 }
 
 impl PlannerParams {
@@ -94,6 +98,7 @@ impl PlannerParams {
             initial_variance: m.estimator.initial_variance,
             law: m.control.law,
             plan_ticks: m.plan_horizon_ticks(),
+            hessian_configured: m.formation.hessian_guess.is_some(),
         }
     }
 }
