@@ -265,11 +265,10 @@ mod tests {
         // Every command's plan predicts the body of every later tick within the horizon.
         for (c, cmd) in commands.iter().enumerate() {
             let sched = cmd.schedule.as_ref().unwrap();
-            for j in c..(c + h as usize + 1).min(commands.len()) {
+            for (j, later) in commands.iter().enumerate().skip(c).take(h as usize + 1) {
                 let (r, k) = sched.predict(c as u64, j as u64, cmd.body.r, cmd.body.scale, 0.1);
-                let body = &commands[j].body;
-                assert!((r - body.r).norm() < 1e-9, "command {c}, tick {j}");
-                assert!((k - body.scale).abs() < 1e-9, "command {c}, tick {j}");
+                assert!((r - later.body.r).norm() < 1e-9, "command {c}, tick {j}");
+                assert!((k - later.body.scale).abs() < 1e-9, "command {c}, tick {j}");
             }
         }
     }
