@@ -131,7 +131,8 @@ pub fn simulate_with(
                 command.velocity,
                 mission.body.v0,
             )
-            .with_neighbours(id, &snapshot);
+            .with_neighbours(id, &snapshot)
+            .with_plan(command.schedule.clone(), command.body.r, command.body.scale);
             veh.on_command(fleet.model(), guidance, k, dt);
         }
         fleet.end_tick();

@@ -391,4 +391,74 @@ mod tests {
         assert_eq!(again.marks, marks);
         let _ = std::fs::remove_dir_all(&root);
     }
+
+    /// A robust planner's committed body path survives a checkpoint: the resumed planner
+    /// steps on exactly as the one that wrote it, and the re-sent command carries the plan.
+    #[test]
+    fn a_resumed_planner_keeps_its_committed_path() {
+        let m = Mission::from_toml_str(
+            "[mission]\nname = \"t\"\ndt = 0.1\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 4\n[links]\ndelay = 0.5\nloss = 0.1\n[control]\nlaw = \"robust\"\n",
+            "<test>",
+        )
+        .unwrap();
+        let root = std::env::temp_dir().join(format!("vbap-cp-plan-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = RunDir::create(&root).unwrap();
+        let ids = [0, 1, 2, 3];
+        let fleet = Fleet::new(&m, &ids);
+        let mut planner =
+            Planner::new(PlannerParams::from_mission(&m), m.start_vec(), &ids).unwrap();
+        let reports = |k: u64, r: Vec3| -> Vec<Report> {
+            ids.iter()
+                .map(|&id| Report {
+                    id,
+                    tick: k.saturating_sub(5),
+                    position: r + Vec3::new(f64::from(id).cos(), f64::from(id).sin(), 0.0),
+                    velocity: Vec3::new(0.2, 0.1, 0.0),
+                    measurement: 1.0 + 0.3 * f64::from(id) + 0.02 * k as f64,
+                })
+                .collect()
+        };
+        let mut last = None;
+        for k in 0..60 {
+            let q = reports(k, planner.body().r);
+            last = Some(planner.step(k, &q, &q, &[], 0.1).unwrap());
+        }
+        let command = last.unwrap();
+        let body = BodyRecord::from_command(59, 0.1, &command, Vec::new());
+        assert!(
+            !body.plan.is_empty() && body.plan_ticks > 0,
+            "the record carries the plan"
+        );
+        let mut writer = CheckpointWriter::open(&dir, None).unwrap();
+        CheckpointRef {
+            next_tick: 60,
+            planner: &planner,
+            fleet: &fleet,
+            stats: &RecorderStats::default(),
+            offsets: FileOffsets::default(),
+            counts: MessageCounts::default(),
+            sent: 60,
+            late_ticks: 0,
+            detection_ms: &[],
+            rejoin_ms: &[],
+            peers: &[],
+            body: &body,
+            clock_start_ns: None,
+            journal: JournalMarks::default(),
+        }
+        .save_with(&mut writer)
+        .unwrap();
+        let back = Checkpoint::<Planner>::load(&dir).unwrap().unwrap();
+        assert_eq!(back.body, body);
+        let mut resumed = back.planner;
+        for k in 60..120 {
+            let q = reports(k, planner.body().r);
+            let a = planner.step(k, &q, &q, &[], 0.1).unwrap();
+            let b = resumed.step(k, &q, &q, &[], 0.1).unwrap();
+            assert_eq!(a, b, "tick {k}");
+            assert!(a.schedule.is_some());
+        }
+        let _ = std::fs::remove_dir_all(&root);
+    }
 }

@@ -6,6 +6,7 @@
 
 use vbap_ipc::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
 use vbap_ipc::msg::{from_potential, from_vec3, Header, MAX_LEADERS, MAX_VEHICLES};
+use vbap_math::schedule::MAX_PLAN;
 
 use crate::planner::Command;
 
@@ -41,6 +42,15 @@ pub struct BodyRecord {
     pub leaders: Vec<[f64; 3]>,
     /// Every vehicle's last known state, ordered by id.
     pub snapshot: Vec<SnapshotEntry>,
+    /// Committed body path (robust law): first tick of `plan[0]` (`vbap_math::schedule`).
+    #[serde(default)]
+    pub plan_start: u64,
+    /// Ticks per segment of the committed path (0: none).
+    #[serde(default)]
+    pub plan_ticks: u64,
+    /// Segments of the committed path (velocity x, y, z, length unit/s; dk/dt, 1/s; ṡ, 1/s).
+    #[serde(default)]
+    pub plan: Vec<[f64; 5]>,
 }
 
 impl BodyRecord {
@@ -62,6 +72,11 @@ impl BodyRecord {
             velocity: from_vec3(&command.velocity),
             leaders: command.leaders.iter().map(from_vec3).collect(),
             snapshot,
+            plan_start: command.schedule.as_ref().map_or(0, |s| s.start),
+            plan_ticks: command.schedule.as_ref().map_or(0, |s| s.seg_ticks),
+            plan: command.schedule.as_ref().map_or_else(Vec::new, |s| {
+                s.segments.iter().map(|g| g.to_array()).collect()
+            }),
         }
     }
 
@@ -89,6 +104,11 @@ impl BodyRecord {
         let n_v = self.snapshot.len().min(MAX_VEHICLES);
         body.n_vehicles = n_v as u32;
         body.snapshot[..n_v].copy_from_slice(&self.snapshot[..n_v]);
+        let n_p = self.plan.len().min(MAX_PLAN);
+        body.plan_start = self.plan_start;
+        body.plan_ticks = self.plan_ticks;
+        body.n_plan = n_p as u32;
+        body.plan[..n_p].copy_from_slice(&self.plan[..n_p]);
     }
 }
 
@@ -99,6 +119,7 @@ pub fn fill_finished(body: &mut BodyCommand, k: u64, dt: f64) {
         Header::new(Header::COORDINATOR, k, k as f64 * dt, k + 1).with_flags(BodyCommand::FINISHED);
     body.n_leaders = 0;
     body.n_vehicles = 0;
+    body.n_plan = 0;
 }
 
 #[cfg(test)]

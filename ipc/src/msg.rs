@@ -7,6 +7,7 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 use vbap_math::potential::PairPotential;
+use vbap_math::schedule::{BodySchedule, Segment, MAX_PLAN};
 use vbap_math::Vec3;
 
 /// Largest fleet a mission may have (fixed capacity of the swarm snapshot).
@@ -212,7 +213,7 @@ pub mod coordinator_to_agent {
     /// Agents read it in place (zero copy).
     #[derive(Debug, Clone, Copy, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.BodyCommand.v4")]
+    #[type_name("vbap.BodyCommand.v5")]
     pub struct BodyCommand {
         pub header: Header,
         /// Virtual body parameter s.
@@ -240,6 +241,18 @@ pub mod coordinator_to_agent {
         pub leaders: [[f64; 3]; MAX_LEADERS],
         /// Every vehicle's last known state at this tick, ordered by id.
         pub snapshot: [SnapshotEntry; MAX_VEHICLES],
+        /// Committed body path (robust law, `vbap_math::schedule`): first tick of
+        /// `plan[0]`, relative to the body (`r`, `scale`) of this command.
+        pub plan_start: u64,
+        /// Ticks per segment of the committed path.
+        pub plan_ticks: u64,
+        /// Number of valid entries in `plan` (0: no committed path, dead-reckon at
+        /// `velocity`).
+        pub n_plan: u32,
+        pub _plan_pad: u32,
+        /// Segments of the committed path: velocity dr/dt (length unit/s, 3 numbers),
+        /// scale rate dk/dt (1/s), ṡ (1/s).
+        pub plan: [[f64; 5]; MAX_PLAN],
     }
 
     impl BodyCommand {
@@ -264,7 +277,22 @@ pub mod coordinator_to_agent {
                 n_vehicles: 0,
                 leaders: [[0.0; 3]; MAX_LEADERS],
                 snapshot: [SnapshotEntry::default(); MAX_VEHICLES],
+                plan_start: 0,
+                plan_ticks: 0,
+                n_plan: 0,
+                _plan_pad: 0,
+                plan: [[0.0; 5]; MAX_PLAN],
             }
+        }
+
+        /// The committed body path, if the command carries one.
+        pub fn schedule(&self) -> Option<BodySchedule> {
+            let n = (self.n_plan as usize).min(MAX_PLAN);
+            (n > 0 && self.plan_ticks > 0).then(|| BodySchedule {
+                start: self.plan_start,
+                seg_ticks: self.plan_ticks,
+                segments: self.plan[..n].iter().map(Segment::from_array).collect(),
+            })
         }
 
         /// The virtual leader positions b_l(s) in use, length unit.
@@ -297,6 +325,12 @@ pub mod coordinator_to_agent {
                     .chain(self.leader.iter())
                     .all(|v| v.is_finite())
                 && self.leaders[..n_l].iter().flatten().all(|v| v.is_finite())
+                && (self.n_plan as usize) <= MAX_PLAN
+                && (self.n_plan == 0 || self.plan_ticks > 0)
+                && self.plan[..(self.n_plan as usize).min(MAX_PLAN)]
+                    .iter()
+                    .flatten()
+                    .all(|v| v.is_finite())
                 && self.snapshot[..n_v].iter().all(|e| {
                     e.position
                         .iter()

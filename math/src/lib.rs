@@ -6,8 +6,9 @@
 //! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`] (and
 //! [`law`], the control law as an extension point),
 //! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design;
-//! bringing a vehicle back from anywhere: [`rejoin`]; control with stale neighbour
-//! information (beyond the paper): [`robust`].
+//! bringing a vehicle back from anywhere: [`rejoin`]; beyond the paper, for links that
+//! are not continuous: control with stale neighbour information ([`robust`]) and the
+//! body's path committed ahead for vehicles out of contact ([`schedule`]).
 //! Gradient estimation (Section V): [`estimate`], [`optimal`], [`kalman`], [`convergence`],
 //! [`adapt`].
 //!
@@ -31,6 +32,7 @@ pub mod potential;
 pub mod rejoin;
 pub mod rng;
 pub mod robust;
+pub mod schedule;
 pub mod speed;
 
 /// A point or vector in the inertial frame (length unit of the mission).

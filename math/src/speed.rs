@@ -56,6 +56,65 @@ pub fn formation_speed(terms: &LyapunovTerms, v0: f64, v_u: f64, delta: f64) -> 
     }
 }
 
+/// Confidence in [0, 1] in the velocities the coordinator knows, when the oldest of them
+/// is `max_age` s old (beyond the paper): exp(−max_age·damping). A vehicle's velocity
+/// forgets itself over the damping time 1/K of (II.1), so information that old says
+/// little about the velocity now. 1 exactly for fresh information (`max_age` = 0).
+pub fn information_confidence(max_age: f64, damping: f64) -> f64 {
+    if max_age <= 0.0 {
+        return 1.0;
+    }
+    let c = (-max_age * damping.max(0.0)).exp();
+    if c.is_finite() {
+        c.clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// The formation speed of (IV.4) for inputs of confidence `confidence` in [0, 1] (beyond
+/// the paper: [`information_confidence`]), 1/s:
+///
+/// `ṡ = min{ v0, h(V) + min(B, h(V)) + c·max(B − h(V), 0) }`, B the second term of (IV.4).
+///
+/// The second term B lets the body move while V ≥ V_U/2 because the formation is seen to
+/// dissipate energy (−(∂V/∂x)ᵀẋ = K Σ|ẋ_i|²). That dissipation is computed from the
+/// vehicles' velocities, which are what a stale report knows least: with stale inputs
+/// (c → 0) B never counts for more than h(V), so at V ≥ V_U/2 the body stops, and only
+/// fresh information (c = 1) gives the paper's law. For c ≥ 1 this is exactly
+/// [`formation_speed`].
+pub fn formation_speed_informed(
+    terms: &LyapunovTerms,
+    v0: f64,
+    v_u: f64,
+    delta: f64,
+    confidence: f64,
+) -> f64 {
+    let paper = formation_speed(terms, v0, v_u, delta);
+    if confidence >= 1.0 || paper <= 0.0 {
+        return paper;
+    }
+    // paper > 0: every input is finite and V_U, δ > 0 (see [`formation_speed`]).
+    let LyapunovTerms {
+        v,
+        dv_ds,
+        dv_dx_xdot,
+    } = *terms;
+    let h = h_bump(v, v0, v_u);
+    let b = -dv_dx_xdot * (delta + v_u) / (delta + dv_ds.abs() * (delta + v.max(0.0)));
+    let c = if confidence.is_finite() {
+        confidence.max(0.0)
+    } else {
+        0.0
+    };
+    let sdot = v0.min(h + b.min(h) + c * (b - h).max(0.0));
+    if sdot.is_finite() && sdot > 0.0 {
+        sdot
+    } else {
+        0.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -262,5 +321,56 @@ mod tests {
         let (max_v, s10) = theorem_4_1_run(2.0);
         assert!(max_v > 0.99, "max V = {max_v}");
         assert!(s10 > 1.0 && s10 < 6.0, "s(10 s) = {s10}");
+    }
+
+    #[test]
+    fn stale_inputs_never_let_the_second_term_outweigh_the_bump() {
+        let (v0, vu, delta) = (0.5, 1.0, 0.01);
+        let cases = [
+            (0.1, 0.3, -0.002),
+            (0.45, 0.1, -0.5),
+            (0.6, 0.2, -0.3),
+            (0.9, 0.05, -2.0),
+            (0.0, 0.0, 0.0),
+        ];
+        for (v, dv_ds, dv_dx) in cases {
+            let t = LyapunovTerms {
+                v,
+                dv_ds,
+                dv_dx_xdot: dv_dx,
+            };
+            let paper = formation_speed(&t, v0, vu, delta);
+            assert_eq!(formation_speed_informed(&t, v0, vu, delta, 1.0), paper);
+            let h = h_bump(v, v0, vu);
+            let blind = formation_speed_informed(&t, v0, vu, delta, 0.0);
+            assert!(
+                blind <= (2.0 * h).min(v0) + 1e-15,
+                "{t:?}: {blind} vs h {h}"
+            );
+            assert!(blind <= paper + 1e-15);
+            // Monotone in the confidence, from blind to the paper's.
+            let mut last = blind;
+            for c in [0.1, 0.5, 0.9, 0.999] {
+                let s = formation_speed_informed(&t, v0, vu, delta, c);
+                assert!(s + 1e-15 >= last && s <= paper + 1e-15, "{t:?} c {c}");
+                last = s;
+            }
+        }
+        // V ≥ V_U/2 with a strongly dissipating formation: the paper moves, blind stops.
+        let t = LyapunovTerms {
+            v: 0.6,
+            dv_ds: 0.2,
+            dv_dx_xdot: -0.3,
+        };
+        assert!(formation_speed(&t, v0, vu, delta) > 0.4);
+        assert_eq!(formation_speed_informed(&t, v0, vu, delta, 0.0), 0.0);
+    }
+
+    #[test]
+    fn confidence_decays_with_age_over_the_damping_time() {
+        assert_eq!(information_confidence(0.0, 1.0), 1.0);
+        assert!((information_confidence(1.0, 1.0) - (-1.0f64).exp()).abs() < 1e-15);
+        assert!((information_confidence(7200.0, 0.01) - (-72.0f64).exp()).abs() < 1e-40);
+        assert_eq!(information_confidence(f64::INFINITY, 1.0), 0.0);
     }
 }

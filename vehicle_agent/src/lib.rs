@@ -22,6 +22,7 @@ pub use vbap_math::law::{ControlInputs, ControlLaw, PaperLaw, RobustLaw};
 use vbap_math::potential::PairPotential;
 use vbap_math::rejoin::{homing_weight, Homing};
 use vbap_math::rng::{keyed, Stream};
+use vbap_math::schedule::{BodyPlan, BodySchedule};
 use vbap_math::Vec3;
 use vbap_mission::config::{LawKind, Mission};
 use vbap_mission::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
@@ -211,6 +212,10 @@ pub struct Guidance {
     /// Approach speed of the homing law relative to the body, length unit/s: the body's
     /// nominal speed `body.v0`, which every vehicle flies anyway.
     pub rejoin_speed: f64,
+    /// The body of the command and its committed path (robust law,
+    /// `vbap_math::schedule`): out of contact the vehicle predicts the body from it
+    /// instead of dead-reckoning at `velocity` (None: the paper's dead reckoning).
+    pub plan: Option<BodyPlan>,
 }
 
 impl Guidance {
@@ -288,7 +293,20 @@ impl Guidance {
             neighbour_velocities: Vec::new(),
             neighbour_ages: Vec::new(),
             slot: None,
+            plan: None,
         }
+    }
+
+    /// This guidance with the committed path `schedule` of its command, whose body is
+    /// centred on `r` at scale `scale` (None: no committed path).
+    pub fn with_plan(mut self, schedule: Option<BodySchedule>, r: Vec3, scale: f64) -> Self {
+        self.plan = schedule.map(|schedule| BodyPlan {
+            tick: self.tick,
+            r,
+            scale,
+            schedule,
+        });
+        self
     }
 
     /// The guidance a vehicle starts with before it hears anything: the leaders of the
@@ -315,6 +333,7 @@ impl Guidance {
             neighbour_velocities: Vec::new(),
             neighbour_ages: Vec::new(),
             slot: None,
+            plan: None,
         }
     }
 }
@@ -474,15 +493,29 @@ impl Vehicle {
         let g = &self.current;
         let age = k.saturating_sub(g.tick) as f64 * dt;
         // Out of contact: dead-reckon the virtual body (leaders, neighbours, own slot) from
-        // the last command.
+        // the last command: along its committed path when it carries one (robust law:
+        // centre, scale and the scaled potentials of (III.3)), else at its velocity.
+        let planned = g.plan.as_ref().filter(|_| age > 0.0).map(|p| p.at(k, dt));
         let shift = g.velocity * age;
-        let moved = |p: &Vec3| if age > 0.0 { p + shift } else { *p };
+        let moved = |p: &Vec3| match &planned {
+            Some(body) => body.carry(p),
+            None if age > 0.0 => p + shift,
+            None => *p,
+        };
+        let (inter, leader, body_velocity) = match &planned {
+            Some(b) => (
+                g.inter.scaled(b.ratio),
+                g.leader.scaled(b.ratio),
+                b.velocity,
+            ),
+            None => (g.inter, g.leader, g.velocity),
+        };
         let homing = g.target.map(|t| {
             Homing::towards(
                 &self.agent.position,
                 &moved(&t),
-                g.inter.d0,
-                &g.velocity,
+                inter.d0,
+                &body_velocity,
                 g.damping,
                 g.rejoin_speed,
             )
@@ -495,8 +528,8 @@ impl Vehicle {
             let inputs = AgentInputs {
                 leaders: &leaders,
                 neighbours: &neighbours,
-                inter: g.inter,
-                leader: g.leader,
+                inter,
+                leader,
                 damping: g.damping,
                 neighbour_sigmas: &g.neighbour_sigmas,
                 neighbour_slots: &slots,
@@ -504,7 +537,7 @@ impl Vehicle {
                 neighbour_velocities: &g.neighbour_velocities,
                 neighbour_ages: &ages,
                 slot: g.slot.as_ref().map(moved),
-                body_velocity: g.velocity,
+                body_velocity,
             };
             self.agent.step_with(self.law.as_ref(), &inputs, dt);
         } else {

@@ -28,9 +28,10 @@ pub(super) fn direction(grad_est: &Vec3, goal: Goal, grad_saturation: f64, holdi
 impl Planner {
     /// Resolution adaptation dk/ds = −a(k d̄0 − Δd) (V.7), 1 per unit of s, with the
     /// target spacing Δd = k* d̄0 of the optimal scale k* (clamped to [min_scale,
-    /// max_scale]) for the σ_M in use; 0 when adaptation is off, when holding, or without a
-    /// finite k*.
-    pub(super) fn scale_rate(&self, holding: bool) -> f64 {
+    /// max_scale]) for the σ_M in use, at the body scale `scale` (the scale now, or under
+    /// a committed path the scale when the decision takes effect); 0 when adaptation is
+    /// off, when holding, or without a finite k*.
+    pub(super) fn scale_rate(&self, holding: bool, scale: f64) -> f64 {
         let p = &self.params;
         if !p.adapt || holding {
             return 0.0;
@@ -46,7 +47,7 @@ impl Planner {
             Ok((k_star, _g)) if k_star.is_finite() => {
                 let d0_bar = self.design.neighbour_spacing();
                 let target = k_star.clamp(p.min_scale, p.max_scale) * d0_bar;
-                dk_ds(self.body.scale, d0_bar, target, p.adapt_gain)
+                dk_ds(scale, d0_bar, target, p.adapt_gain)
             }
             _ => 0.0,
         }

@@ -10,10 +10,12 @@ use vbap_math::formation::{design_regular, FormationDesign, FormationError};
 use vbap_math::kalman::GradientFilter;
 use vbap_math::lyapunov::LyapunovTerms;
 use vbap_math::potential::PairPotential;
-use vbap_math::speed::formation_speed;
+use vbap_math::schedule::{BodySchedule, Segment};
+use vbap_math::speed::formation_speed_informed;
 use vbap_math::{Mat3, Vec3};
 use vbap_mission::config::{Goal, LawKind, Mission};
 
+mod commit;
 mod direction;
 mod estimate;
 mod redesign;
@@ -61,6 +63,14 @@ pub struct PlannerParams {
     pub initial_variance: f64,
     /// `control.law`: the paper's planner, or the one built for real links.
     pub law: LawKind,
+    /// Plan horizon in ticks (robust law; 0: no committed path, the paper's planner),
+    /// `Mission::plan_horizon_ticks`.
+    #[serde(default)]
+    pub plan_ticks: u64,
+    /// True when the mission configures `formation.hessian_guess` (the identity stands in
+    /// otherwise): only a configured curvature predicts the gradient ahead of the plan.
+    #[serde(default)]
+    pub hessian_configured: bool,
 }
 
 impl PlannerParams {
@@ -87,6 +97,8 @@ impl PlannerParams {
             sigma_m_prior: m.field.noise_std,
             initial_variance: m.estimator.initial_variance,
             law: m.control.law,
+            plan_ticks: m.plan_horizon_ticks(),
+            hessian_configured: m.formation.hessian_guess.is_some(),
         }
     }
 }
@@ -100,7 +112,8 @@ pub struct Command {
     /// Formation speed ṡ (IV.4); 0 when holding.
     pub sdot: f64,
     /// Velocity of the virtual body centre, dr/ds·ṡ, length unit/s: vehicles out of
-    /// contact dead-reckon the body with it.
+    /// contact dead-reckon the body with it. Under a committed path (robust law), the
+    /// velocity of the segment in force, and `sdot` the ṡ of that segment.
     pub velocity: Vec3,
     /// Virtual leader positions b_l(s_k) (III.3).
     pub leaders: Vec<Vec3>,
@@ -127,6 +140,9 @@ pub struct Command {
     /// The members still rejoining at this tick and the slot each flies to (inertial,
     /// length unit), ordered by id (`vbap_math::rejoin`).
     pub rejoining: Vec<(u32, Vec3)>,
+    /// The committed body path from this tick on (robust law with a plan horizon; None
+    /// otherwise), `vbap_math::schedule`: `body` follows it.
+    pub schedule: Option<BodySchedule>,
 }
 
 /// Errors of the planner.
@@ -160,6 +176,13 @@ pub struct Planner {
     /// of the rejoining vehicles' homing as the planner models it.
     #[serde(default = "Vec3::zeros")]
     last_velocity: Vec3,
+    /// The committed body path (robust law with a plan horizon; None otherwise).
+    #[serde(default)]
+    schedule: Option<BodySchedule>,
+    /// Under a schedule: the body's scale at each tick a segment came into force, and that
+    /// segment, back to the oldest report in use (the past of the committed path).
+    #[serde(default)]
+    committed: BTreeMap<u64, (f64, Segment)>,
 }
 
 impl Planner {
@@ -177,6 +200,11 @@ impl Planner {
             source,
         })?;
         let noise = NoiseEstimator::new(params.sigma_m_prior, 10.0);
+        let schedule = BodySchedule::at_rest(params.plan_ticks);
+        let committed = match schedule {
+            Some(_) => BTreeMap::from([(0, (1.0, Segment::REST))]),
+            None => BTreeMap::new(),
+        };
         Ok(Self {
             params,
             design,
@@ -194,6 +222,8 @@ impl Planner {
             rejoining: BTreeMap::new(),
             turn: 0.0,
             last_velocity: Vec3::zeros(),
+            schedule,
+            committed,
         })
     }
 
@@ -242,6 +272,9 @@ impl Planner {
         joined: &[u32],
         dt: f64,
     ) -> Result<Command, PlannerError> {
+        let oldest = members.iter().map(|q| q.tick).min().unwrap_or(k);
+        let predicted = self.predicted_members(k, members, dt);
+        let members = predicted.as_deref().unwrap_or(members);
         let ids: Vec<u32> = members.iter().map(|r| r.id).collect();
         let reconfigured = self.follow_membership(&ids, members.is_empty(), joined)?;
         self.bring_back_out_of_reach(members);
@@ -269,22 +302,34 @@ impl Planner {
         let (grad_est, estimate_failed) = self.estimate(k, fresh, dt);
         let p = &self.params;
         let rates = BodyRates {
-            dr_ds: direction(&grad_est, p.goal, p.grad_saturation, holding),
+            dr_ds: direction(
+                &self.gradient_ahead(&grad_est, k, dt),
+                p.goal,
+                p.grad_saturation,
+                holding,
+            ),
             omega_ds: Vec3::zeros(),
-            dk_ds: self.scale_rate(holding),
+            dk_ds: self.scale_rate(holding, self.decision_scale(k, dt)),
         };
         let (terms, waiting) = self.lyapunov(members, &rejoining, &rates);
+        let confidence = self.confidence(k, members, dt);
         let p = &self.params;
         let sdot = if holding {
             0.0
         } else {
-            waiting * formation_speed(&terms, p.v0, p.v_u, p.delta)
+            waiting * formation_speed_informed(&terms, p.v0, p.v_u, p.delta, confidence)
         };
+        let in_force = self.commit(k, &rates, sdot, oldest, dt);
+        let (sdot_now, velocity) = match in_force {
+            Some(seg) => (seg.sdot, seg.velocity),
+            None => (sdot, rates.dr_ds * sdot),
+        };
+        let p = &self.params;
 
         let command = Command {
             body: self.body,
-            sdot,
-            velocity: rates.dr_ds * sdot,
+            sdot: sdot_now,
+            velocity,
             leaders: self.body.leader_positions(&self.design),
             inter: self.body.scaled_inter(&self.design),
             leader: self.body.scaled_leader(&self.design),
@@ -297,9 +342,13 @@ impl Planner {
             reconfigured,
             members: ids,
             rejoining,
+            schedule: self.schedule.clone(),
         };
         self.last_velocity = command.velocity;
-        self.body = self.advanced(&rates, sdot * dt);
+        self.body = match in_force {
+            Some(seg) => self.advanced_committed(&seg, dt),
+            None => self.advanced(&rates, sdot * dt),
+        };
         Ok(command)
     }
 

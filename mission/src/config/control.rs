@@ -42,4 +42,8 @@ pub struct ControlSection {
     /// inter-vehicle potential, the damping time of one neighbour spring, which keeps the
     /// lag of stale neighbours from undoing the damping whatever their age.
     pub neighbour_memory: Option<f64>,
+    /// Plan horizon H of the robust law, s, ≥ 0: how far ahead the body's path is
+    /// committed (the longest a vehicle may go without a fresh command). Absent: derived
+    /// from `[links]` (`crate::horizon::plan_horizon`). Unused by `law = "paper"`.
+    pub plan_horizon: Option<f64>,
 }

@@ -123,7 +123,8 @@ impl CommandFilter {
             to_vec3(&command.velocity),
             self.v0,
         )
-        .with_neighbours(self.id, snapshot);
+        .with_neighbours(self.id, snapshot)
+        .with_plan(command.schedule(), to_vec3(&command.r), command.scale);
         let own = snapshot.iter().find(|e| e.id == self.id).copied();
         (tick, guidance, own)
     }
