@@ -6,7 +6,8 @@
 //! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`] (and
 //! [`law`], the control law as an extension point),
 //! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design;
-//! bringing a vehicle back from anywhere: [`rejoin`].
+//! bringing a vehicle back from anywhere: [`rejoin`]; a redesign without a jump of `V`
+//! (beyond the paper): [`assign`], [`procrustes`], [`bumpless`].
 //! Gradient estimation (Section V): [`estimate`], [`optimal`], [`kalman`], [`convergence`],
 //! [`adapt`].
 //!
@@ -16,7 +17,9 @@
 //! This crate depends on no IPC, I/O, clock or logging crate: the compiler keeps it pure.
 
 pub mod adapt;
+pub mod assign;
 pub mod body;
+pub mod bumpless;
 pub mod control;
 pub mod convergence;
 pub mod estimate;
@@ -27,6 +30,7 @@ pub mod law;
 pub mod lyapunov;
 pub mod optimal;
 pub mod potential;
+pub mod procrustes;
 pub mod rejoin;
 pub mod rng;
 pub mod speed;
