@@ -16,7 +16,7 @@ use super::assign::{assign_nearest, assignment_cost};
 use super::body::{BodyRates, VirtualBody};
 use super::control::control_law;
 use super::formation::FormationDesign;
-use super::lyapunov::lyapunov_terms;
+use super::lyapunov::{lyapunov_terms, potential_energy};
 use super::procrustes::{fit_rotation, fit_similarity, Similarity};
 use super::Vec3;
 
@@ -123,53 +123,108 @@ fn refine(
     })
 }
 
-/// The body the new `design` starts from at a redesign: of the poses [`fit_design`] lays
-/// on the `anchors`, and of `prior` itself (the body as it was), the one with the least
-/// `V` of (II.2) for all the formation's vehicles at `positions` with `velocities`
-/// (length unit, length unit/s; `lyapunov_terms` with damping `damping`, 1/s); ties
-/// (within 1e-9 relative) go to the smaller fit cost, then to the earlier start. Returns
-/// the body, its `V` and the slot of each vehicle of `positions` at that body (the optimal
-/// assignment; empty with more vehicles than slots).
+/// The body the new `design` starts from at a redesign.
+///
+/// The `anchors` are the vehicles that hold the formation (positions and `velocities`,
+/// length unit and length unit/s; at most `design.n()`); the slots they are not assigned
+/// are held by *ghosts* (the vehicles still to come, at `movers`: the coordinator's `V`
+/// counts a vehicle far from its slot at its slot, `vbap_math::rejoin`). Candidates: the
+/// `prior` body (the body as it was) and each pose [`fit_design`] lays on the anchors,
+/// each refined by a compass search on the energy of (II.2) of anchors and ghosts
+/// ([`descend`], its assignment held; up to [`MAX_STARTS_FLEET`] anchors). With no ghost a
+/// central design's slots are then turned onto the anchors (its energy does not see that
+/// turn). Of the candidates whose energy is within `tolerance` (energy per unit mass) of
+/// the least, the one whose free slots are nearest the `movers` (least sum of squared
+/// distances by the optimal assignment: a vehicle flying home to the near side of the
+/// formation does not cross it) is kept; then the least energy, then the smaller fit cost.
+///
+/// Returns the body, `V` there (`lyapunov_terms` of anchors and ghosts, ghosts at rest,
+/// damping `damping`, 1/s) and the slot of each anchor (the optimal assignment at that
+/// body; empty with more anchors than slots).
+#[allow(clippy::too_many_arguments)]
 pub fn bumpless_body(
     anchors: &[Vec3],
-    positions: &[Vec3],
     velocities: &[Vec3],
+    movers: &[Vec3],
     design: &FormationDesign,
     prior: &VirtualBody,
     scale_range: (f64, f64),
     damping: f64,
+    tolerance: f64,
 ) -> (VirtualBody, f64, Vec<usize>) {
-    let v_of = |body: &VirtualBody| {
-        lyapunov_terms(
-            positions,
-            velocities,
-            body,
-            &BodyRates::zero(),
-            design,
-            damping,
-        )
-        .v
+    // The energy itself, not V: V is clamped at 0, which would hide the slope.
+    let kinetic = 0.5 * velocities.iter().map(|v| v.norm_squared()).sum::<f64>();
+    let energy = |body: &VirtualBody, pi: &[usize]| {
+        kinetic
+            + potential_energy(
+                &with_ghosts(anchors, design, body, pi),
+                &body.leader_positions(design),
+                &body.scaled_inter(design),
+                &body.scaled_leader(design),
+            )
     };
-    let mut best = (*prior, v_of(prior), f64::INFINITY);
-    for fit in fit_design(anchors, design, prior, scale_range) {
-        let v = v_of(&fit.body);
-        let tie = (v - best.1).abs() <= 1e-9 * (1.0 + best.1);
-        if (!tie && v < best.1) || (tie && fit.cost < best.2) {
-            best = (fit.body, v, fit.cost);
-        }
-    }
-    let (mut body, v) = if positions.len() <= MAX_STARTS_FLEET {
-        descend(&v_of, best.0, best.1, design, scale_range)
-    } else {
-        (best.0, best.1)
+    let turn = !(anchors.len() >= design.n() && is_central(design));
+    let prior_fit = DesignFit {
+        body: *prior,
+        slots: assign_nearest(anchors, &prior.slot_positions(design)).unwrap_or_default(),
+        cost: f64::INFINITY,
     };
-    if is_central(design) {
-        // V does not see the turn of a central design about its centre: the slots are
-        // turned onto the anchors (assignment and rotation alternated).
-        body.rotation = turn_onto(anchors, design, &body);
+    // (body, energy, fit cost, mover cost) of every candidate.
+    let candidates: Vec<(VirtualBody, f64, f64, f64)> = std::iter::once(prior_fit)
+        .chain(fit_design(anchors, design, prior, scale_range))
+        .map(|fit| {
+            let e0 = energy(&fit.body, &fit.slots);
+            let (mut body, e) = if anchors.len() <= MAX_STARTS_FLEET {
+                let e = |b: &VirtualBody| energy(b, &fit.slots);
+                descend(&e, fit.body, e0, design, scale_range, turn)
+            } else {
+                (fit.body, e0)
+            };
+            if !turn {
+                body.rotation = turn_onto(anchors, design, &body);
+            }
+            let free: Vec<Vec3> =
+                with_ghosts(anchors, design, &body, &fit.slots)[anchors.len()..].to_vec();
+            let mover_cost =
+                assign_nearest(movers, &free).map_or(0.0, |pi| assignment_cost(movers, &free, &pi));
+            (body, e, fit.cost, mover_cost)
+        })
+        .collect();
+    let least = candidates.iter().map(|c| c.1).fold(f64::INFINITY, f64::min);
+    let chosen = candidates
+        .iter()
+        .filter(|c| c.1 <= least + tolerance.max(0.0))
+        .min_by(|a, b| {
+            a.3.total_cmp(&b.3)
+                .then(a.1.total_cmp(&b.1))
+                .then(a.2.total_cmp(&b.2))
+        })
+        .map_or(*prior, |c| c.0);
+    let slots = assign_nearest(anchors, &chosen.slot_positions(design)).unwrap_or_default();
+    let all = with_ghosts(anchors, design, &chosen, &slots);
+    let mut vel = velocities.to_vec();
+    vel.resize(all.len(), Vec3::zeros());
+    let v = lyapunov_terms(&all, &vel, &chosen, &BodyRates::zero(), design, damping).v;
+    (chosen, v, slots)
+}
+
+/// The `anchors` followed by the slots of `design` at `body` that the assignment `pi`
+/// (slot of each anchor) leaves free, in slot order, length unit.
+fn with_ghosts(
+    anchors: &[Vec3],
+    design: &FormationDesign,
+    body: &VirtualBody,
+    pi: &[usize],
+) -> Vec<Vec3> {
+    let mut all = anchors.to_vec();
+    if pi.len() == anchors.len() {
+        all.extend(
+            (0..design.n())
+                .filter(|m| !pi.contains(m))
+                .map(|m| body.to_inertial(&design.slots[m])),
+        );
     }
-    let slots = assign_nearest(positions, &body.slot_positions(design)).unwrap_or_default();
-    (body, v, slots)
+    all
 }
 
 /// True when `design` has one virtual leader at the body centre: its energy does not
@@ -204,30 +259,29 @@ fn turn_onto(anchors: &[Vec3], design: &FormationDesign, body: &VirtualBody) -> 
     rotation
 }
 
-/// Evaluations of `V` at most in [`descend`].
+/// Evaluations of the energy at most in [`descend`].
 pub const DESCENT_EVALUATIONS: usize = 400;
 
-/// A compass search on `V` (`v_of`) from `body` (with `V = v`): moves of the centre along
+/// A compass search on the energy `v_of` from `body` (where it is `v`): moves of the centre along
 /// each axis (in the plane for 2-D; first step a quarter of the design spacing), of `ln k`
-/// (first step 0.1, `k` kept in `scale_range`) and, for a design whose energy depends on
-/// the orientation (not central), turns about each axis (about z in 2-D; first step
-/// 0.2 rad); a move is kept when it lowers `V`, the steps are halved when none does,
+/// (first step 0.1, `k` kept in `scale_range`) and, when `turn`, turns about each axis (about z in 2-D; first step
+/// 0.2 rad); a move is kept when it lowers the energy, the steps are halved when none does,
 /// until they are 1e-3 of the first or after [`DESCENT_EVALUATIONS`] evaluations.
-/// Deterministic; never raises `V`.
+/// Deterministic; never raises the energy.
 fn descend(
     v_of: &dyn Fn(&VirtualBody) -> f64,
     body: VirtualBody,
     v: f64,
     design: &FormationDesign,
     scale_range: (f64, f64),
+    turn: bool,
 ) -> (VirtualBody, f64) {
     let dim = design.dim;
-    let central = is_central(design);
     let axes: Vec<Vec3> = (0..dim).map(|i| Vec3::ith(i, 1.0)).collect();
-    let turns: Vec<Vec3> = match (central, dim) {
-        (true, _) => Vec::new(),
-        (false, 2) => vec![Vec3::z()],
-        (false, _) => axes.clone(),
+    let turns: Vec<Vec3> = match (turn, dim) {
+        (false, _) => Vec::new(),
+        (true, 2) => vec![Vec3::z()],
+        (true, _) => axes.clone(),
     };
     let spacing = body.scale * design.neighbour_spacing();
     let mut best = (body, v);
@@ -380,7 +434,8 @@ mod tests {
         let vs = vec![Vec3::zeros(); 5];
         let pentagon = design_regular(5, 2, 1.5, 1.0, 1.0).unwrap();
         let prior = VirtualBody::at(Vec3::new(4.0, 2.0, 0.0));
-        let (body, v, slots) = bumpless_body(&xs, &xs, &vs, &pentagon, &prior, (0.2, 5.0), 1.0);
+        let (body, v, slots) =
+            bumpless_body(&xs, &vs, &[], &pentagon, &prior, (0.2, 5.0), 1.0, 0.0);
         let v_prior = lyapunov_terms(&xs, &vs, &prior, &BodyRates::zero(), &pentagon, 1.0).v;
         assert_relative_eq!(
             v,
@@ -403,13 +458,54 @@ mod tests {
     }
 
     #[test]
+    fn a_vehicle_to_come_is_a_ghost_in_a_free_slot_that_the_fit_keeps_clear() {
+        // Five vehicles settled on a pentagon of radius 1.5; a sixth comes back from far
+        // away: the hexagon is laid on the five with a ghost in its free slot.
+        let pentagon = design_regular(5, 2, 1.5, 1.0, 1.0).unwrap();
+        let hexagon = design_regular(6, 2, 1.5, 1.0, 1.0).unwrap();
+        let prior = VirtualBody::at(Vec3::new(4.0, 2.0, 0.0));
+        let xs = prior.slot_positions(&pentagon);
+        let vs = vec![Vec3::zeros(); 5];
+        let far = Vec3::new(-6.0, -3.0, 0.0);
+        let (body, v, slots) =
+            bumpless_body(&xs, &vs, &[far], &hexagon, &prior, (0.2, 5.0), 1.0, 0.01);
+        let ghosts = with_ghosts(
+            &xs,
+            &hexagon,
+            &prior,
+            &assign_nearest(&xs, &prior.slot_positions(&hexagon)).unwrap(),
+        );
+        let v_prior = lyapunov_terms(
+            &ghosts,
+            &[Vec3::zeros(); 6],
+            &prior,
+            &BodyRates::zero(),
+            &hexagon,
+            1.0,
+        )
+        .v;
+        assert!(v <= v_prior, "fitted {v}, unfitted {v_prior}");
+        assert_eq!(slots.len(), 5);
+        let all = with_ghosts(&xs, &hexagon, &body, &slots);
+        assert_eq!(all.len(), 6);
+        // The ghost is no nearer to any vehicle than half the spacing, and it is on the
+        // side of the formation the sixth vehicle comes from: nearer to it than any of
+        // the five.
+        let spacing = body.scale * hexagon.neighbour_spacing();
+        for x in &xs {
+            assert!((all[5] - x).norm() > 0.5 * spacing);
+            assert!((all[5] - far).norm() < (x - far).norm());
+        }
+    }
+
+    #[test]
     fn the_fit_keeps_the_body_when_it_is_already_best() {
         // Vehicles exactly on the design at the prior body: V = 0 there; no fit beats it.
         let design = design_regular(4, 2, 2.0, 1.0, 1.0).unwrap();
         let prior = VirtualBody::at(Vec3::new(1.0, 1.0, 0.0));
         let xs = prior.slot_positions(&design);
         let vs = vec![Vec3::zeros(); 4];
-        let (body, v, slots) = bumpless_body(&xs, &xs, &vs, &design, &prior, (0.2, 5.0), 1.0);
+        let (body, v, slots) = bumpless_body(&xs, &vs, &[], &design, &prior, (0.2, 5.0), 1.0, 0.0);
         assert!(v < 1e-12);
         assert_relative_eq!(body.r, prior.r, epsilon = 1e-12);
         assert_relative_eq!(body.scale, 1.0, max_relative = 1e-12);

@@ -160,6 +160,10 @@ pub struct Planner {
     /// of the rejoining vehicles' homing as the planner models it.
     #[serde(default = "Vec3::zeros")]
     last_velocity: Vec3,
+    /// True from a bumpless redesign (law robust) until the coordinator's V is back at or
+    /// below V_U: the body holds meanwhile (`redesign`).
+    #[serde(default)]
+    settling: bool,
 }
 
 impl Planner {
@@ -194,6 +198,7 @@ impl Planner {
             rejoining: BTreeMap::new(),
             turn: 0.0,
             last_velocity: Vec3::zeros(),
+            settling: false,
         })
     }
 
@@ -239,7 +244,7 @@ impl Planner {
         dt: f64,
     ) -> Result<Command, PlannerError> {
         let ids: Vec<u32> = members.iter().map(|r| r.id).collect();
-        let reconfigured = self.follow_membership(&ids, members.is_empty(), joined)?;
+        let reconfigured = self.redesign(members, &ids, joined)?;
         self.bring_back_out_of_reach(members);
         let holding = members.len() < self.params.dim + 1;
         let rejoining = Self::update_rejoining(
@@ -276,6 +281,8 @@ impl Planner {
         } else {
             waiting * formation_speed(&terms, p.v0, p.v_u, p.delta)
         };
+        let sdot = self.hold_until_settled(terms.v, sdot);
+        let p = &self.params;
 
         let command = Command {
             body: self.body,
