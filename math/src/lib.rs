@@ -6,9 +6,10 @@
 //! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`] (and
 //! [`law`], the control law as an extension point),
 //! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design;
-//! bringing a vehicle back from anywhere: [`rejoin`]; beyond the paper, for links that
-//! are not continuous: control with stale neighbour information ([`robust`]) and the
-//! body's path committed ahead for vehicles out of contact ([`schedule`]).
+//! bringing a vehicle back from anywhere: [`rejoin`]. Beyond the paper, for links that are
+//! not continuous: control with stale neighbour information ([`robust`]), the body's path
+//! committed ahead for vehicles out of contact ([`schedule`]), and a redesign without a
+//! jump of `V` ([`assign`], [`procrustes`], [`bumpless`]).
 //! Gradient estimation (Section V): [`estimate`], [`optimal`], [`kalman`], [`convergence`],
 //! [`adapt`].
 //!
@@ -18,7 +19,9 @@
 //! This crate depends on no IPC, I/O, clock or logging crate: the compiler keeps it pure.
 
 pub mod adapt;
+pub mod assign;
 pub mod body;
+pub mod bumpless;
 pub mod control;
 pub mod convergence;
 pub mod estimate;
@@ -29,6 +32,7 @@ pub mod law;
 pub mod lyapunov;
 pub mod optimal;
 pub mod potential;
+pub mod procrustes;
 pub mod rejoin;
 pub mod rng;
 pub mod robust;

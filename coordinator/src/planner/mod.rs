@@ -183,6 +183,10 @@ pub struct Planner {
     /// segment, back to the oldest report in use (the past of the committed path).
     #[serde(default)]
     committed: BTreeMap<u64, (f64, Segment)>,
+    /// True from a bumpless redesign (law robust) until the coordinator's V is back at or
+    /// below V_U: the body holds meanwhile (`redesign`).
+    #[serde(default)]
+    settling: bool,
 }
 
 impl Planner {
@@ -224,6 +228,7 @@ impl Planner {
             last_velocity: Vec3::zeros(),
             schedule,
             committed,
+            settling: false,
         })
     }
 
@@ -276,7 +281,7 @@ impl Planner {
         let predicted = self.predicted_members(k, members, dt);
         let members = predicted.as_deref().unwrap_or(members);
         let ids: Vec<u32> = members.iter().map(|r| r.id).collect();
-        let reconfigured = self.follow_membership(&ids, members.is_empty(), joined)?;
+        let reconfigured = self.redesign(members, &ids, joined)?;
         self.bring_back_out_of_reach(members);
         let holding = members.len() < self.params.dim + 1;
         let rejoining = Self::update_rejoining(
@@ -319,6 +324,7 @@ impl Planner {
         } else {
             waiting * formation_speed_informed(&terms, p.v0, p.v_u, p.delta, confidence)
         };
+        let sdot = self.hold_until_settled(terms.v, sdot);
         let in_force = self.commit(k, &rates, sdot, oldest, dt);
         let (sdot_now, velocity) = match in_force {
             Some(seg) => (seg.sdot, seg.velocity),

@@ -1,18 +1,127 @@
 //! The formation's membership at a tick: a redesign when the members change, the
 //! vehicles that must fly back to a slot (`vbap_math::rejoin`), and their slots.
+//!
+//! Under `[control] law = "robust"` a redesign is bumpless (beyond the paper, which
+//! keeps the body as it was and lets the new design start far from its equilibrium): the
+//! new design is laid on the vehicles that hold the formation (`vbap_math::bumpless`: the
+//! optimal assignment of vehicles to slots and the pose `(r, R, k)` with the least `V`),
+//! every vehicle still to be placed is given a free slot by the optimal assignment, and
+//! the body holds (`ṡ = 0`) until the coordinator's `V` is back at or below `V_U`.
 
 use std::collections::BTreeMap;
 
+use vbap_math::assign::assign_nearest;
 use vbap_math::body::VirtualBody;
+use vbap_math::bumpless::bumpless_body;
 use vbap_math::formation::{design_regular, FormationDesign};
 use vbap_math::rejoin::{
     choose_slot, clearance, fit_turn, homing_weight, is_central, turned_slots,
 };
 use vbap_math::Vec3;
+use vbap_mission::config::LawKind;
 
 use super::{Planner, PlannerError, Report};
 
 impl Planner {
+    /// [`Planner::follow_membership`] for the `members` of this tick (ordered by id; their
+    /// ids `ids`) and the vehicles `joined`; under law robust a redesign is then laid on
+    /// the vehicles ([`Planner::lay_new_design`]). True when it was redesigned.
+    pub(super) fn redesign(
+        &mut self,
+        members: &[Report],
+        ids: &[u32],
+        joined: &[u32],
+    ) -> Result<bool, PlannerError> {
+        // The vehicles that held the old formation and are still in it: members before
+        // and after, not rejoining, not admitted back at this tick.
+        let anchors: Vec<u32> = ids
+            .iter()
+            .copied()
+            .filter(|id| {
+                self.members.contains(id)
+                    && !self.rejoining.contains_key(id)
+                    && !joined.contains(id)
+            })
+            .collect();
+        let reconfigured = self.follow_membership(ids, members.is_empty(), joined)?;
+        if reconfigured && self.params.law == LawKind::Robust && !members.is_empty() {
+            self.lay_new_design(members, &anchors);
+        }
+        Ok(reconfigured)
+    }
+
+    /// Lays the new design on the `anchors` (ids of the vehicles that hold the formation)
+    /// among the `members` of this tick (law robust, beyond the paper): the body takes the
+    /// pose of `vbap_math::bumpless::bumpless_body` (scale within [min_scale,
+    /// max_scale], in 2-D about z only, `s` kept), the turn of the slots is reset to the
+    /// body's, every rejoining anchor keeps the slot it was assigned, the other rejoining
+    /// vehicles share the free slots by the optimal assignment (least sum of squared
+    /// distances), and the body holds until `V ≤ V_U` ([`Planner::hold_until_settled`]).
+    /// Without anchors the body is kept.
+    fn lay_new_design(&mut self, members: &[Report], anchors: &[u32]) {
+        self.settling = true;
+        let (held, rest): (Vec<&Report>, Vec<&Report>) =
+            members.iter().partition(|q| anchors.contains(&q.id));
+        if held.is_empty() {
+            return;
+        }
+        let p = &self.params;
+        let positions: Vec<Vec3> = held.iter().map(|q| q.position).collect();
+        let velocities: Vec<Vec3> = held.iter().map(|q| q.velocity).collect();
+        let movers: Vec<&Report> = rest
+            .into_iter()
+            .filter(|q| self.rejoining.contains_key(&q.id))
+            .collect();
+        let from: Vec<Vec3> = movers.iter().map(|q| q.position).collect();
+        // Poses within a tenth of V_U of the least energy count as equally good: of those,
+        // the one that leaves its free slots on the movers' side.
+        let (mut body, _, slots) = bumpless_body(
+            &positions,
+            &velocities,
+            &from,
+            &self.design,
+            &self.body,
+            (p.min_scale, p.max_scale),
+            p.damping,
+            0.1 * p.v_u,
+        );
+        if p.dim == 2 {
+            body.r.z = 0.0;
+        }
+        self.body = body;
+        self.turn = 0.0;
+        for (q, &m) in held.iter().zip(&slots) {
+            if let Some(slot) = self.rejoining.get_mut(&q.id) {
+                *slot = Some(m);
+            }
+        }
+        let all = body.slot_positions(&self.design);
+        let free: Vec<usize> = (0..all.len()).filter(|m| !slots.contains(m)).collect();
+        let free_slots: Vec<Vec3> = free.iter().map(|&m| all[m]).collect();
+        if let Some(pi) = assign_nearest(&from, &free_slots) {
+            for (q, j) in movers.iter().zip(pi) {
+                self.rejoining.insert(q.id, Some(free[j]));
+            }
+        }
+    }
+
+    /// The body's speed `sdot` (1/s) after a bumpless redesign (law robust, beyond the
+    /// paper): 0 while the coordinator's `V` (`v`, energy per unit mass) is above `V_U`,
+    /// from the redesign until the first tick it is not; `sdot` unchanged otherwise. The
+    /// paper needs no such hold (its `V ≤ V_U` is never broken by a switch it does not
+    /// have); here the new design may start with `V > V_U`, and (IV.4)'s second term could
+    /// still move the body on while the formation settles.
+    pub(super) fn hold_until_settled(&mut self, v: f64, sdot: f64) -> f64 {
+        if !self.settling {
+            return sdot;
+        }
+        if v <= self.params.v_u {
+            self.settling = false;
+            return sdot;
+        }
+        0.0
+    }
+
     /// Follows the members `ids` of this tick (ordered by id; `none`: no member report
     /// at all) and the vehicles `joined` (admitted back at this tick): when the members
     /// changed or one was admitted back, the formation is redesigned (a regular design of
