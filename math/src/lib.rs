@@ -8,7 +8,8 @@
 //! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design;
 //! bringing a vehicle back from anywhere: [`rejoin`].
 //! Gradient estimation (Section V): [`estimate`], [`optimal`], [`kalman`], [`convergence`],
-//! [`adapt`].
+//! [`adapt`]; the curvature of the field estimated from the readings (beyond the paper):
+//! [`curvature`].
 //!
 //! Random streams keyed by (seed, stream, id, tick), so every process draws the same noise:
 //! [`rng`].
@@ -19,6 +20,7 @@ pub mod adapt;
 pub mod body;
 pub mod control;
 pub mod convergence;
+pub mod curvature;
 pub mod estimate;
 pub mod fit;
 pub mod formation;

@@ -6,13 +6,14 @@ use std::collections::BTreeMap;
 
 use vbap_math::adapt::NoiseEstimator;
 use vbap_math::body::{BodyRates, VirtualBody};
+use vbap_math::curvature::CurvatureEstimator;
 use vbap_math::formation::{design_regular, FormationDesign, FormationError};
 use vbap_math::kalman::GradientFilter;
 use vbap_math::lyapunov::LyapunovTerms;
 use vbap_math::potential::PairPotential;
 use vbap_math::speed::formation_speed;
 use vbap_math::{Mat3, Vec3};
-use vbap_mission::config::{Goal, LawKind, Mission};
+use vbap_mission::config::{CurvatureSource, Goal, LawKind, Mission};
 
 mod direction;
 mod estimate;
@@ -61,6 +62,16 @@ pub struct PlannerParams {
     pub initial_variance: f64,
     /// `control.law`: the paper's planner, or the one built for real links.
     pub law: LawKind,
+    /// `control.curvature`: the Hessian of (V.6) under the robust law.
+    #[serde(default)]
+    pub curvature: CurvatureSource,
+    /// `control.curvature_memory`, design spacings of travel.
+    #[serde(default = "default_curvature_memory")]
+    pub curvature_memory: f64,
+}
+
+fn default_curvature_memory() -> f64 {
+    0.25
 }
 
 impl PlannerParams {
@@ -87,6 +98,8 @@ impl PlannerParams {
             sigma_m_prior: m.field.noise_std,
             initial_variance: m.estimator.initial_variance,
             law: m.control.law,
+            curvature: m.control.curvature,
+            curvature_memory: m.control.curvature_memory,
         }
     }
 }
@@ -160,6 +173,9 @@ pub struct Planner {
     /// of the rejoining vehicles' homing as the planner models it.
     #[serde(default = "Vec3::zeros")]
     last_velocity: Vec3,
+    /// The online curvature estimate (law robust, `control.curvature = "estimated"`).
+    #[serde(default)]
+    curvature: Option<CurvatureEstimator>,
 }
 
 impl Planner {
@@ -194,6 +210,7 @@ impl Planner {
             rejoining: BTreeMap::new(),
             turn: 0.0,
             last_velocity: Vec3::zeros(),
+            curvature: None,
         })
     }
 

@@ -3,6 +3,7 @@
 //! and the reason. Each section's checks are in their own file; [`Check`] holds the helpers
 //! they share.
 
+mod control;
 mod faults;
 mod field;
 mod fleet;
@@ -30,6 +31,7 @@ impl Mission {
         fleet::estimator(&c, &self.estimator)?;
         links::links(&c, &self.links)?;
         links::restart(&c, &self.restart)?;
+        control::control(&c, &self.control)?;
         self.check_stability(&c)?;
         faults::check(&c, self)
     }
