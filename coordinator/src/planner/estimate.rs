@@ -181,3 +181,6 @@ mod tests {
         assert!((v - 1.0).abs() < 1e-12, "{v}");
     }
 }
+
+#[cfg(test)]
+mod bias_tests;
