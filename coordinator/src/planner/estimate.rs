@@ -7,6 +7,12 @@
 //! `y − ½ dᵀĤd`: the affine model of Lemma 5.1 then fits what is affine, and the weights of
 //! Lemma 5.4 (now from Ĥ) no longer turn the curvature into a bias of the gradient on an
 //! anisotropic field.
+//!
+//! Not done yet: flying the anisotropic optimum of (V.7) for Ĥ (only regular polygons and
+//! solids are flown, scaled by (V.7)). `vbap_math::optimal::optimal_formation` computes it
+//! from [`Planner::hessian`]; a redesign to it would lower g of (V.6) by 13 % for a
+//! pentagon or a hexagon on H = diag(2, 0.5) and by 32 % on diag(4, 0.25) (σ_M = σ_H = 1),
+//! and not at all at the top of a round hill.
 
 use vbap_math::curvature::CurvatureEstimator;
 use vbap_math::estimate::least_squares;
@@ -90,7 +96,7 @@ impl Planner {
     /// The Hessian of (V.6) the planner works with, field unit per length unit²: the
     /// online estimate under the robust law with `control.curvature = "estimated"`, else
     /// the configured `formation.hessian_guess` (the paper).
-    pub(super) fn hessian(&self) -> Mat3 {
+    pub fn hessian(&self) -> Mat3 {
         self.curvature
             .as_ref()
             .map_or(self.params.hessian_guess, |c| c.hessian())
