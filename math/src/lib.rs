@@ -11,7 +11,8 @@
 //! committed ahead for vehicles out of contact ([`schedule`]), and a redesign without a
 //! jump of `V` ([`assign`], [`procrustes`], [`bumpless`]).
 //! Gradient estimation (Section V): [`estimate`], [`optimal`], [`kalman`], [`convergence`],
-//! [`adapt`].
+//! [`adapt`]; the curvature of the field estimated from the readings (beyond the paper):
+//! [`curvature`].
 //!
 //! Random streams keyed by (seed, stream, id, tick), so every process draws the same noise:
 //! [`rng`].
@@ -24,6 +25,7 @@ pub mod body;
 pub mod bumpless;
 pub mod control;
 pub mod convergence;
+pub mod curvature;
 pub mod estimate;
 pub mod fit;
 pub mod formation;

@@ -29,31 +29,35 @@ impl Planner {
     }
 
     /// The gradient the decision of tick `k` acts on: under a schedule, the estimate ∇T_est
-    /// at r_k carried to where the body will be when the decision takes effect, r_end,
-    /// with the curvature the planner assumes (`formation.hessian_guess` H of (V.6), of
-    /// the sign of an optimum: −H towards a maximum, +H towards a minimum):
-    /// ∇T_est ∓ H (r_end − r_k). A Smith predictor for the plan's delay: without it the
-    /// climb near the optimum is a loop delayed by the horizon, which overshoots (glider
-    /// surfacing: 1.7 km past the peak, converged after 37 h instead of ~17 h). Without
-    /// an estimate, without a schedule, or when no Hessian is configured, ∇T_est itself:
-    /// the identity that stands in for a missing guess can be far off (lossy_kill: ~50 ×
-    /// the true curvature), and predicting with it slows the climb (there by 45 %).
+    /// at r_k carried to where the body will be when the decision takes effect, r_end:
+    /// ∇T_est + Ĥ (r_end − r_k), with the online curvature estimate Ĥ once the data
+    /// determine it (its posterior spread below half its size: `vbap_math::curvature`),
+    /// else with a configured `formation.hessian_guess` H of (V.6) of the sign of an
+    /// optimum (−H towards a maximum, +H towards a minimum). A Smith predictor for the
+    /// plan's delay: without it the climb near the optimum is a loop delayed by the
+    /// horizon, which overshoots (glider surfacing: 1.7 km past the peak, converged after
+    /// 37 h instead of ~17 h). Without an estimate, without a schedule, or with no
+    /// curvature known, ∇T_est itself: the identity that stands in for a missing guess
+    /// can be far off (lossy_kill: ~50 × the true curvature), and predicting with it slows
+    /// the climb (there by 45 %).
     pub(super) fn gradient_ahead(&self, grad_est: &Vec3, k: u64, dt: f64) -> Vec3 {
         let Some(sched) = &self.schedule else {
             return *grad_est;
         };
-        if !self.params.hessian_configured {
-            return *grad_est;
-        }
         if *grad_est == Vec3::zeros() {
             return *grad_est;
         }
-        let (r_end, _) = sched.predict(k, sched.end_tick(), self.body.r, self.body.scale, dt);
         let sign = match self.params.goal {
             Goal::Max => -1.0,
             Goal::Min => 1.0,
         };
-        let mut g = grad_est + self.params.hessian_guess * (r_end - self.body.r) * sign;
+        let curvature = match &self.curvature {
+            Some(c) if c.hessian_std().norm() < 0.5 * c.hessian().norm() => c.hessian(),
+            _ if self.params.hessian_configured => self.params.hessian_guess * sign,
+            _ => return *grad_est,
+        };
+        let (r_end, _) = sched.predict(k, sched.end_tick(), self.body.r, self.body.scale, dt);
+        let mut g = grad_est + curvature * (r_end - self.body.r);
         if self.params.dim == 2 {
             g.z = 0.0;
         }

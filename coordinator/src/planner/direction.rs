@@ -28,7 +28,7 @@ pub(super) fn direction(grad_est: &Vec3, goal: Goal, grad_saturation: f64, holdi
 impl Planner {
     /// Resolution adaptation dk/ds = −a(k d̄0 − Δd) (V.7), 1 per unit of s, with the
     /// target spacing Δd = k* d̄0 of the optimal scale k* (clamped to [min_scale,
-    /// max_scale]) for the σ_M in use, at the body scale `scale` (the scale now, or under
+    /// max_scale]) for the σ_M and the Hessian in use ([`Planner::hessian`]), at the body scale `scale` (the scale now, or under
     /// a committed path the scale when the decision takes effect); 0 when adaptation is
     /// off, when holding, or without a finite k*.
     pub(super) fn scale_rate(&self, holding: bool, scale: f64) -> f64 {
@@ -40,7 +40,7 @@ impl Planner {
         match optimal_scale(
             &self.design.slots,
             p.dim,
-            &p.hessian_guess,
+            &self.hessian(),
             p.sigma_h,
             sigma_m,
         ) {

@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 
 use vbap_math::adapt::NoiseEstimator;
 use vbap_math::body::{BodyRates, VirtualBody};
+use vbap_math::curvature::CurvatureEstimator;
 use vbap_math::formation::{design_regular, FormationDesign, FormationError};
 use vbap_math::kalman::GradientFilter;
 use vbap_math::lyapunov::LyapunovTerms;
@@ -13,7 +14,7 @@ use vbap_math::potential::PairPotential;
 use vbap_math::schedule::{BodySchedule, Segment};
 use vbap_math::speed::formation_speed_informed;
 use vbap_math::{Mat3, Vec3};
-use vbap_mission::config::{Goal, LawKind, Mission};
+use vbap_mission::config::{CurvatureSource, Goal, LawKind, Mission};
 
 mod commit;
 mod direction;
@@ -71,6 +72,16 @@ pub struct PlannerParams {
     /// otherwise): only a configured curvature predicts the gradient ahead of the plan.
     #[serde(default)]
     pub hessian_configured: bool,
+    /// `control.curvature`: the Hessian of (V.6) under the robust law.
+    #[serde(default)]
+    pub curvature: CurvatureSource,
+    /// `control.curvature_memory`, design spacings of travel.
+    #[serde(default = "default_curvature_memory")]
+    pub curvature_memory: f64,
+}
+
+fn default_curvature_memory() -> f64 {
+    0.25
 }
 
 impl PlannerParams {
@@ -99,6 +110,8 @@ impl PlannerParams {
             law: m.control.law,
             plan_ticks: m.plan_horizon_ticks(),
             hessian_configured: m.formation.hessian_guess.is_some(),
+            curvature: m.control.curvature,
+            curvature_memory: m.control.curvature_memory,
         }
     }
 }
@@ -187,6 +200,9 @@ pub struct Planner {
     /// below V_U: the body holds meanwhile (`redesign`).
     #[serde(default)]
     settling: bool,
+    /// The online curvature estimate (law robust, `control.curvature = "estimated"`).
+    #[serde(default)]
+    curvature: Option<CurvatureEstimator>,
 }
 
 impl Planner {
@@ -229,6 +245,7 @@ impl Planner {
             schedule,
             committed,
             settling: false,
+            curvature: None,
         })
     }
 

@@ -30,8 +30,31 @@ impl LawKind {
     }
 }
 
+/// Where the Hessian of (V.6) comes from under `law = "robust"` (`control.curvature`); the
+/// paper's law always uses the configured one.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CurvatureSource {
+    /// `formation.hessian_guess` (identity when absent), as the paper.
+    Configured,
+    /// Estimated online from the readings (`vbap_math::curvature`), the configured Hessian
+    /// as its prior (beyond the paper).
+    #[default]
+    Estimated,
+}
+
+impl CurvatureSource {
+    /// The name as the mission file writes it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            CurvatureSource::Configured => "configured",
+            CurvatureSource::Estimated => "estimated",
+        }
+    }
+}
+
 /// `[control]`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ControlSection {
     /// `"paper"` | `"robust"`.
@@ -46,4 +69,25 @@ pub struct ControlSection {
     /// committed (the longest a vehicle may go without a fresh command). Absent: derived
     /// from `[links]` (`crate::horizon::plan_horizon`). Unused by `law = "paper"`.
     pub plan_horizon: Option<f64>,
+    /// `"configured"` | `"estimated"` (default): the Hessian the robust law sizes the
+    /// formation with (V.7) and corrects the readings by; ignored by the paper's law.
+    pub curvature: CurvatureSource,
+    /// Memory of the curvature estimate, in design spacings (k·d̄0) of the body's travel,
+    /// dimensionless, > 0: the data are forgotten as e^(−travel / (memory · spacing)), so the
+    /// estimate averages the field's curvature over about 4 × this many spacings of path
+    /// (default 0.25: one spacing; chosen by measurement on lossy_kill.toml, where 1.0 lagged
+    /// the true curvature by 25 % at the top).
+    pub curvature_memory: f64,
+}
+
+impl Default for ControlSection {
+    fn default() -> Self {
+        Self {
+            law: LawKind::default(),
+            neighbour_memory: None,
+            plan_horizon: None,
+            curvature: CurvatureSource::default(),
+            curvature_memory: 0.25,
+        }
+    }
 }

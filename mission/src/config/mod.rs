@@ -31,7 +31,7 @@ mod validate;
 #[cfg(test)]
 mod tests;
 
-pub use control::{ControlSection, LawKind};
+pub use control::{ControlSection, CurvatureSource, LawKind};
 pub use error::ConfigError;
 pub use failure_sections::{
     FaultConfig, FaultKind, LinksSection, RestartPolicy, RestartSection, SurfacingPhase,
