@@ -212,7 +212,7 @@ pub mod coordinator_to_agent {
     /// Agents read it in place (zero copy).
     #[derive(Debug, Clone, Copy, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.BodyCommand.v4")]
+    #[type_name("vbap.BodyCommand.v5")]
     pub struct BodyCommand {
         pub header: Header,
         /// Virtual body parameter s.
