@@ -115,10 +115,11 @@ mod tests {
     const DT: f64 = 0.05;
 
     /// A 2-D mission of `n` vehicles (the planner's tunables at their defaults).
+    /// The paper's planner for `n` vehicles (these tests pin its behaviour).
     fn params(n: usize) -> PlannerParams {
         let m = Mission::from_toml_str(
             &format!(
-                "[mission]\nname = \"t\"\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = {n}\n"
+                "[mission]\nname = \"t\"\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = {n}\n[control]\nlaw = \"paper\"\n"
             ),
             "<test>",
         )

@@ -124,6 +124,7 @@ mod tests {
             reconfigured: false,
             members: (0..6).collect(),
             rejoining: vec![(5, Vec3::new(9.0, 9.0, 0.0))],
+            schedule: None,
         };
         let slots = member_slots(&design, &command, &members);
         assert_eq!(slots.len(), 6);

@@ -140,7 +140,14 @@ mod tests {
     fn the_law_and_the_key_choose_the_horizon() {
         let base = "[mission]\nname = \"t\"\ndt = 0.1\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 4\n[links]\ndelay = 0.5\n";
         let m = |extra: &str| Mission::from_toml_str(&format!("{base}{extra}"), "<test>");
-        assert_eq!(m("").unwrap().plan_horizon(), 0.0);
+        assert_eq!(
+            m("[control]\nlaw = \"paper\"\n").unwrap().plan_horizon(),
+            0.0
+        );
+        assert!(
+            (m("").unwrap().plan_horizon() - 0.6).abs() < 1e-12,
+            "robust by default"
+        );
         let robust = m("[control]\nlaw = \"robust\"\n").unwrap();
         assert!((robust.plan_horizon() - 0.6).abs() < 1e-12);
         assert_eq!(robust.plan_horizon_ticks(), 6);

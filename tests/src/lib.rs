@@ -101,6 +101,24 @@ impl Drop for TempDir {
     }
 }
 
+/// `text` (a mission file) flying `law` (`[control] law`): its own `[control]` section,
+/// if any, gives way to one with only that key.
+pub fn with_law(text: &str, law: &str) -> String {
+    let mut out = String::new();
+    let mut in_control = false;
+    for line in text.lines() {
+        let t = line.trim_start();
+        if t.starts_with('[') {
+            in_control = t.starts_with("[control]");
+        }
+        if !in_control {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out + &format!("\n[control]\nlaw = \"{law}\"\n")
+}
+
 /// Writes a mission file `text` into `dir` and returns its path.
 pub fn write_mission(dir: &TempDir, file: &str, text: &str) -> PathBuf {
     let path = dir.join(file);

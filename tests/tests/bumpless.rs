@@ -75,7 +75,7 @@ fn switch_of(out: &Path, n: usize, dim: usize, radius: f64, alpha: f64) -> Switc
     }
 }
 
-/// Runs `text` (a mission without `[control]`) under both laws; returns (paper, robust).
+/// Runs `text` (a mission) under both laws; returns (paper, robust).
 fn both_laws(
     tmp: &TempDir,
     tag: &str,
@@ -87,7 +87,7 @@ fn both_laws(
     let mut out = Vec::new();
     for law in ["paper", "robust"] {
         let name = unique_name(&format!("bl_{tag}_{law}"));
-        let mission = text.replace("@NAME@", &name) + &format!("\n[control]\nlaw = \"{law}\"\n");
+        let mission = with_law(&text.replace("@NAME@", &name), law);
         let file = write_mission(tmp, &format!("{tag}_{law}.toml"), &mission);
         let dir = tmp.join(&format!("{tag}_{law}"));
         vbap_quiet("sim", &file, &dir);

@@ -12,7 +12,8 @@ use vbap_mission::field::Field;
 use tests::*;
 
 /// A gentle Gaussian hill (curvature 0.044 at the top), six vehicles, ideal links, no
-/// `formation.hessian_guess` (H = I, ~23 × too stiff), adaptation on.
+/// `formation.hessian_guess` (H = I, ~23 × too stiff), adaptation on; the curvature
+/// estimated online (`control.curvature = "estimated"`; the paper's law ignores it).
 fn gentle(law: &str) -> String {
     format!(
         "[mission]\nname = \"{}\"\nseed = 1\nduration = 300.0\ndt = 0.1\ngoal = \"max\"\n\
@@ -22,7 +23,7 @@ fn gentle(law: &str) -> String {
          [formation]\nradius = 1.5\nadapt = true\nadapt_gain = 0.5\nalpha = 10.0\n\
          min_scale = 0.2\nmax_scale = 5.0\nsigma_h = 1.0\n\
          [body]\nv0 = 0.5\nv_u = 1.0\n[estimator]\nkalman_b = 0.05\n\
-         [control]\nlaw = \"{law}\"\n",
+         [control]\nlaw = \"{law}\"\ncurvature = \"estimated\"\n",
         unique_name("gentle")
     )
 }

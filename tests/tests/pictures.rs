@@ -49,6 +49,9 @@ surfacing_window = 1.0
 [restart]
 vehicles = "on-failure"
 
+[control]
+law = "paper"  # the events these pictures label are those of the paper's law
+
 [[faults]]
 kind = "kill"
 vehicle = 2

@@ -48,8 +48,18 @@ const IMPAIRED: &str = "delay = 0.4\njitter = 0.2\nloss = 0.1";
 fn on_ideal_links_the_robust_law_flies_the_papers_run() {
     let tmp = TempDir::new("robust-ideal");
     let name = unique_name("rbi");
-    let paper = write_mission(&tmp, "paper.toml", &mission(&name, IDEAL, "paper"));
-    let robust = write_mission(&tmp, "robust.toml", &mission(&name, IDEAL, "robust"));
+    // Without the kill: a redesign is where the robust law departs on purpose (bumpless,
+    // tests/tests/bumpless.rs).
+    let no_kill = |m: String| m.replace("[[faults]]\nkind = \"kill\"\nvehicle = 2\nat = 4.0\n", "");
+    let paper = write_mission(&tmp, "paper.toml", &no_kill(mission(&name, IDEAL, "paper")));
+    let robust = write_mission(
+        &tmp,
+        "robust.toml",
+        &no_kill(mission(&name, IDEAL, "robust")),
+    );
+    assert!(!std::fs::read_to_string(&robust)
+        .unwrap()
+        .contains("[[faults]]"));
     vbap_quiet("sim", &paper, &tmp.join("paper"));
     vbap_quiet("sim", &robust, &tmp.join("robust"));
     assert_same_tracks(&tmp.join("paper"), &tmp.join("robust"));

@@ -10,8 +10,8 @@ use tests::*;
 /// Runs `vbap sim` of glider_surfacing.toml cut to 30000 s under `law` into `out`.
 fn glider_surfacing(tmp: &TempDir, law: &str, out: &Path) -> serde_json::Value {
     let text = read(&workspace().join("deploy/missions/glider_surfacing.toml"))
-        .replace("duration = 259200.0", "duration = 30000.0")
-        .replace("[links]", &format!("[control]\nlaw = \"{law}\"\n\n[links]"));
+        .replace("duration = 259200.0", "duration = 30000.0");
+    let text = with_law(&text, law);
     assert!(text.contains("duration = 30000.0"), "the mission was cut");
     let file = write_mission(tmp, &format!("{law}.toml"), &text);
     run_ok(

@@ -39,8 +39,11 @@ fn a_broken_formation_gets_a_verdict_that_says_so_from_the_true_states() {
     let tmp = TempDir::new("broken");
     // The shipped mission under stress, cut short while its formation is still torn by the
     // lossy links and the kill (its survivors are all guided back in formation later on).
-    let text =
-        read(&mission_file("lossy_kill.toml")).replace("duration = 300.0", "duration = 120.0");
+    // Under the paper's law: the robust law keeps this formation (README, `[control]`).
+    let text = with_law(
+        &read(&mission_file("lossy_kill.toml")).replace("duration = 300.0", "duration = 120.0"),
+        "paper",
+    );
     let file = write_mission(&tmp, "lossy_kill.toml", &text);
     let out = vbap_quiet("sim", &file, &tmp.join("sim"));
     let dir = tmp.join("sim");

@@ -14,9 +14,10 @@ use serde::{Deserialize, Serialize};
 #[serde(rename_all = "snake_case")]
 pub enum LawKind {
     /// The paper's law and planner, unchanged.
-    #[default]
     Paper,
-    /// Age-aware control over the links the fleet really has (beyond the paper).
+    /// Age-aware control over the links the fleet really has (beyond the paper); the
+    /// paper's law, byte for byte, on ideal links until a redesign (which is bumpless).
+    #[default]
     Robust,
 }
 
@@ -36,10 +37,10 @@ impl LawKind {
 #[serde(rename_all = "snake_case")]
 pub enum CurvatureSource {
     /// `formation.hessian_guess` (identity when absent), as the paper.
+    #[default]
     Configured,
     /// Estimated online from the readings (`vbap_math::curvature`), the configured Hessian
     /// as its prior (beyond the paper).
-    #[default]
     Estimated,
 }
 
@@ -69,7 +70,7 @@ pub struct ControlSection {
     /// committed (the longest a vehicle may go without a fresh command). Absent: derived
     /// from `[links]` (`crate::horizon::plan_horizon`). Unused by `law = "paper"`.
     pub plan_horizon: Option<f64>,
-    /// `"configured"` | `"estimated"` (default): the Hessian the robust law sizes the
+    /// `"configured"` (default) | `"estimated"`: the Hessian the robust law sizes the
     /// formation with (V.7) and corrects the readings by; ignored by the paper's law.
     pub curvature: CurvatureSource,
     /// Memory of the curvature estimate, in design spacings (k·d̄0) of the body's travel,

@@ -19,7 +19,7 @@ fn mission(law: &str) -> Mission {
          [vehicles]\ncount = 5\nstart = [-1.5, 0.7]\ndamping = 5.0\n\
          [formation]\nradius = 1.296\nalpha = 60.0\nadapt = false\nmin_scale = 0.7\nsigma_h = 1.0\n\
          hessian_guess = [[2.0, 0.0], [0.0, 0.5]]\n\
-         [body]\nv_u = 10.0\n[estimator]\nsigma_m = 1.0\n[control]\nlaw = \"{law}\"\n"
+         [body]\nv_u = 10.0\n[estimator]\nsigma_m = 1.0\n[control]\nlaw = \"{law}\"\ncurvature = \"estimated\"\n"
     );
     Mission::from_toml_str(&text, "<test>").unwrap()
 }
