@@ -71,6 +71,10 @@ pub struct BatchArgs {
     /// Print no line per finished seed.
     #[arg(long)]
     pub quiet: bool,
+    /// Set a mission key on top of the file for every seed, e.g. `--set control.law=paper`
+    /// (repeatable; validated as if the file said it).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<vbap_mission::config::KeySet>,
 }
 
 /// The pass/fail criteria of the `[batch]` table, each optional.
@@ -496,7 +500,7 @@ pub fn main(args: &BatchArgs) -> Result<i32> {
     if args.jobs == 0 {
         return Err(InvalidInput("--jobs 0: need at least one job".into()).into());
     }
-    let mission = Mission::load(&args.mission)?;
+    let mission = Mission::load_with(&args.mission, &args.sets)?;
     let criteria = Criteria::of(&mission)?;
     let first = mission.mission.seed;
     if first

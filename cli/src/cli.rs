@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 use vbap_ipc::process::{EXIT_FAILURE, EXIT_INVALID, EXIT_OK};
-use vbap_mission::config::{Mission, Overrides, Pace};
+use vbap_mission::config::{KeySet, Mission, Overrides, Pace};
 use vbap_mission::rundir::{RunDir, Summary};
 
 /// Virtual bodies and artificial potentials: cooperative gradient climbing by a fleet of
@@ -29,6 +29,10 @@ enum Cmd {
     Check {
         /// The mission file.
         mission: PathBuf,
+        /// Set a mission key on top of the file, e.g. `--set links.loss=0.2` (repeatable;
+        /// validated as if the file said it).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<KeySet>,
     },
     /// Optimal formation (V.7): g, positions, radius, second moments.
     Formation(crate::formation::FormationArgs),
@@ -73,6 +77,10 @@ struct RunArgs {
     /// Override mission.pace: "lockstep" or a real-time factor (> 0).
     #[arg(long)]
     pace: Option<Pace>,
+    /// Set a mission key on top of the file, e.g. `--set control.law=paper` (repeatable;
+    /// validated as if the file said it).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<KeySet>,
     /// Do not show the progress bar.
     #[arg(long)]
     quiet: bool,
@@ -123,7 +131,7 @@ fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> 
         .into());
     }
     match cmd {
-        Cmd::Check { mission } => check(&mission),
+        Cmd::Check { mission, sets } => check(&mission, &sets),
         Cmd::Sim(args) => sim(&args, plugins),
         Cmd::Run(args) => run(&args, plugins),
         Cmd::Formation(args) => crate::formation::main(&args),
@@ -137,8 +145,8 @@ fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> 
 }
 
 /// `vbap check`: the mission and its `[batch]` criteria, with the stiffness warning.
-fn check(mission: &Path) -> Result<i32> {
-    let m = Mission::load(mission)?;
+fn check(mission: &Path, sets: &[KeySet]) -> Result<i32> {
+    let m = Mission::load_with(mission, sets)?;
     // The criteria of `vbap batch`, checked as it will read them.
     crate::batch::Criteria::of(&m)?;
     if let Some(w) = m.stiffness_warning() {
@@ -269,7 +277,7 @@ fn prepare_mission(args: &RunArgs) -> Result<Mission> {
         duration: args.duration,
         pace: args.pace,
     };
-    let mission = Mission::load(&args.mission)?.with_overrides(&overrides)?;
+    let mission = Mission::load_with(&args.mission, &args.sets)?.with_overrides(&overrides)?;
     if let Some(w) = mission.stiffness_warning() {
         eprintln!("vbap: warning: {w}");
     }

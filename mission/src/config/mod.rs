@@ -24,6 +24,7 @@ mod failure_sections;
 mod pace;
 mod parse;
 mod sections;
+mod sets;
 mod stiffness;
 mod toml_text;
 mod validate;
@@ -42,6 +43,7 @@ pub use sections::{
     BodySection, BumpConfig, EstimatorSection, FieldConfig, FieldKind, FormationSection, Goal,
     MissionSection, VehiclesSection,
 };
+pub use sets::KeySet;
 pub use stiffness::Stiffness;
 
 use serde::{Deserialize, Serialize};
