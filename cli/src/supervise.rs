@@ -372,6 +372,9 @@ struct ProcessSet<'a> {
     notices: std::sync::mpsc::Sender<Notice>,
     /// The summary the last coordinator handed over when it ended.
     handed: std::sync::Arc<std::sync::Mutex<Option<Summary>>>,
+    /// Set when the supervisor stops the set: the processes it stops are not deaths, and
+    /// the coordinator (stopping too) is not told of them.
+    stopping: std::sync::Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl<'a> ProcessSet<'a> {
@@ -476,6 +479,7 @@ impl<'a> ProcessSet<'a> {
         let exits = self.exits.clone();
         let notices = self.notices.clone();
         let handed = self.handed.clone();
+        let stopping = self.stopping.clone();
         let lines = lines.filter(|_| role == Role::Coordinator);
         tokio::spawn(async move {
             if let Some(lines) = lines {
@@ -485,8 +489,11 @@ impl<'a> ProcessSet<'a> {
             }
             let pid = child.id();
             let status = child.wait().await;
-            // Told at once: the coordinator acts on a death before any restart of it.
-            if let Some(pid) = pid {
+            // Told at once: the coordinator acts on a death before any restart of it (not
+            // while the supervisor stops everyone: an agent that exits on the stop before
+            // the coordinator does would be recorded as lost).
+            let stopped = stopping.load(std::sync::atomic::Ordering::SeqCst);
+            if let (Some(pid), false) = (pid, stopped) {
                 let report = exit_report(role, pid, &status, wall_ns());
                 let _ = notices.send(Notice::Exit(report));
             }
@@ -523,6 +530,8 @@ impl<'a> ProcessSet<'a> {
 
 /// SIGTERM to every running process, a grace period, then SIGKILL; reaps all.
 async fn stop_all(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedReceiver<Exit>) {
+    set.stopping
+        .store(true, std::sync::atomic::Ordering::SeqCst);
     set.signal_all(Signal::SIGTERM);
     let deadline = tokio::time::Instant::now() + GRACE;
     while set.running() > 0 {
@@ -605,6 +614,7 @@ pub async fn run_with(
         exits: tx,
         notices: notices.tx.clone(),
         handed: Default::default(),
+        stopping: Default::default(),
     };
     let mut interrupted = false;
     let started = tokio::select! {

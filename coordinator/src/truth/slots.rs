@@ -145,9 +145,14 @@ fn vehicle(
     if scene.members.contains(&id) && info_age.is_none_or(|a| a > silence_after) {
         tally.stale_member = true;
     }
-    vt.slot_error = slot_error;
+    // The end-of-run judgment keeps a live vehicle's newest true state: in a paced run a
+    // state that missed the last tick's deadline is news not yet in, not a vehicle out of
+    // formation (this tick's row still says it has no state).
+    if slot_error.is_some() || !alive {
+        vt.slot_error = slot_error;
+        vt.in_formation = in_formation;
+    }
     vt.alive = alive;
-    vt.in_formation = in_formation;
     FormationRow {
         t,
         k,
