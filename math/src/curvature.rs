@@ -237,6 +237,27 @@ impl CurvatureEstimator {
         self.unvech(&var.map(|v| v.max(0.0).sqrt()))
     }
 
+    /// Ĥ ([`CurvatureEstimator::hessian`]) when the data determine it: the Frobenius norm
+    /// of its posterior standard deviation ([`CurvatureEstimator::hessian_std`]) below
+    /// `max_spread` × its own; None otherwise. One solve for both.
+    pub fn hessian_if_determined(&self, max_spread: f64) -> Option<Mat3> {
+        let h0 = 1 + self.dim;
+        let n = self.prior_mean.len();
+        let (vech, var) = match self.solve() {
+            Some((theta, cov)) => (
+                theta.rows(h0, n).into_owned(),
+                DVector::from_iterator(n, (0..n).map(|k| cov[(h0 + k, h0 + k)])),
+            ),
+            None => (
+                self.prior_mean.clone(),
+                DVector::from_element(n, 1.0 / self.prior_info),
+            ),
+        };
+        let h = self.unvech(&vech);
+        let spread = self.unvech(&var.map(|v| v.max(0.0).sqrt()));
+        (spread.norm() < max_spread * h.norm()).then_some(h)
+    }
+
     /// The gradient g of the fitted model at the expansion point (field unit per length
     /// unit), None while undetermined.
     pub fn gradient(&self) -> Option<Vec3> {

@@ -51,10 +51,14 @@ impl Planner {
             Goal::Max => -1.0,
             Goal::Min => 1.0,
         };
-        let curvature = match &self.curvature {
-            Some(c) if c.hessian_std().norm() < 0.5 * c.hessian().norm() => c.hessian(),
-            _ if self.params.hessian_configured => self.params.hessian_guess * sign,
-            _ => return *grad_est,
+        let estimated = self
+            .curvature
+            .as_ref()
+            .and_then(|c| c.hessian_if_determined(0.5));
+        let curvature = match estimated {
+            Some(h) => h,
+            None if self.params.hessian_configured => self.params.hessian_guess * sign,
+            None => return *grad_est,
         };
         let (r_end, _) = sched.predict(k, sched.end_tick(), self.body.r, self.body.scale, dt);
         let mut g = grad_est + curvature * (r_end - self.body.r);
@@ -120,11 +124,10 @@ impl Planner {
     /// of (IV.4) at every tick (reports are always 0.5 s old), the body could not cruise
     /// (its V counts the fleet's kinetic energy, ≈ V_U/2 at v0) and no seed ended in
     /// formation within the mission (0/20, against 19/20 with age counted beyond H).
-    pub(super) fn confidence(&self, k: u64, members: &[Report], dt: f64) -> f64 {
+    pub(super) fn confidence(&self, k: u64, oldest: u64, dt: f64) -> f64 {
         if self.params.law == LawKind::Paper {
             return 1.0;
         }
-        let oldest = members.iter().map(|q| q.tick).min().unwrap_or(k);
         let beyond = k
             .saturating_sub(oldest)
             .saturating_sub(self.params.plan_ticks);

@@ -334,7 +334,7 @@ impl Planner {
             dk_ds: self.scale_rate(holding, self.decision_scale(k, dt)),
         };
         let (terms, waiting) = self.lyapunov(members, &rejoining, &rates);
-        let confidence = self.confidence(k, members, dt);
+        let confidence = self.confidence(k, oldest, dt);
         let p = &self.params;
         let sdot = if holding {
             0.0

@@ -103,6 +103,18 @@ fn a_noiseless_quadratic_is_recovered_exactly_across_shifts_in_3d() {
     }
     assert!(max_abs(&(est.hessian() - h)) < 1e-5, "{}", est.hessian());
     assert!((est.gradient().unwrap() - (g + h * r)).norm() < 1e-5);
+    // Determined by the data: the same Ĥ as `hessian`, its spread as `hessian_std`'s.
+    assert!(est.hessian_std().norm() < 0.5 * est.hessian().norm());
+    assert_eq!(est.hessian_if_determined(0.5), Some(est.hessian()));
+    assert_eq!(est.hessian_if_determined(0.0), None);
+}
+
+#[test]
+fn with_no_data_the_curvature_is_not_determined() {
+    let est = CurvatureEstimator::new(2, &Mat3::identity(), 1.0, 1.5).unwrap();
+    // The prior's spread (σ_H = 1: 100 %) is not below half of the prior itself.
+    assert!(est.hessian_std().norm() >= 0.5 * est.hessian().norm());
+    assert_eq!(est.hessian_if_determined(0.5), None);
 }
 
 #[test]
