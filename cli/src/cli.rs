@@ -147,8 +147,8 @@ fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> 
 /// `vbap check`: the mission and its `[batch]` criteria, with the stiffness warning.
 fn check(mission: &Path, sets: &[KeySet]) -> Result<i32> {
     let m = Mission::load_with(mission, sets)?;
-    // The criteria of `vbap batch`, checked as it will read them.
-    crate::batch::Criteria::of(&m)?;
+    // The criteria and the sweep of `vbap batch`, checked as it will read them.
+    crate::batch::check(mission, sets, &m)?;
     if let Some(w) = m.stiffness_warning() {
         eprintln!("vbap: warning: {w}");
     }

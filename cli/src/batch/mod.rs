@@ -226,6 +226,19 @@ pub fn main(args: &BatchArgs) -> Result<i32> {
     Ok(crate::child_run::pass_or_fail(agg.passed, &agg.failures))
 }
 
+/// What `vbap check` checks of `mission`'s `[batch]` table (the file at `path` with `sets`):
+/// the criteria, and the sweep (every value, and every grid point's mission, valid).
+pub fn check(path: &Path, sets: &[vbap_mission::config::KeySet], mission: &Mission) -> Result<()> {
+    Criteria::of(mission)?;
+    let keys = sweep::resolve(&[], mission)?;
+    if !keys.is_empty() {
+        let text = read_mission_file(path)?;
+        let origin = path.display().to_string();
+        sweep::missions(&text, &origin, sets, &keys, &sweep::grid(&keys))?;
+    }
+    Ok(())
+}
+
 /// Every job, `workers` at a time, in this process or as `vbap run`; the rows in job order
 /// (grid point, then seed), and how many were skipped (complete already).
 fn run_all(

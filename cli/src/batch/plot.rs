@@ -94,6 +94,10 @@ fn figure(mission: &str, k: &SweptKey, keys: &[SweptKey], points: &[PointAggrega
             let x = Axis {
                 label: k.key.clone(),
                 integer: numbers.is_none(),
+                // A categorical key: its values at 0, 1, …, with a margin on both sides.
+                range: numbers
+                    .is_none()
+                    .then(|| (-0.25, k.values.len() as f64 - 0.75)),
                 ..Axis::default()
             };
             let y = Axis {
