@@ -48,6 +48,10 @@ enum Cmd {
     /// Are two run directories the same run? (files from mission time byte for byte,
     /// summary.json without its wall-clock fields; exit 0 same, 1 different)
     Compare(crate::compare::CompareArgs),
+    /// A running mission's iceoryx2 nodes and services, with message rates.
+    Services(crate::introspect::ServicesArgs),
+    /// One service of a running mission, its messages decoded as JSON lines.
+    Echo(crate::introspect::EchoArgs),
     /// Timing analysis of a run from its tracing logs.
     Analyze {
         /// The run directory.
@@ -140,6 +144,8 @@ fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> 
         Cmd::Chaos(args) => crate::chaos::main(&args),
         Cmd::Bench(args) => crate::bench::main(&args),
         Cmd::Compare(args) => crate::compare::main(&args),
+        Cmd::Services(args) => crate::introspect::services(&args),
+        Cmd::Echo(args) => crate::introspect::echo(&args),
         Cmd::Analyze { run_dir, json } => vbap_report::analyze::main(&run_dir, json),
     }
 }
@@ -226,6 +232,8 @@ fn run(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32>
     )
     .map_err(|e| InvalidInput(e.to_string()))?;
     let dir = prepare_dir(args, &mission)?;
+    // The mission's iceoryx2 config, for `iox2 ... --config RUN_DIR/iox2.toml`.
+    crate::introspect::write_config(&dir, &domain)?;
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
