@@ -77,9 +77,17 @@ pub fn prepare(out: &Path, plan: &Plan) -> Result<bool, InvalidInput> {
     Ok(false)
 }
 
+/// The file a failed run's directory gets (why, in words): a `vbap run` that exited with
+/// an error may still have written a summary, and a resumed batch must run it again as the
+/// straight batch counted it failed.
+pub const FAILED_FILE: &str = "batch.failed";
+
 /// The summary of the run in `dir` if the run is complete: its `summary.json` exists and
-/// reads whole, and the run was not interrupted.
+/// reads whole, the run was not interrupted and did not fail.
 pub fn complete(dir: &Path) -> Option<Summary> {
+    if dir.join(FAILED_FILE).exists() {
+        return None;
+    }
     let s = Summary::read(&RunDir {
         root: dir.to_path_buf(),
     })

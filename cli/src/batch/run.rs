@@ -64,12 +64,13 @@ pub fn run(job: &Job<'_>, in_process: bool, exe: &Path, out: &Path) -> Outcome {
     })();
     Outcome::Ran(tag(match result {
         Ok(s) => SeedResult::from_summary(job.seed, &s, job.dir.clone()),
-        Err(e) => SeedResult::failed(
-            job.seed,
-            format!("{e:#}"),
-            wall.elapsed().as_secs_f64(),
-            job.dir.clone(),
-        ),
+        Err(e) => {
+            let why = format!("{e:#}");
+            if job.dir.is_dir() {
+                let _ = std::fs::write(job.dir.join(super::resume::FAILED_FILE), &why);
+            }
+            SeedResult::failed(job.seed, why, wall.elapsed().as_secs_f64(), job.dir.clone())
+        }
     }))
 }
 

@@ -249,3 +249,29 @@ fn wilson_interval_matches_known_values() {
     assert!((hi - 1.0).abs() < 1e-12, "{hi}");
     assert_eq!(points::wilson(0, 0, points::Z95), [0.0, 1.0]);
 }
+
+#[test]
+fn a_run_is_complete_with_a_whole_summary_not_interrupted_nor_failed() {
+    use vbap_mission::rundir::{RunDir, Summary};
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = RunDir {
+        root: tmp.path().to_path_buf(),
+    };
+    assert!(resume::complete(&dir.root).is_none(), "no summary");
+    let mut s = Summary {
+        verdict: "converged".into(),
+        ..Summary::default()
+    };
+    s.write(&dir).unwrap();
+    assert_eq!(resume::complete(&dir.root), Some(s.clone()));
+    let text = std::fs::read_to_string(dir.summary()).unwrap();
+    std::fs::write(dir.summary(), &text[..text.len() / 2]).unwrap();
+    assert!(resume::complete(&dir.root).is_none(), "cut short");
+    s.verdict = "interrupted".into();
+    s.write(&dir).unwrap();
+    assert!(resume::complete(&dir.root).is_none(), "interrupted");
+    s.verdict = "converged".into();
+    s.write(&dir).unwrap();
+    std::fs::write(dir.root.join(resume::FAILED_FILE), "vbap run exited with 1").unwrap();
+    assert!(resume::complete(&dir.root).is_none(), "failed");
+}
