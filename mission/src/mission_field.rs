@@ -10,6 +10,12 @@ impl Mission {
     pub fn field(&self) -> Field {
         Field::from_config(&self.field, self.mission.dim)
     }
+
+    /// The land of this mission's field, for keeping vehicles and the body centre in water;
+    /// `None` for the analytic fields (no land).
+    pub fn land(&self) -> Option<std::sync::Arc<dyn crate::land::LandMask>> {
+        None
+    }
 }
 
 #[cfg(test)]
@@ -32,6 +38,7 @@ mod tests {
         );
         let front = parse("[mission]\nname = \"f\"\ndim = 3\n[field]\nkind = \"front\"\nnormal = [0.0, 1.0, 1.0]\namplitude = -1.5\nwidth = 0.3\n[vehicles]\ncount = 6\nstart = [0.1, 0.2, 0.3]\n");
         assert!(matches!(front.field(), Field::MovingFront { dim: 3, .. }));
+        assert!(front.land().is_none(), "an analytic field has no land");
     }
 
     #[test]
