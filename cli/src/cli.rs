@@ -48,6 +48,9 @@ enum Cmd {
     /// Are two run directories the same run? (files from mission time byte for byte,
     /// summary.json without its wall-clock fields; exit 0 same, 1 different)
     Compare(crate::compare::CompareArgs),
+    /// Write the synthetic ocean example (CF NetCDF: temperature with a front and eddies,
+    /// u/v currents, a coast and an island) for `[field] kind = "grid"` missions.
+    Ocean(crate::ocean::OceanArgs),
     /// Timing analysis of a run from its tracing logs.
     Analyze {
         /// The run directory.
@@ -140,6 +143,7 @@ fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> 
         Cmd::Chaos(args) => crate::chaos::main(&args),
         Cmd::Bench(args) => crate::bench::main(&args),
         Cmd::Compare(args) => crate::compare::main(&args),
+        Cmd::Ocean(args) => crate::ocean::main(&args),
         Cmd::Analyze { run_dir, json } => vbap_report::analyze::main(&run_dir, json),
     }
 }

@@ -11,6 +11,7 @@
 //!   terminal summary of a run); [`errors`]: the user's errors and the exit codes;
 //!   [`rundirs`]: where runs go by default; [`domain`]: a mission's iceoryx2 domain on this
 //!   host (free? leftovers, cleaning).
+//! - [`ocean`]: `vbap ocean`, the synthetic ocean example file of grid missions.
 //! - [`lock`]: one supervisor per mission name on a host.
 //!
 //! Pictures and timing analyses are `vbap-report`'s; the steps of the processes are the
@@ -27,6 +28,7 @@ pub mod domain;
 pub mod errors;
 pub mod formation;
 pub mod lock;
+pub mod ocean;
 pub mod plugins;
 pub mod progress;
 pub mod replay;

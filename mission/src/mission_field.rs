@@ -15,12 +15,12 @@ impl Mission {
         Field::from_config(&self.field, self.mission.dim)
     }
 
-    /// The land of this mission's field, for keeping vehicles and the body centre in water;
-    /// `None` for the analytic fields (no land).
+    /// The land of this mission's field, for keeping vehicles and the body centre in water:
+    /// a gridded field's land and missing data, and everything outside its grid; `None` for
+    /// the analytic fields (no land).
     pub fn land(&self) -> Option<Arc<dyn crate::land::LandMask>> {
         let grid = self.field.grid.0.as_ref()?;
-        grid.has_land()
-            .then(|| Arc::clone(grid) as Arc<dyn crate::land::LandMask>)
+        Some(Arc::clone(grid) as Arc<dyn crate::land::LandMask>)
     }
 
     /// The grid of a `kind = "grid"` field, if loaded.

@@ -461,3 +461,21 @@ fn fill_values_are_land_and_land_above_marks_elevation() {
     assert!(g.is_land(&Vec3::new(5.0, 0.0, 0.0)), "x − y = 5 > 2.5");
     assert!(!g.is_land(&Vec3::new(2.0, 1.0, 0.0)));
 }
+
+#[test]
+fn the_shipped_ocean_file_is_what_the_generator_writes() {
+    let shipped = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../deploy/missions/ocean.nc"
+    ));
+    let dir = tempfile::tempdir().unwrap();
+    let made = dir.path().join("ocean.nc");
+    let (nx, ny) = ocean::DEFAULT_SIZE;
+    ocean::write_ocean(&made, nx, ny, 1).unwrap();
+    let want = std::fs::read(shipped).expect("deploy/missions/ocean.nc is shipped");
+    assert!(want.len() < 1 << 20, "the shipped file stays small");
+    assert!(
+        std::fs::read(&made).unwrap() == want,
+        "deploy/missions/ocean.nc differs from `vbap ocean --out deploy/missions/ocean.nc --size 160,150 --seed 1`: regenerate it"
+    );
+}
