@@ -9,7 +9,7 @@ fn mission(name: &str, field: &str) -> String {
 [mission]
 name = "{name}"
 seed = 7
-duration = 40.0
+duration = 100.0
 dt = 0.05
 goal = "max"
 dim = 2
