@@ -28,7 +28,7 @@ pub struct Axis {
     pub nodes: Vec<f64>,
     /// Node j's slope is c · f[first..first + 3] (the quadratic through three nodes).
     slopes: Vec<(usize, [f64; 3])>,
-    /// (first node, spacing) when the nodes are evenly spaced (direct cell lookup).
+    /// (first node, 1 / spacing) when the nodes are evenly spaced (direct cell lookup).
     uniform: Option<(f64, f64)>,
 }
 
@@ -50,10 +50,15 @@ impl Axis {
             .enumerate()
             .all(|(j, x)| (x - (nodes[0] + j as f64 * step)).abs() <= 1e-9 * span.abs());
         Axis {
-            uniform: even.then_some((nodes[0], step)),
+            uniform: even.then_some((nodes[0], 1.0 / step)),
             nodes,
             slopes,
         }
+    }
+
+    /// Whether the nodes are evenly spaced (a cell is found without a search).
+    pub fn is_even(&self) -> bool {
+        self.uniform.is_some()
     }
 
     /// Number of nodes.
@@ -81,7 +86,7 @@ impl Axis {
     pub fn cell(&self, x: f64) -> usize {
         let n = self.nodes.len();
         let i = match self.uniform {
-            Some((x0, dx)) => ((x - x0) / dx).floor().max(0.0) as usize,
+            Some((x0, inv_dx)) => ((x - x0) * inv_dx).floor().max(0.0) as usize,
             None => self.nodes.partition_point(|v| *v <= x).saturating_sub(1),
         };
         i.min(n - 2)
@@ -97,38 +102,65 @@ impl Axis {
         }
     }
 
-    /// The stencil of `x` (clamped into the axis: outside, the edge value, zero derivatives).
-    pub fn stencil(&self, x: f64) -> Stencil {
-        let n = self.nodes.len();
+    /// Cell i of `x`, its width h, the position s ∈ [0, 1] in it, the stencil's first node,
+    /// and whether `x` lies within the axis.
+    fn locate(&self, x: f64) -> (usize, f64, f64, usize, bool) {
         let (lo, hi) = self.range();
-        let inside = x >= lo && x <= hi;
         let i = self.cell(x);
         let h = self.nodes[i + 1] - self.nodes[i];
         let s = ((x.clamp(lo, hi) - self.nodes[i]) / h).clamp(0.0, 1.0);
-        let (b, db, d2b) = hermite(s);
-        let start = i.saturating_sub(1).min(n - MIN_NODES);
-        let mut st = Stencil {
-            start,
-            ..Stencil::default()
-        };
-        let mut add = |node: usize, bv: f64, bd: f64, bdd: f64| {
-            st.w[node - start] += bv;
-            st.d1[node - start] += bd / h;
-            st.d2[node - start] += bdd / (h * h);
-        };
-        add(i, b[0], db[0], d2b[0]);
-        add(i + 1, b[2], db[2], d2b[2]);
+        let start = i.saturating_sub(1).min(self.nodes.len() - MIN_NODES);
+        (i, h, s, start, x >= lo && x <= hi)
+    }
+
+    /// Node weights of the basis `b` = (end values' weights b₀, b₂; end slopes' weights b₁,
+    /// b₃), the slopes expanded into their three nodes.
+    fn spread(&self, i: usize, start: usize, b: [f64; 4]) -> [f64; 4] {
+        let mut w = [0.0; 4];
+        w[i - start] += b[0];
+        w[i + 1 - start] += b[2];
         for (node, k) in [(i, 1), (i + 1, 3)] {
             let (first, c) = self.slopes[node];
             for (m, cm) in c.iter().enumerate() {
-                add(first + m, b[k] * h * cm, db[k] * h * cm, d2b[k] * h * cm);
+                w[first + m - start] += b[k] * cm;
             }
         }
+        w
+    }
+
+    /// The value weights of `x` only (the hot path of a reading): (first node, weights).
+    pub fn weights(&self, x: f64) -> (usize, [f64; 4]) {
+        let (i, h, s, start, _) = self.locate(x);
+        let (b, _, _) = hermite(s);
+        (
+            start,
+            self.spread(i, start, [b[0], b[1] * h, b[2], b[3] * h]),
+        )
+    }
+
+    /// The stencil of `x` (clamped into the axis: outside, the edge value, zero derivatives).
+    pub fn stencil(&self, x: f64) -> Stencil {
+        let (i, h, s, start, inside) = self.locate(x);
+        let (b, db, d2b) = hermite(s);
+        let (ih, ih2) = (1.0 / h, 1.0 / (h * h));
+        let w = self.spread(i, start, [b[0], b[1] * h, b[2], b[3] * h]);
         if !inside {
-            st.d1 = [0.0; 4];
-            st.d2 = [0.0; 4];
+            return Stencil {
+                start,
+                w,
+                ..Stencil::default()
+            };
         }
-        st
+        Stencil {
+            start,
+            w,
+            d1: self.spread(i, start, [db[0] * ih, db[1], db[2] * ih, db[3]]),
+            d2: self.spread(
+                i,
+                start,
+                [d2b[0] * ih2, d2b[1] * ih, d2b[2] * ih2, d2b[3] * ih],
+            ),
+        }
     }
 }
 

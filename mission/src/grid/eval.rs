@@ -39,23 +39,23 @@ impl GridField {
         )
     }
 
-    /// Value only (the hot path of a sensor reading).
-    fn value_at(&self, st: &[Stencil; 3], nz: usize, base: isize) -> f64 {
+    /// Value only (the hot path of a sensor reading): value weights only.
+    fn value_at(&self, w: &[(usize, [f64; 4]); 3], nz: usize, base: isize) -> f64 {
         let l = &self.layout;
         let mut v = 0.0;
         for c in 0..nz {
-            let oz = base + l.first[2] + (st[2].start + c) as isize * l.step[2];
+            let oz = base + l.first[2] + (w[2].0 + c) as isize * l.step[2];
             let mut a = 0.0;
-            for (b, wy) in st[1].w.iter().enumerate() {
-                let oy = oz + l.first[1] + (st[1].start + b) as isize * l.step[1];
-                let ox = oy + l.first[0] + st[0].start as isize * l.step[0];
+            for (b, wy) in w[1].1.iter().enumerate() {
+                let oy = oz + l.first[1] + (w[1].0 + b) as isize * l.step[1];
+                let ox = oy + l.first[0] + w[0].0 as isize * l.step[0];
                 let mut r = 0.0;
-                for (m, wx) in st[0].w.iter().enumerate() {
+                for (m, wx) in w[0].1.iter().enumerate() {
                     r += wx * self.data[(ox + m as isize * l.step[0]) as usize];
                 }
                 a += wy * r;
             }
-            v += st[2].w[c] * a;
+            v += w[2].1[c] * a;
         }
         v
     }
@@ -120,13 +120,19 @@ impl GridField {
 
     /// T(p, t) (the file's unit): the interpolant, constant beyond the grid's edges.
     pub fn value(&self, p: &Vec3, t: f64) -> f64 {
-        let (st, nz) = self.stencils(p);
+        let z = self.z.as_ref().map(|a| a.weights(p.z));
+        let w = [
+            self.x.weights(p.x),
+            self.y.weights(p.y),
+            z.unwrap_or((0, FLAT.w)),
+        ];
+        let nz = if z.is_some() { 4 } else { 1 };
         let (k, tau) = linear(&self.times, t);
-        let v0 = self.value_at(&st, nz, self.slice(k));
+        let v0 = self.value_at(&w, nz, self.slice(k));
         if tau == 0.0 {
             v0
         } else {
-            v0 + tau * (self.value_at(&st, nz, self.slice(k + 1)) - v0)
+            v0 + tau * (self.value_at(&w, nz, self.slice(k + 1)) - v0)
         }
     }
 
