@@ -52,6 +52,9 @@ enum Cmd {
     Services(crate::introspect::ServicesArgs),
     /// One service of a running mission, its messages decoded as JSON lines.
     Echo(crate::introspect::EchoArgs),
+    /// Write the synthetic ocean example (CF NetCDF: temperature with a front and eddies,
+    /// u/v currents, a coast and an island) for `[field] kind = "grid"` missions.
+    Ocean(crate::ocean::OceanArgs),
     /// Timing analysis of a run from its tracing logs.
     Analyze {
         /// The run directory.
@@ -146,6 +149,7 @@ fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> 
         Cmd::Compare(args) => crate::compare::main(&args),
         Cmd::Services(args) => crate::introspect::services(&args),
         Cmd::Echo(args) => crate::introspect::echo(&args),
+        Cmd::Ocean(args) => crate::ocean::main(&args),
         Cmd::Analyze { run_dir, json } => vbap_report::analyze::main(&run_dir, json),
     }
 }

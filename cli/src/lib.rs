@@ -11,6 +11,7 @@
 //!   terminal summary of a run); [`errors`]: the user's errors and the exit codes;
 //!   [`rundirs`]: where runs go by default; [`domain`]: a mission's iceoryx2 domain on this
 //!   host (free? leftovers, cleaning).
+//! - [`ocean`]: `vbap ocean`, the synthetic ocean example file of grid missions.
 //! - [`lock`]: one supervisor per mission name on a host.
 //! - [`introspect`]: `vbap services` and `vbap echo`, a look inside a running mission.
 //!
@@ -29,6 +30,7 @@ pub mod errors;
 pub mod formation;
 pub mod introspect;
 pub mod lock;
+pub mod ocean;
 pub mod plugins;
 pub mod progress;
 pub mod replay;

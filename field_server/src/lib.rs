@@ -23,6 +23,8 @@ pub struct World {
     field: Arc<dyn ScalarField>,
     seed: u64,
     noise_std: f64,
+    /// Land of a gridded field: no reading is taken there.
+    land: Option<Arc<dyn vbap_mission::land::LandMask>>,
 }
 
 impl World {
@@ -38,6 +40,7 @@ impl World {
             field,
             seed: mission.mission.seed,
             noise_std: mission.field.noise_std,
+            land: mission.land(),
         }
     }
 
@@ -48,9 +51,13 @@ impl World {
 
     /// The reading of vehicle `vehicle`'s sensor at `position`, tick `tick`, time `t` (s):
     /// T(p, t) + N(0, σ_M²), the noise keyed by (seed, vehicle, tick). `None` for a
-    /// non-finite position.
+    /// non-finite position, and on land (a gridded field's land or missing data, or outside
+    /// its grid): a reading there is impossible, not zero.
     pub fn sample(&self, vehicle: u32, tick: u64, t: f64, position: &Vec3) -> Option<f64> {
         if !position.iter().all(|v| v.is_finite()) || !t.is_finite() {
+            return None;
+        }
+        if self.land.as_ref().is_some_and(|l| l.is_land(position)) {
             return None;
         }
         let v = measure(

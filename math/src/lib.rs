@@ -14,6 +14,9 @@
 //! [`adapt`]; the curvature of the field estimated from the readings (beyond the paper):
 //! [`curvature`].
 //!
+//! Gridded fields from files (beyond the paper): interpolation and the local map
+//! projection, [`gridmath`].
+//!
 //! Random streams keyed by (seed, stream, id, tick), so every process draws the same noise:
 //! [`rng`].
 //!
@@ -29,6 +32,7 @@ pub mod curvature;
 pub mod estimate;
 pub mod fit;
 pub mod formation;
+pub mod gridmath;
 pub mod kalman;
 pub mod law;
 pub mod lyapunov;

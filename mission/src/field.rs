@@ -106,6 +106,8 @@ pub enum Field {
         /// 2 or 3.
         dim: usize,
     },
+    /// A gridded variable of a file, interpolated (beyond the paper; `crate::grid`).
+    Grid(std::sync::Arc<crate::grid::GridField>),
 }
 
 /// `v[i]` for i < dim, zero elsewhere (missing components are zero).
@@ -185,6 +187,12 @@ impl Field {
                 velocity: vec3_of(&cfg.velocity, dim),
                 dim,
             },
+            FieldKind::Grid => Field::Grid(
+                cfg.grid
+                    .0
+                    .clone()
+                    .expect("a validated grid mission has loaded its grid (Mission::load)"),
+            ),
             FieldKind::Front => {
                 let n = vec3_of(&cfg.normal, dim);
                 let norm = n.norm();
@@ -212,6 +220,7 @@ impl Field {
             | Field::GaussianSum { dim, .. }
             | Field::DriftingEddy { dim, .. }
             | Field::MovingFront { dim, .. } => *dim,
+            Field::Grid(g) => g.dim,
         }
     }
 
@@ -236,6 +245,7 @@ impl Field {
     pub fn value(&self, p: &Vec3, t: f64) -> f64 {
         let p = self.planar(p);
         match self {
+            Field::Grid(g) => g.value(&p, t),
             Field::Quadratic {
                 center,
                 hessian,
@@ -274,6 +284,7 @@ impl Field {
     pub fn gradient(&self, p: &Vec3, t: f64) -> Vec3 {
         let p = self.planar(p);
         let mut g = match self {
+            Field::Grid(g) => g.gradient(&p, t),
             Field::Quadratic {
                 center, hessian, ..
             } => hessian * (p - center),
@@ -309,6 +320,7 @@ impl Field {
     pub fn hessian(&self, p: &Vec3, t: f64) -> Mat3 {
         let p = self.planar(p);
         let mut h = match self {
+            Field::Grid(g) => g.hessian(&p, t),
             Field::Quadratic { hessian, .. } => *hessian,
             Field::GaussianSum { bumps, .. } => bumps
                 .iter()
@@ -390,6 +402,7 @@ impl Field {
                 Some(b) if wanted(b.amplitude) => self.local_optimum(b.center, t, goal, b.width),
                 _ => None,
             },
+            Field::Grid(g) => g.optimum(t, goal),
         }
     }
 
@@ -461,6 +474,7 @@ impl Field {
             Field::MovingFront {
                 amplitude, bump, ..
             } => amplitude.abs() + bump.as_ref().map_or(0.0, |b| b.amplitude.abs()),
+            Field::Grid(_) => 1.0,
         };
         if s > 0.0 {
             s
@@ -495,6 +509,7 @@ impl Field {
                 Some(b) => boxed(&b.center, 3.0 * b.width),
                 None => boxed(&(normal * *offset), 5.0 * width),
             },
+            Field::Grid(g) => g.bounds(),
         };
         if self.dim() == 2 {
             lo.z = 0.0;

@@ -4,13 +4,17 @@
 //!   its environment (in `mission_field.rs`, so `config` does not depend on `field`).
 //! - [`field`]: the sensed environments, with ground truth, and the keyed sensor noise.
 //! - [`link`], [`faults`]: the emulated glider link and the scheduled faults.
+//! - [`grid`]: gridded fields from files (NetCDF, NumPy), interpolated.
+//! - [`land`]: land as data ([`land::LandMask`]), for keeping vehicles in water.
 //! - [`horizon`]: the plan horizon of the robust law, from the link model.
 //! - [`rundir`]: the run directory a mission writes (CSV, JSON lines, summary).
 
 pub mod config;
 pub mod faults;
 pub mod field;
+pub mod grid;
 pub mod horizon;
+pub mod land;
 pub mod link;
 mod mission_field;
 pub mod rundir;

@@ -2,13 +2,73 @@
 //! so that the mission file's parsing and validation do not depend on the fields (which
 //! are built from their `[field]` section): `field` uses `config`, this module uses both.
 
-use crate::config::Mission;
+use std::path::Path;
+use std::sync::Arc;
+
+use crate::config::{ConfigError, FieldKind, Mission};
 use crate::field::Field;
+use crate::grid::{AxisNames, GridField, GridSlot, GridSpec};
 
 impl Mission {
     /// The environment this mission describes.
     pub fn field(&self) -> Field {
         Field::from_config(&self.field, self.mission.dim)
+    }
+
+    /// The land of this mission's field, for keeping vehicles and the body centre in water:
+    /// a gridded field's land and missing data, and everything outside its grid; `None` for
+    /// the analytic fields (no land).
+    pub fn land(&self) -> Option<Arc<dyn crate::land::LandMask>> {
+        let grid = self.field.grid.0.as_ref()?;
+        Some(Arc::clone(grid) as Arc<dyn crate::land::LandMask>)
+    }
+
+    /// The grid of a `kind = "grid"` field, if loaded.
+    pub fn grid(&self) -> Option<&Arc<GridField>> {
+        self.field.grid.0.as_ref()
+    }
+
+    /// Reads the grid of a `kind = "grid"` field (nothing for other kinds): `field.file`
+    /// relative to `base` (the mission file's directory), made absolute in the mission so the
+    /// resolved mission names it wherever it is written. An error names the mission, the key,
+    /// the file, the variable and what is wrong.
+    pub(crate) fn load_grid(&mut self, base: Option<&Path>) -> Result<(), ConfigError> {
+        if self.field.kind != FieldKind::Grid || self.field.grid.0.is_some() {
+            return Ok(());
+        }
+        let f = &self.field;
+        let given = f.file.clone().unwrap_or_default();
+        let mut file = Path::new(&given).to_path_buf();
+        if file.is_relative() {
+            if let Some(b) = base {
+                file = b.join(file);
+            }
+        }
+        let file = std::path::absolute(&file).unwrap_or(file);
+        let spec = GridSpec {
+            file: file.clone(),
+            variable: f.variable.clone(),
+            names: AxisNames {
+                x: f.x.clone(),
+                y: f.y.clone(),
+                z: f.z.clone(),
+                time: f.time.clone(),
+            },
+            geographic: f.geographic,
+            origin: f.origin.as_ref().map(|o| [o[0], o[1]]),
+            land_above: f.land_above,
+            extent: f.extent.clone(),
+            dim: self.mission.dim,
+        };
+        let grid = GridField::load(&spec).map_err(|e| ConfigError::Invalid {
+            origin: self.origin.clone(),
+            key: "field.file".into(),
+            value: format!("{given:?}"),
+            reason: e.to_string(),
+        })?;
+        self.field.file = Some(file.display().to_string());
+        self.field.grid = GridSlot(Some(Arc::new(grid)));
+        Ok(())
     }
 }
 
@@ -32,6 +92,7 @@ mod tests {
         );
         let front = parse("[mission]\nname = \"f\"\ndim = 3\n[field]\nkind = \"front\"\nnormal = [0.0, 1.0, 1.0]\namplitude = -1.5\nwidth = 0.3\n[vehicles]\ncount = 6\nstart = [0.1, 0.2, 0.3]\n");
         assert!(matches!(front.field(), Field::MovingFront { dim: 3, .. }));
+        assert!(front.land().is_none(), "an analytic field has no land");
     }
 
     #[test]

@@ -81,6 +81,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         snapshots,
         optimum: Some((ox, oy)),
         events,
+        geographic: None,
     };
     write_mission_svg(&plot, std::path::Path::new("/tmp/plot_demo.svg"))?;
 
@@ -134,6 +135,7 @@ fn crowded_plot() -> Result<(), Box<dyn std::error::Error>> {
             (1.05, 1.0, "kill 4".into()),
             (1.0, 1.05, "kill 5".into()),
         ],
+        geographic: None,
     };
     write_mission_svg(&crowded, std::path::Path::new("/tmp/plot_demo_crowded.svg"))?;
     Ok(())

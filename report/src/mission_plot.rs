@@ -53,7 +53,16 @@ pub fn write_mission_plot(
         }
     };
     let z = if m.mission.dim == 3 { r.z } else { 0.0 };
-    let sample = |x: f64, y: f64| field.value(&Vec3::new(x, y, z), t);
+    // Land of a gridded field (and outside its grid) is shaded: no value there.
+    let land = m.land();
+    let sample = |x: f64, y: f64| {
+        let p = Vec3::new(x, y, z);
+        if land.as_ref().is_some_and(|l| l.is_land(&p)) {
+            f64::NAN
+        } else {
+            field.value(&p, t)
+        }
+    };
     let plot = MissionPlot {
         title: format!("{} (seed {})", m.mission.name, m.mission.seed),
         length_unit: m.mission.length_unit.clone(),
@@ -64,6 +73,7 @@ pub fn write_mission_plot(
         snapshots: data.snapshots,
         optimum: field.optimum(t, m.mission.goal).map(|o| (o.x, o.y)),
         events: Vec::new(),
+        geographic: m.grid().and_then(|g| g.origin),
     };
     crate::plot::write_mission_svg(&plot, &dir.plot())
         .with_context(|| format!("drawing {}", dir.plot().display()))

@@ -94,6 +94,9 @@ pub struct MissionPlot<'a> {
     pub optimum: Option<(f64, f64)>,
     /// Markers at (x, y) with a short label (kills, rejoins, ...).
     pub events: Vec<(f64, f64, String)>,
+    /// [lon, lat] (degrees) of the local (0, 0) of a geographic grid field: the axes are then
+    /// labelled in degrees (positions stay local; x = R cos(lat0) Δlon, y = R Δlat).
+    pub geographic: Option<[f64; 2]>,
 }
 
 /// A rectangle of the plane, in the plot's length unit.

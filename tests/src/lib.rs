@@ -12,6 +12,7 @@ pub use vbap_ipc::msglog::MsgEvent;
 use vbap_ipc::msglog::{self, MsgRecord, MSG_SUFFIX};
 
 pub mod columns;
+pub mod grid;
 /// The workspace root.
 pub fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

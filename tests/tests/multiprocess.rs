@@ -112,6 +112,20 @@ fn lockstep_equals_in_process_3d() {
 }
 
 #[test]
+fn lockstep_equals_in_process_grid_field() {
+    // The 2-D mission's Gaussian sampled onto a NetCDF grid: every process reads the file.
+    let data = TempDir::new("grid");
+    let file = data.join("g.nc");
+    tests::grid::write_gaussian_grid(&file, 0.25);
+    let text = mission_2d(&unique_name("eqgrid"), 4, 8.0, "\"lockstep\"").replace(
+        "kind = \"gaussian\"\ncenter = [6.0, 3.0]\namplitude = 10.0\nwidth = 6.0\n",
+        &format!("kind = \"grid\"\nfile = {:?}\n", file.display().to_string()),
+    );
+    assert!(text.contains("kind = \"grid\""));
+    assert_run_equals_sim(&text);
+}
+
+#[test]
 fn two_missions_at_once_do_not_interfere() {
     let tmp = TempDir::new("two");
     let a = write_mission(

@@ -26,6 +26,7 @@ impl Recorder {
                 tolerance: m.mission.tolerance,
                 t,
                 unit: m.mission.length_unit.clone(),
+                local_optima: m.grid().map_or(0, |g| g.local_optima(m.mission.goal)),
             },
         );
         // Converged: the body within tolerance AND every live vehicle in formation.

@@ -19,6 +19,9 @@ pub struct BodyOutcome {
     /// Final mission time, s; the length unit's name.
     pub t: f64,
     pub unit: String,
+    /// The number of local optima of the goal's kind when the field has several (a gridded
+    /// field), else 0.
+    pub local_optima: usize,
 }
 
 /// The facts a verdict is chosen from.
@@ -38,6 +41,9 @@ pub struct Facts {
     pub stalled: bool,
     /// The body ended farther from the optimum than it started.
     pub diverged: bool,
+    /// The field has several local optima of the goal's kind (beyond the paper: a gridded
+    /// field), so a stall away from the global one is a stop at a local one.
+    pub several_optima: bool,
 }
 
 /// The verdict and its reasons. In order:
@@ -46,6 +52,9 @@ pub struct Facts {
 /// - `converged, near collisions`: the same, but two vehicles came closer than
 ///   [`NEAR_COLLISION`] spacing at some tick (a collision, at sea): still converged;
 /// - `converged, formation broken`: body within tolerance, some live vehicle out of formation;
+/// - `converged to a stationary point`: not within tolerance of the global optimum, stalled,
+///   on a field with several local optima (a gridded field): the gradient climb ended at a
+///   local one, as it may;
 /// - `stalled`: not converged and the body stalled at the end (ṡ ≈ 0, see the module docs);
 /// - `diverged`: not converged and the body ended farther from the optimum than it started;
 /// - `not converged, formation broken` / `not converged`: out of time on the way;
@@ -68,6 +77,7 @@ pub fn verdict(stats: &TruthStats, body: &BodyOutcome) -> (String, Vec<String>) 
             (Some(d), Some(s)) => d > s,
             _ => false,
         },
+        several_optima: body.local_optima > 1,
     };
     let mut reasons = Vec::new();
     if facts.interrupted {
@@ -80,6 +90,12 @@ pub fn verdict(stats: &TruthStats, body: &BodyOutcome) -> (String, Vec<String>) 
     }
     reasons.push(distance_reason(stats, body, &unit));
     reasons.push(formation_reason(stats, &f));
+    if facts.several_optima && stats.stalled && !facts.within {
+        reasons.push(format!(
+            "the field has {} local optima of the goal's kind: the body stopped at a stationary point, not the global one",
+            body.local_optima
+        ));
+    }
     reasons.extend(stall_reason(stats, body.t));
     reasons.extend(lyapunov_reason(&f));
     reasons.extend(near_collision_reason(&f));
@@ -96,6 +112,7 @@ pub fn choose(facts: &Facts) -> &'static str {
         near_collisions,
         stalled,
         diverged,
+        several_optima,
     } = *facts;
     if interrupted {
         "interrupted"
@@ -111,6 +128,8 @@ pub fn choose(facts: &Facts) -> &'static str {
         "converged"
     } else if within {
         "converged, formation broken"
+    } else if stalled && several_optima {
+        "converged to a stationary point"
     } else if stalled {
         "stalled"
     } else if diverged {
@@ -277,6 +296,22 @@ mod tests {
             }),
             "stalled"
         );
+        // A stall on a field with several local optima is a stop at a local one.
+        assert_eq!(
+            f(|x| {
+                x.within = false;
+                x.stalled = true;
+                x.several_optima = true
+            }),
+            "converged to a stationary point"
+        );
+        assert_eq!(
+            f(|x| {
+                x.within = false;
+                x.several_optima = true
+            }),
+            "not converged"
+        );
         assert_eq!(
             f(|x| {
                 x.within = false;
@@ -328,6 +363,7 @@ mod tests {
             tolerance: 1.0,
             t: 5.0,
             unit: "m".into(),
+            local_optima: 0,
         }
     }
 

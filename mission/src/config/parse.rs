@@ -146,6 +146,10 @@ impl Mission {
         mission.origin = origin.to_string();
         mission.require_keys(doc.get_ref())?;
         mission.validate()?;
+        // A grid file is named relative to the mission file (`origin` is its path, perhaps
+        // followed by " with --set ...").
+        let path = origin.split(" with --set ").next().unwrap_or(origin);
+        mission.load_grid(Path::new(path).parent())?;
         Ok(mission)
     }
 

@@ -42,6 +42,8 @@ pub enum FieldKind {
     /// T = background + amplitude · tanh((normal·x − offset − speed·t) / width), plus at most
     /// one `[[field.bumps]]`.
     Front,
+    /// A gridded variable of a file (`field.file`, NetCDF or NumPy), interpolated.
+    Grid,
 }
 
 impl FieldKind {
@@ -53,6 +55,7 @@ impl FieldKind {
             FieldKind::GaussianSum => "gaussian_sum",
             FieldKind::Eddy => "eddy",
             FieldKind::Front => "front",
+            FieldKind::Grid => "grid",
         }
     }
 
@@ -67,6 +70,7 @@ impl FieldKind {
             FieldKind::GaussianSum => &["bumps"],
             FieldKind::Eddy => &["center", "amplitude", "width", "velocity"],
             FieldKind::Front => &["normal", "amplitude", "width"],
+            FieldKind::Grid => &["file"],
         }
     }
 }
@@ -164,6 +168,48 @@ pub struct FieldConfig {
     /// `[[field.bumps]]`: the bumps of a gaussian_sum (at least one), or the optional bump of
     /// a front (at most one); empty for other kinds.
     pub bumps: Vec<BumpConfig>,
+    /// Grid: the file (NetCDF classic / 64-bit offset `.nc`, NumPy `.npy` / `.npz`),
+    /// relative to the mission file; the resolved mission holds it absolute.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
+    /// Grid: the variable; absent = the file's only variable of rank ≥ 2.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub variable: Option<String>,
+    /// Grid: the x (easting or longitude) coordinate variable; absent = found from CF
+    /// `axis` / `standard_name` / `units`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub x: Option<String>,
+    /// Grid: the y (northing or latitude) coordinate variable; absent = found as for x.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub y: Option<String>,
+    /// Grid: the vertical coordinate variable (metres; 3-D missions); absent = found as for x.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub z: Option<String>,
+    /// Grid: the time coordinate variable (CF `<unit> since <date>`; mission t = 0 at its
+    /// first value); absent = found as for x.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time: Option<String>,
+    /// Grid: x/y are longitude/latitude in degrees (projected to metres about `origin`);
+    /// absent = from the units (`degrees_east` / `degrees_north`) or, in a `.npz`, the names
+    /// lon/lat.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub geographic: Option<bool>,
+    /// Grid, geographic: [lon, lat] (degrees) of the mission's (0, 0); absent = the grid
+    /// centre.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub origin: Option<Vec<f64>>,
+    /// Grid: values above this (field unit) are land, e.g. 0.0 for a bathymetry grid where
+    /// land is positive elevation; absent = only missing values are land.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub land_above: Option<f64>,
+    /// Grid, `.npy` only (it has no coordinates): [x_first, x_last, y_first, y_last] (and
+    /// z_first, z_last in 3-D) of the evenly spaced nodes (length unit, or degrees when
+    /// `geographic`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub extent: Option<Vec<f64>>,
+    /// The loaded grid (kind = "grid"; not a key): read once when the mission is loaded.
+    #[serde(skip)]
+    pub grid: crate::grid::GridSlot,
 }
 
 impl Default for FieldConfig {
@@ -181,6 +227,17 @@ impl Default for FieldConfig {
             normal: Vec::new(),
             speed: 0.0,
             bumps: Vec::new(),
+            file: None,
+            variable: None,
+            x: None,
+            y: None,
+            z: None,
+            time: None,
+            geographic: None,
+            origin: None,
+            land_above: None,
+            extent: None,
+            grid: crate::grid::GridSlot::default(),
         }
     }
 }

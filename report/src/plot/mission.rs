@@ -44,10 +44,28 @@ pub fn render_mission_svg(plot: &MissionPlot<'_>) -> Result<String, PlotError> {
             .disable_mesh()
             .x_labels(9)
             .y_labels(9)
-            .x_desc(axis_desc("x", &plot.length_unit))
-            .y_desc(axis_desc("y", &plot.length_unit))
-            .x_label_formatter(&|v| style::fmt_tick_span(*v, bounds.width()))
-            .y_label_formatter(&|v| style::fmt_tick_span(*v, bounds.height()))
+            .x_desc(match plot.geographic {
+                Some(_) => "longitude (°E)".to_string(),
+                None => axis_desc("x", &plot.length_unit),
+            })
+            .y_desc(match plot.geographic {
+                Some(_) => "latitude (°N)".to_string(),
+                None => axis_desc("y", &plot.length_unit),
+            })
+            .x_label_formatter(&|v| match plot.geographic {
+                Some([lon0, lat0]) => {
+                    let lon = vbap_math::gridmath::equirectangular_inverse(*v, 0.0, lon0, lat0).0;
+                    format!("{lon:.3}")
+                }
+                None => style::fmt_tick_span(*v, bounds.width()),
+            })
+            .y_label_formatter(&|v| match plot.geographic {
+                Some([lon0, lat0]) => {
+                    let lat = vbap_math::gridmath::equirectangular_inverse(0.0, *v, lon0, lat0).1;
+                    format!("{lat:.3}")
+                }
+                None => style::fmt_tick_span(*v, bounds.height()),
+            })
             .label_style(font(14.0))
             .axis_desc_style(font(17.0))
             .draw()

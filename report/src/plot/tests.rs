@@ -69,6 +69,7 @@ fn example(field: &dyn Fn(f64, f64) -> f64, n: usize) -> MissionPlot<'_> {
         snapshots,
         optimum: Some((30.0, 20.0)),
         events: vec![(0.0, 10.0, "vehicle 2 killed".into())],
+        geographic: None,
     }
 }
 
@@ -188,6 +189,7 @@ fn empty_plot_is_an_error() {
         snapshots: vec![],
         optimum: None,
         events: vec![],
+        geographic: None,
     };
     assert!(matches!(
         render_mission_svg(&plot),

@@ -59,7 +59,82 @@ pub(super) fn check(c: &Check, f: &FieldConfig, dim: usize) -> Checked {
         )?;
     }
     c.finite("field.speed", f.speed)?;
+    grid_keys(c, f, dim)?;
     bumps(c, f, dim)
+}
+
+/// Checks the keys of `kind = "grid"` (and that no other kind gives them); the file itself is
+/// read when the mission is loaded (`Mission::load_grid`).
+fn grid_keys(c: &Check, f: &FieldConfig, dim: usize) -> Checked {
+    let grid = f.kind == FieldKind::Grid;
+    let given: [(&str, bool); 10] = [
+        ("file", f.file.is_some()),
+        ("variable", f.variable.is_some()),
+        ("x", f.x.is_some()),
+        ("y", f.y.is_some()),
+        ("z", f.z.is_some()),
+        ("time", f.time.is_some()),
+        ("geographic", f.geographic.is_some()),
+        ("origin", f.origin.is_some()),
+        ("land_above", f.land_above.is_some()),
+        ("extent", f.extent.is_some()),
+    ];
+    if !grid {
+        for (key, is) in given {
+            c.ensure(
+                !is,
+                &format!("field.{key}"),
+                "(given)",
+                "only used by field.kind = \"grid\"; remove it",
+            )?;
+        }
+        return Ok(());
+    }
+    let file = f.file.as_deref().unwrap_or("");
+    c.ensure(
+        !file.trim().is_empty(),
+        "field.file",
+        "\"\"",
+        "must name a file",
+    )?;
+    for (key, name) in [
+        ("variable", &f.variable),
+        ("x", &f.x),
+        ("y", &f.y),
+        ("z", &f.z),
+        ("time", &f.time),
+    ] {
+        if let Some(n) = name {
+            c.ensure(
+                !n.is_empty(),
+                &format!("field.{key}"),
+                "\"\"",
+                "must not be empty",
+            )?;
+        }
+    }
+    if let Some(o) = &f.origin {
+        c.vector("field.origin", o, 2)?;
+        c.ensure(
+            (-90.0..=90.0).contains(&o[1]) && (-360.0..=360.0).contains(&o[0]),
+            "field.origin",
+            vec_str(o),
+            "must be [lon, lat] in degrees (lat within −90..90)",
+        )?;
+    }
+    if let Some(a) = f.land_above {
+        c.finite("field.land_above", a)?;
+    }
+    if let Some(e) = &f.extent {
+        c.vector("field.extent", e, 2 * dim)?;
+        c.ensure(
+            e.chunks(2).all(|p| p[0] != p[1]),
+            "field.extent",
+            vec_str(e),
+            "each axis's first and last coordinate must differ",
+        )?;
+    }
+    Ok(())
 }
 
 /// Checks `[[field.bumps]]`: how many the kind takes, then each bump.

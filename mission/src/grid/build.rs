@@ -1,0 +1,288 @@
+//! From a variable as read to a [`GridField`]: roles and units of the axes, the projection,
+//! monotone and long-enough axes, the data layout, land and the optimum candidates.
+
+use super::axis::{Axis, MIN_NODES};
+use super::cf::{self, Role, Units};
+use super::read::{self, RawVar};
+use super::{GridError, GridField, GridSpec, Layout};
+
+fn read_any(spec: &GridSpec) -> Result<RawVar, GridError> {
+    let ext = spec
+        .file
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_lowercase();
+    if !spec.file.is_file() {
+        return Err(GridError::new(&spec.file, "-", "no such file"));
+    }
+    match ext.as_str() {
+        "npy" => read::npy(&spec.file),
+        "npz" => read::npz(&spec.file, spec.variable.as_deref(), &spec.names),
+        _ => read::netcdf(&spec.file, spec.variable.as_deref()),
+    }
+}
+
+/// One axis's values in file order, in mission units (projection aside), and whether they
+/// are degrees.
+struct RawAxis {
+    name: String,
+    values: Vec<f64>,
+    units: Units,
+}
+
+fn raw_axis(var: &RawVar, k: usize, role: Role, spec: &GridSpec) -> Result<RawAxis, GridError> {
+    let n = var.shape[k];
+    if let Some(c) = &var.coords[k] {
+        if c.values.len() != n {
+            return Err(GridError::new(
+                &spec.file,
+                &c.name,
+                format!("has {} values for a dimension of {n}", c.values.len()),
+            ));
+        }
+        let mut units = cf::units(c, role, &spec.file)?;
+        let lonlat = matches!(
+            c.name.to_lowercase().as_str(),
+            "lon" | "longitude" | "lat" | "latitude"
+        );
+        let geo = spec.geographic.unwrap_or(var.bare && lonlat);
+        if geo && units == Units::Length(1.0) && c.units.is_empty() {
+            units = if role == Role::X {
+                Units::DegreesEast
+            } else {
+                Units::DegreesNorth
+            };
+        }
+        return Ok(RawAxis {
+            name: c.name.clone(),
+            values: c.values.clone(),
+            units,
+        });
+    }
+    let span = |i: usize| -> Option<(f64, f64)> {
+        let e = spec.extent.as_ref()?;
+        Some((*e.get(2 * i)?, *e.get(2 * i + 1)?))
+    };
+    let which = match role {
+        Role::X => span(0),
+        Role::Y => span(1),
+        Role::Z => span(2),
+        Role::T => Some((0.0, 0.0)),
+    };
+    let Some((a, b)) = which.filter(|_| var.bare || role == Role::T) else {
+        return Err(GridError::new(
+            &spec.file,
+            &var.name,
+            format!(
+                "dimension {:?} has no coordinate values (a .npy needs field.extent, a file its coordinate variable)",
+                var.dims[k]
+            ),
+        ));
+    };
+    let step = if n > 1 { (b - a) / (n - 1) as f64 } else { 0.0 };
+    let geo = spec.geographic == Some(true) && matches!(role, Role::X | Role::Y);
+    Ok(RawAxis {
+        name: var.dims[k].clone(),
+        values: (0..n).map(|j| a + j as f64 * step).collect(),
+        units: match (geo, role) {
+            (true, Role::X) => Units::DegreesEast,
+            (true, _) => Units::DegreesNorth,
+            (_, Role::T) => Units::Time(if n > 1 { 1.0 } else { 0.0 }),
+            _ => Units::Length(1.0),
+        },
+    })
+}
+
+/// Checks that `v` is strictly monotone; returns whether it descends.
+fn monotone(spec: &GridSpec, name: &str, v: &[f64]) -> Result<bool, GridError> {
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err(GridError::new(
+            &spec.file,
+            name,
+            "non-monotone axis (a value is not finite)",
+        ));
+    }
+    let up = v.windows(2).all(|w| w[1] > w[0]);
+    let down = v.windows(2).all(|w| w[1] < w[0]);
+    if !(up || down) {
+        return Err(GridError::new(
+            &spec.file,
+            name,
+            "non-monotone axis (coordinates must strictly increase or strictly decrease)",
+        ));
+    }
+    Ok(down && v.len() > 1)
+}
+
+/// Reads and builds the grid of `spec`.
+pub fn load(spec: &GridSpec) -> Result<GridField, GridError> {
+    let var = read_any(spec)?;
+    let roles = cf::roles(&var, &spec.names, spec.dim, &spec.file)?;
+    let find = |r: Role| roles.iter().position(|x| *x == r);
+    let rank_err =
+        |what: String| GridError::new(&spec.file, &var.name, format!("wrong rank: {what}"));
+    let (Some(kx), Some(ky)) = (find(Role::X), find(Role::Y)) else {
+        return Err(rank_err(format!(
+            "dimensions {:?} have no x and y axis (a field needs both)",
+            var.dims
+        )));
+    };
+    let kz = find(Role::Z);
+    let nz = kz.map_or(1, |k| var.shape[k]);
+    if spec.dim == 2 && nz > 1 {
+        return Err(rank_err(format!(
+            "a 3-D variable ({nz} levels) for a 2-D mission (mission.dim = 3, or a file with one level)"
+        )));
+    }
+    if spec.dim == 3 && nz < MIN_NODES {
+        return Err(rank_err(format!(
+            "a 3-D mission needs a vertical axis of at least {MIN_NODES} levels (the variable has {nz})"
+        )));
+    }
+    let mut axes = Vec::new();
+    for (role, k) in [
+        (Role::X, Some(kx)),
+        (Role::Y, Some(ky)),
+        (Role::Z, kz),
+        (Role::T, find(Role::T)),
+    ] {
+        axes.push(match k {
+            Some(k) => Some(raw_axis(&var, k, role, spec)?),
+            None => None,
+        });
+    }
+    let (lon, lat) = (&axes[0], &axes[1]);
+    let geographic = matches!(
+        (lon.as_ref().map(|a| a.units), lat.as_ref().map(|a| a.units)),
+        (Some(Units::DegreesEast), Some(Units::DegreesNorth))
+    );
+    if spec.geographic == Some(true) && !geographic {
+        return Err(GridError::new(
+            &spec.file,
+            &var.name,
+            "field.geographic = true but the x/y coordinates are not lon/lat degrees",
+        ));
+    }
+    let mut origin = None;
+    if geographic {
+        origin = Some(project(spec, &mut axes)?);
+    }
+    let mut layout = Layout::default();
+    let strides = row_major(&var.shape);
+    let mut built: Vec<Option<Axis>> = Vec::new();
+    let mut times = vec![0.0];
+    for (r, a) in axes.iter().enumerate() {
+        let k = [Some(kx), Some(ky), kz, find(Role::T)][r];
+        let (Some(a), Some(k)) = (a, k) else {
+            built.push(None);
+            continue;
+        };
+        let descending = monotone(spec, &a.name, &a.values)?;
+        let n = a.values.len();
+        let stride = strides[k] as isize;
+        layout.step[r] = if descending { -stride } else { stride };
+        layout.first[r] = if descending {
+            (n as isize - 1) * stride
+        } else {
+            0
+        };
+        let mut v: Vec<f64> = a.values.clone();
+        if descending {
+            v.reverse();
+        }
+        if r == 3 {
+            let f = match a.units {
+                Units::Time(f) => f,
+                _ => 1.0,
+            };
+            times = v.iter().map(|x| (x - v[0]) * f).collect();
+            built.push(None);
+            continue;
+        }
+        if let Units::Length(f) = a.units {
+            v.iter_mut().for_each(|x| *x *= f);
+        }
+        if (r < 2 || spec.dim == 3) && n < MIN_NODES {
+            return Err(GridError::new(
+                &spec.file,
+                &a.name,
+                format!("axis has {n} points; the cubic interpolation needs at least {MIN_NODES}"),
+            ));
+        }
+        built.push((r < 2 || spec.dim == 3).then(|| Axis::new(v)));
+    }
+    let mut g = GridField {
+        file: spec.file.display().to_string(),
+        variable: var.name.clone(),
+        dim: spec.dim,
+        x: built[0].take().expect("x axis"),
+        y: built[1].take().expect("y axis"),
+        z: built[2].take(),
+        times,
+        origin,
+        data: var.data,
+        layout,
+        land: Vec::new(),
+        best: Vec::new(),
+        extrema: [0, 0],
+    };
+    super::land::mark_and_fill(&mut g, spec.land_above)?;
+    super::optimum::prepare(&mut g);
+    Ok(g)
+}
+
+fn row_major(shape: &[usize]) -> Vec<usize> {
+    let mut s = vec![1; shape.len()];
+    for k in (0..shape.len().saturating_sub(1)).rev() {
+        s[k] = s[k + 1] * shape[k + 1];
+    }
+    s
+}
+
+/// Projects the lon/lat axes about the origin (given, or the grid centre); returns it.
+fn project(spec: &GridSpec, axes: &mut [Option<RawAxis>]) -> Result<[f64; 2], GridError> {
+    let mid = |v: &[f64]| (v[0] + v[v.len() - 1]) / 2.0;
+    let lon = axes[0].as_ref().expect("x");
+    let lat = axes[1].as_ref().expect("y");
+    if lat.values.iter().any(|l| !(-90.0..=90.0).contains(l)) {
+        return Err(GridError::new(
+            &spec.file,
+            &lat.name,
+            "latitude outside −90..90",
+        ));
+    }
+    // The centre of the longitudes taken as a contiguous run (0..360 files across 180° too).
+    let lon0 = spec.origin.map_or_else(
+        || {
+            let first = lon.values[0];
+            let wrapped: Vec<f64> = lon
+                .values
+                .iter()
+                .map(|l| first + (l - first + 180.0).rem_euclid(360.0) - 180.0)
+                .collect();
+            mid(&wrapped)
+        },
+        |o| o[0],
+    );
+    let lat0 = spec.origin.map_or_else(|| mid(&lat.values), |o| o[1]);
+    let xs = lon
+        .values
+        .iter()
+        .map(|l| vbap_math::gridmath::equirectangular(*l, lat0, lon0, lat0).0)
+        .collect();
+    let ys = lat
+        .values
+        .iter()
+        .map(|l| vbap_math::gridmath::equirectangular(lon0, *l, lon0, lat0).1)
+        .collect();
+    if let Some(a) = axes[0].as_mut() {
+        a.values = xs;
+        a.units = Units::Length(1.0);
+    }
+    if let Some(a) = axes[1].as_mut() {
+        a.values = ys;
+        a.units = Units::Length(1.0);
+    }
+    Ok([lon0, lat0])
+}
