@@ -5,12 +5,16 @@
 //! - [`field`]: the sensed environments, with ground truth, and the keyed sensor noise.
 //! - [`link`], [`faults`]: the emulated glider link and the scheduled faults.
 //! - [`horizon`]: the plan horizon of the robust law, from the link model.
+//! - [`current`], [`land`]: the water that carries the vehicles and the land they keep
+//!   out of (beyond the paper).
 //! - [`rundir`]: the run directory a mission writes (CSV, JSON lines, summary).
 
 pub mod config;
+pub mod current;
 pub mod faults;
 pub mod field;
 pub mod horizon;
+pub mod land;
 pub mod link;
 mod mission_field;
 pub mod rundir;
