@@ -182,7 +182,7 @@ pub fn replay(run_dir: &Path, out: Option<&Path>) -> Result<ReplayOutcome> {
             .with_context(|| format!("replaying tick {k}"))?;
         recorder.inputs(k, &members, &fresh, &joined)?;
         // No truth is needed for body.csv: the true gradient comes from the mission's field.
-        recorder.tick(k, &[], &command)?;
+        recorder.tick(k, &[], &[], &command)?;
     }
     inputs.finish(ticks)?;
     recorder.flush()?;

@@ -12,7 +12,7 @@ use anyhow::{Context, Result};
 use coordinator::fleet::Fleet;
 use coordinator::membership::{self, Loss};
 use coordinator::plan::Plan;
-use coordinator::planner::{Planner, PlannerParams, Report};
+use coordinator::planner::{Planner, PlannerParams, Report, Told};
 use coordinator::record::Recorder;
 use coordinator::tally::LinkTally;
 use coordinator::tick::{plan_tick, TickOutcome};
@@ -21,6 +21,7 @@ use std::collections::BTreeMap;
 use vbap_mission::config::Mission;
 use vbap_mission::faults::FaultPlan;
 use vbap_mission::rundir::{RunDir, Summary};
+use vehicle_agent::motion::Kinematics;
 use vehicle_agent::{initial_agent, initial_design, Agent, Guidance, Vehicle};
 
 /// Set (by the command line's SIGINT/SIGTERM handler) to stop a simulation early: it
@@ -72,13 +73,15 @@ pub fn simulate_with(
     let initial = Guidance::initial(mission, &design);
     let plan = FaultPlan::new(mission);
     let ids: Vec<u32> = (0..mission.vehicles.count as u32).collect();
+    let kin = Kinematics::of(mission);
     let mut vehicles: BTreeMap<u32, Vehicle> = ids
         .iter()
         .map(|&id| {
             (
                 id,
                 Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0)
-                    .with_law(law.clone()),
+                    .with_law(law.clone())
+                    .with_motion(kin.clone(), dt),
             )
         })
         .collect();
@@ -112,15 +115,25 @@ pub fn simulate_with(
                 };
                 vehicles.insert(
                     v,
-                    Vehicle::new(agent, initial.clone(), k).with_law(law.clone()),
+                    Vehicle::new(agent, initial.clone(), k)
+                        .with_law(law.clone())
+                        .with_motion(kin.clone(), dt),
                 );
                 recorder.event(event)?;
             }
         }
-        let truth = read_sensors(&vehicles, &fleet, &mut sensors, k, t);
+        let (truth, told) = read_sensors(&vehicles, &fleet, &mut sensors, k, t);
         let TickOutcome {
             command, snapshot, ..
-        } = plan_tick(k, dt, &truth, &mut fleet, &mut planner, &mut recorder)?;
+        } = plan_tick(
+            k,
+            dt,
+            &truth,
+            &told,
+            &mut fleet,
+            &mut planner,
+            &mut recorder,
+        )?;
         for (&id, veh) in vehicles.iter_mut() {
             let guidance = Guidance::of_command(
                 k,
@@ -156,15 +169,16 @@ pub fn simulate_with(
     Ok(summary)
 }
 
-/// The true state and sensor reading at tick `k` (time `t`, s) of every vehicle not
-/// waiting for admission: what each would report.
+/// The true state and sensor reading (taken at the true position) at tick `k` (time `t`,
+/// s) of every vehicle not waiting for admission, and what each says of itself (its
+/// belief).
 fn read_sensors(
     vehicles: &BTreeMap<u32, Vehicle>,
     fleet: &Fleet,
     sensors: &mut Sensors,
     k: u64,
     t: f64,
-) -> Vec<Report> {
+) -> (Vec<Report>, Vec<Told>) {
     let admitted: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
     vehicles
         .iter()
@@ -173,13 +187,22 @@ fn read_sensors(
             let measurement = sensors
                 .read(id, k, t, &veh.agent.position)
                 .unwrap_or(f64::NAN);
-            Report {
-                id,
-                tick: k,
-                position: veh.agent.position,
-                velocity: veh.agent.velocity,
-                measurement,
-            }
+            let said = veh.reported();
+            (
+                Report {
+                    id,
+                    tick: k,
+                    position: veh.agent.position,
+                    velocity: veh.agent.velocity,
+                    measurement,
+                },
+                Told {
+                    id,
+                    position: said.position,
+                    water: said.water,
+                    current: said.current,
+                },
+            )
         })
-        .collect()
+        .unzip()
 }

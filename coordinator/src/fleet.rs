@@ -10,7 +10,7 @@ use vbap_math::Vec3;
 use vbap_mission::config::Mission;
 use vbap_mission::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
 
-use crate::planner::Report;
+use crate::planner::{Report, Told};
 
 /// Counters of the uplink (vehicle → coordinator).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -212,14 +212,32 @@ impl Fleet {
     /// The true reports of tick `k` (ordered by id, alive vehicles only) arrive: the link
     /// model decides when each becomes visible. Returns every fate, for the logs.
     pub fn receive(&mut self, k: u64, dt: f64, truth: &[Report]) -> Vec<(u32, Fate)> {
+        self.receive_told(k, dt, truth, &[])
+    }
+
+    /// [`Fleet::receive`] where each vehicle of `told` says its own position and velocity
+    /// (its belief, its water velocity): the link carries what it says, the restore state
+    /// of a lost vehicle stays the truth.
+    pub fn receive_told(
+        &mut self,
+        k: u64,
+        dt: f64,
+        truth: &[Report],
+        told: &[Told],
+    ) -> Vec<(u32, Fate)> {
         let t = k as f64 * dt;
         let mut fates = Vec::with_capacity(truth.len());
         for q in truth {
             self.last_truth.insert(q.id, *q);
+            let sent = told.iter().find(|s| s.id == q.id).map_or(*q, |s| Report {
+                position: s.position,
+                velocity: s.water,
+                ..*q
+            });
             let state = self.links.entry(q.id).or_default();
             let fate = self.model.fate(state, q.id, Direction::Uplink, q.tick, t);
             match fate {
-                Fate::Deliver { at, .. } => self.inbox.push(at, *q),
+                Fate::Deliver { at, .. } => self.inbox.push(at, sent),
                 Fate::Drop(_) => self.counts.dropped_injected += 1,
             }
             fates.push((q.id, fate));

@@ -9,7 +9,7 @@ use vbap_mission::link::Fate;
 
 use crate::fleet::Fleet;
 use crate::plan::Plan;
-use crate::planner::{Command, PlannerError, Report};
+use crate::planner::{Command, PlannerError, Report, Told};
 use crate::record::Recorder;
 
 /// What a tick produced.
@@ -33,25 +33,28 @@ pub enum TickError {
     Io(#[from] std::io::Error),
 }
 
-/// Tick `k` (length `dt`, s) with the true reports `truth` (ordered by id): link model,
-/// body track, planner step, run-directory rows.
+/// Tick `k` (length `dt`, s) with the true reports `truth` (ordered by id) and what the
+/// vehicles say of themselves, `told` (their beliefs: what the link carries to the
+/// planner; empty = the truth): link model, body track, planner step, run-directory rows.
+#[allow(clippy::too_many_arguments)]
 pub fn plan_tick(
     k: u64,
     dt: f64,
     truth: &[Report],
+    told: &[Told],
     fleet: &mut Fleet,
     planner: &mut impl Plan,
     recorder: &mut Recorder,
 ) -> Result<TickOutcome, TickError> {
     let t = k as f64 * dt;
-    let fates = fleet.receive(k, dt, truth);
+    let fates = fleet.receive_told(k, dt, truth, told);
     recorder.uplink(k, &fates)?;
     fleet.track_body(k, planner.body().r);
     let joined: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
     let (members, fresh) = fleet.deliver(t, dt);
     let command = planner.step(k, &members, &fresh, &joined, dt)?;
     recorder.inputs(k, &members, &fresh, &joined)?;
-    recorder.tick(k, truth, &command)?;
+    recorder.tick(k, truth, told, &command)?;
     recorder.truth(k, truth, &command, planner.design(), fleet)?;
     let mut snapshot = fleet.snapshot(&members, &command.rejoining);
     crate::slots::annotate(&mut snapshot, k, dt, &members);

@@ -122,7 +122,7 @@ pub mod agent_to_coordinator {
     /// batched for the whole tick (see [`super::coordinator_to_field`]).
     #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.VehicleState.v4")]
+    #[type_name("vbap.VehicleState.v5")]
     pub struct VehicleState {
         pub header: Header,
         /// OS process id of the agent (the coordinator SIGKILLs it for a scheduled kill).
@@ -136,6 +136,15 @@ pub mod agent_to_coordinator {
         /// taken from its buffer (0: none). The coordinator publishes no command that
         /// could overflow an agent's command buffer (lockstep flow control).
         pub commands_read: u64,
+        /// What the vehicle believes its position is (dead reckoning since its last GPS
+        /// fix; = `position` for the paper's ideal vehicle), length unit. The planner sees
+        /// this; `position` is the truth (sensing, run files). Since v5.
+        pub believed: [f64; 3],
+        /// Velocity through the water (= `velocity` in still water), length unit/s; the
+        /// velocity the vehicle reports. Since v5.
+        pub water_velocity: [f64; 3],
+        /// The current at `position`, length unit/s (zero in still water). Since v5.
+        pub current: [f64; 3],
     }
 
     impl VehicleState {
@@ -153,6 +162,12 @@ pub mod agent_to_coordinator {
             self.header.t.is_finite()
                 && self.position.iter().all(|v| v.is_finite())
                 && self.velocity.iter().all(|v| v.is_finite())
+                && self
+                    .believed
+                    .iter()
+                    .chain(&self.water_velocity)
+                    .chain(&self.current)
+                    .all(|v| v.is_finite())
         }
     }
 }

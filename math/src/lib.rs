@@ -20,6 +20,9 @@
 //! Random streams keyed by (seed, stream, id, tick), so every process draws the same noise:
 //! [`rng`].
 //!
+//! Beyond the paper, the motion of a real vehicle: speed, acceleration and turn limits, a
+//! current, dead reckoning and keeping out of land ([`vehicle`]).
+//!
 //! This crate depends on no IPC, I/O, clock or logging crate: the compiler keeps it pure.
 
 pub mod adapt;
@@ -44,6 +47,7 @@ pub mod rng;
 pub mod robust;
 pub mod schedule;
 pub mod speed;
+pub mod vehicle;
 
 /// A point or vector in the inertial frame (length unit of the mission).
 pub type Vec3 = nalgebra::Vector3<f64>;

@@ -5,11 +5,13 @@
 //! - [`field`]: the sensed environments, with ground truth, and the keyed sensor noise.
 //! - [`link`], [`faults`]: the emulated glider link and the scheduled faults.
 //! - [`grid`]: gridded fields from files (NetCDF, NumPy), interpolated.
-//! - [`land`]: land as data ([`land::LandMask`]), for keeping vehicles in water.
 //! - [`horizon`]: the plan horizon of the robust law, from the link model.
+//! - [`current`], [`land`]: the water that carries the vehicles and the land they keep
+//!   out of (beyond the paper).
 //! - [`rundir`]: the run directory a mission writes (CSV, JSON lines, summary).
 
 pub mod config;
+pub mod current;
 pub mod faults;
 pub mod field;
 pub mod grid;

@@ -16,6 +16,12 @@ use vbap_math::Vec3;
 
 /// Header of `vehicles.csv`.
 pub const VEHICLES_HEADER: &str = "t,k,id,x,y,z,vx,vy,vz,measurement";
+/// The columns `vehicles.csv` has after [`VEHICLES_HEADER`] when the mission moves beyond
+/// the paper's ideal vehicle (`vehicles.model = "glider"`, a current or land): `bx,by,bz`
+/// the position the vehicle believes and reports (dead reckoning since its last fix),
+/// `wx,wy,wz` its velocity through the water, `cx,cy,cz` the current at its true position.
+/// `x,y,z` and `vx,vy,vz` stay the truth (position, velocity over the ground).
+pub const VEHICLES_MOTION_COLUMNS: &str = "bx,by,bz,wx,wy,wz,cx,cy,cz";
 /// Header of `planner_inputs.csv`: `role` is `both` (a member's report that is also
 /// fresh), `member` (last known report, not fresh), `fresh` (delivered this tick, not
 /// the member's latest) or `joined` (the member was admitted back at this tick; its
@@ -197,6 +203,9 @@ pub struct VehicleRow {
     pub position: Vec3,
     pub velocity: Vec3,
     pub measurement: f64,
+    /// The [`VEHICLES_MOTION_COLUMNS`]: (believed position, water velocity, current);
+    /// None for a mission of ideal vehicles.
+    pub motion: Option<(Vec3, Vec3, Vec3)>,
 }
 
 /// One row of `body.csv`.
@@ -253,10 +262,16 @@ pub struct TrackWriter {
 }
 
 impl TrackWriter {
-    /// Opens (appending) the two CSV files of `dir`.
-    pub fn open(dir: &RunDir) -> io::Result<Self> {
+    /// Opens (appending) the CSV files of `dir`; `vehicles.csv` with the
+    /// [`VEHICLES_MOTION_COLUMNS`] when `motion`.
+    pub fn open(dir: &RunDir, motion: bool) -> io::Result<Self> {
+        let header = if motion {
+            format!("{VEHICLES_HEADER},{VEHICLES_MOTION_COLUMNS}")
+        } else {
+            VEHICLES_HEADER.to_string()
+        };
         Ok(Self {
-            vehicles: open_append(&dir.vehicles(), VEHICLES_HEADER)?,
+            vehicles: open_append(&dir.vehicles(), &header)?,
             body: open_append(&dir.body(), BODY_HEADER)?,
             inputs: open_append(&dir.planner_inputs(), INPUTS_HEADER)?,
         })
@@ -281,7 +296,7 @@ impl TrackWriter {
     }
     /// Appends one vehicle row.
     pub fn vehicle(&mut self, r: &VehicleRow) -> io::Result<()> {
-        writeln!(
+        write!(
             self.vehicles,
             "{},{},{},{},{},{},{},{},{},{}",
             Num(r.t),
@@ -294,7 +309,23 @@ impl TrackWriter {
             Num(r.velocity.y),
             Num(r.velocity.z),
             Num(r.measurement)
-        )
+        )?;
+        if let Some((b, w, c)) = &r.motion {
+            write!(
+                self.vehicles,
+                ",{},{},{},{},{},{},{},{},{}",
+                Num(b.x),
+                Num(b.y),
+                Num(b.z),
+                Num(w.x),
+                Num(w.y),
+                Num(w.z),
+                Num(c.x),
+                Num(c.y),
+                Num(c.z)
+            )?;
+        }
+        writeln!(self.vehicles)
     }
     /// Appends one body row.
     pub fn body(&mut self, r: &BodyRow) -> io::Result<()> {

@@ -137,6 +137,9 @@ v_u = 10.0
             position: [0.0; 3],
             velocity: [0.0; 3],
             commands_read: 0,
+            believed: [0.0; 3],
+            water_velocity: [0.0; 3],
+            current: [0.0; 3],
         };
         let mut nan = good;
         nan.velocity[1] = f64::NAN;

@@ -2,6 +2,7 @@
 
 use std::time::Duration;
 
+use tests::columns::Table;
 use tests::*;
 
 fn mission_2d(name: &str, n: usize, duration: f64, pace: &str) -> String {
@@ -56,8 +57,83 @@ start = [0.0, 0.0, 0.0]
     )
 }
 
-/// `vbap sim` and `vbap run` of the same mission write byte-identical tracks.
-fn assert_run_equals_sim(text: &str) {
+/// A glider mission (issue 14): speed-limited gliders carried by a current they do not
+/// know, dead-reckoning between surfacings, along a coast.
+fn mission_glider(name: &str) -> String {
+    format!(
+        r#"{}
+model = "glider"
+max_speed = 1.2
+max_accel = 4.0
+max_turn_rate = 3.0
+
+[links]
+surfacing_period = 2.0
+surfacing_window = 0.5
+surfacing_phase = "staggered"
+
+[current]
+kind = "eddy"
+velocity = [0.3, -0.1]
+center = [3.0, 2.0]
+width = 3.0
+strength = 0.3
+
+[land]
+kind = "coast"
+point = [0.0, -1.5]
+normal = [0.0, 1.0]
+"#,
+        mission_2d(name, 5, 8.0, "\"lockstep\"")
+    )
+}
+
+/// The largest speed through the water in `vehicles.csv` of `dir` (columns wx, wy, wz),
+/// and the smallest true y.
+fn water_speeds(dir: &std::path::Path) -> (f64, f64) {
+    let t = Table::read(&dir.join("vehicles.csv"));
+    let mut fastest = 0.0f64;
+    let mut lowest = f64::INFINITY;
+    for r in t.rows() {
+        let w = (r.num("wx").powi(2) + r.num("wy").powi(2) + r.num("wz").powi(2)).sqrt();
+        fastest = fastest.max(w);
+        lowest = lowest.min(r.num("y"));
+    }
+    (fastest, lowest)
+}
+
+#[test]
+fn lockstep_equals_in_process_gliders_in_a_current() {
+    let tmp = assert_run_equals_sim(&mission_glider(&unique_name("eqgl")));
+    for run in ["sim", "run"] {
+        let (fastest, lowest) = water_speeds(&tmp.join(run));
+        // 1e-12: the CSV holds each component exactly; the norm is recomputed here.
+        assert!(
+            fastest <= 1.2 * (1.0 + 1e-12),
+            "{run}: a glider went {fastest} through the water (max_speed 1.2)"
+        );
+        assert!(
+            fastest > 1.0,
+            "{run}: the gliders never went fast ({fastest})"
+        );
+        assert!(lowest >= -1.5, "{run}: a glider went ashore (y = {lowest})");
+        assert!(
+            lowest < -1.3,
+            "{run}: no glider came near the coast ({lowest})"
+        );
+    }
+    // Dead reckoning in a current: the believed positions drift from the truth.
+    let t = Table::read(&tmp.join("sim").join("vehicles.csv"));
+    let drift = t
+        .rows()
+        .map(|r| ((r.num("x") - r.num("bx")).powi(2) + (r.num("y") - r.num("by")).powi(2)).sqrt())
+        .fold(0.0f64, f64::max);
+    assert!(drift > 0.05, "beliefs never drifted ({drift})");
+}
+
+/// `vbap sim` and `vbap run` of the same mission write byte-identical tracks; returns the
+/// directory holding both runs (`sim/`, `run/`).
+fn assert_run_equals_sim(text: &str) -> TempDir {
     let tmp = TempDir::new("eq");
     let file = write_mission(&tmp, "m.toml", text);
     vbap_quiet("sim", &file, &tmp.join("sim"));
@@ -94,6 +170,7 @@ fn assert_run_equals_sim(text: &str) {
         processes_mentioning(&tmp.path.to_string_lossy()).is_empty(),
         "processes left behind"
     );
+    tmp
 }
 
 #[test]

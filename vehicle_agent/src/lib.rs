@@ -7,6 +7,7 @@
 //! bit for bit. [`run`] wires the ports.
 
 pub mod cli;
+pub mod motion;
 pub mod run;
 #[cfg(test)]
 mod tests;
@@ -87,7 +88,18 @@ impl Agent {
         damping: f64,
         dt: f64,
     ) -> Vec3 {
-        let inputs = AgentInputs {
+        let inputs = Self::hold_inputs(last_leaders, leader, damping);
+        self.step_with(law, &inputs, dt)
+    }
+
+    /// The inputs of holding station: the last known virtual leaders `last_leaders` with
+    /// the potential `leader` and `damping` (1/s), no neighbours.
+    pub fn hold_inputs<'a>(
+        last_leaders: &'a [Vec3],
+        leader: &PairPotential,
+        damping: f64,
+    ) -> AgentInputs<'a> {
+        AgentInputs {
             leaders: last_leaders,
             neighbours: &[],
             inter: PairPotential {
@@ -104,8 +116,7 @@ impl Agent {
             neighbour_ages: &[],
             slot: None,
             body_velocity: Vec3::zeros(),
-        };
-        self.step_with(law, &inputs, dt)
+        }
     }
 }
 
@@ -374,6 +385,22 @@ pub struct Vehicle {
     pub counts: DownlinkCounts,
     /// The control law it flies ([`PaperLaw`] unless [`Vehicle::with_law`]).
     law: Arc<dyn ControlLaw>,
+    /// Beyond the ideal vehicle (glider, current, land; [`Vehicle::with_motion`]): what it
+    /// believes and feels. None: the paper's vehicle, `agent` is all.
+    pub moving: Option<motion::Moving>,
+}
+
+/// What a vehicle reports of itself: its believed position and its velocity through the
+/// water (the truth for the ideal vehicle), and the current at its true position (zero in
+/// still water), all at the tick of its state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reported {
+    /// Believed position, length unit.
+    pub position: Vec3,
+    /// Velocity through the water, length unit/s.
+    pub water: Vec3,
+    /// Current at the true position, length unit/s.
+    pub current: Vec3,
 }
 
 impl Vehicle {
@@ -391,6 +418,31 @@ impl Vehicle {
             drawn: Vec::new(),
             counts: DownlinkCounts::default(),
             law: Arc::new(PaperLaw),
+            moving: None,
+        }
+    }
+
+    /// This vehicle moving by `kin` (None: the paper's ideal vehicle). Its state is that of
+    /// its first command's tick (tick length `dt`, s).
+    pub fn with_motion(mut self, kin: Option<Arc<motion::Kinematics>>, dt: f64) -> Self {
+        self.moving =
+            kin.map(|kin| motion::Moving::start(kin, &mut self.agent, self.next_fate, dt));
+        self
+    }
+
+    /// What this vehicle reports of itself ([`Reported`]).
+    pub fn reported(&self) -> Reported {
+        match &self.moving {
+            Some(m) => Reported {
+                position: m.belief,
+                water: m.water,
+                current: m.current,
+            },
+            None => Reported {
+                position: self.agent.position,
+                water: self.agent.velocity,
+                current: Vec3::zeros(),
+            },
         }
     }
 
@@ -407,10 +459,23 @@ impl Vehicle {
 
     /// Nothing heard from the coordinator: hold station around the last visible leaders
     /// (damping and leader forces only, docs/ARCHITECTURE.md §7).
-    pub fn hold_station(&mut self, dt: f64) {
-        let g = &self.current;
-        self.agent
-            .hold_station_with(self.law.as_ref(), &g.leaders, &g.leader, g.damping, dt);
+    /// `k` is the tick the step starts from.
+    pub fn hold_station(&mut self, k: u64, dt: f64) {
+        let g = self.current.clone();
+        if self.moving.is_none() {
+            self.agent
+                .hold_station_with(self.law.as_ref(), &g.leaders, &g.leader, g.damping, dt);
+            return;
+        }
+        let inputs = Agent::hold_inputs(&g.leaders, &g.leader, g.damping);
+        fly(
+            &mut self.agent,
+            &mut self.moving,
+            self.law.as_ref(),
+            &inputs,
+            k,
+            dt,
+        );
     }
 
     /// Draws the fates of the commands up to tick `c` that have none yet, in order.
@@ -512,7 +577,7 @@ impl Vehicle {
         };
         let homing = g.target.map(|t| {
             Homing::towards(
-                &self.agent.position,
+                &self.reported().position,
                 &moved(&t),
                 inter.d0,
                 &body_velocity,
@@ -539,7 +604,14 @@ impl Vehicle {
                 slot: g.slot.as_ref().map(moved),
                 body_velocity,
             };
-            self.agent.step_with(self.law.as_ref(), &inputs, dt);
+            fly(
+                &mut self.agent,
+                &mut self.moving,
+                self.law.as_ref(),
+                &inputs,
+                k,
+                dt,
+            );
         } else {
             let inputs = AgentInputs {
                 leaders: &g.leaders,
@@ -555,7 +627,34 @@ impl Vehicle {
                 slot: g.slot,
                 body_velocity: g.velocity,
             };
-            self.agent.step_with(self.law.as_ref(), &inputs, dt);
+            fly(
+                &mut self.agent,
+                &mut self.moving,
+                self.law.as_ref(),
+                &inputs,
+                k,
+                dt,
+            );
+        }
+    }
+}
+
+/// One step of `agent` from tick `k` under `law` with `inputs`: the paper's
+/// ([`Agent::step_with`]) or, beyond it (`moving`), [`motion::Moving::step`].
+fn fly(
+    agent: &mut Agent,
+    moving: &mut Option<motion::Moving>,
+    law: &dyn ControlLaw,
+    inputs: &AgentInputs<'_>,
+    k: u64,
+    dt: f64,
+) {
+    match moving {
+        Some(m) => {
+            m.step(agent, law, inputs, k, dt);
+        }
+        None => {
+            agent.step_with(law, inputs, dt);
         }
     }
 }

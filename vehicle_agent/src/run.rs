@@ -100,7 +100,7 @@ pub fn run_with(
     } else {
         0
     };
-    pilot.out.publish(&pilot.vehicle.agent, 0, flags, 0)?;
+    pilot.out.publish(&pilot.vehicle, 0, flags, 0)?;
 
     // Check for commands first, wait only when there is nothing to act on.
     let mut idle = false;
@@ -150,6 +150,8 @@ struct Pilot<'m> {
     /// The guidance a (re)admitted vehicle starts from.
     initial: Guidance,
     law: Arc<dyn ControlLaw>,
+    /// The mission's motion beyond the ideal vehicle (None: the paper's vehicle).
+    kin: Option<Arc<crate::motion::Kinematics>>,
     vehicle: Vehicle,
     /// Paced runs hold station when the coordinator is silent this long (lockstep: None).
     hold_after: Option<Duration>,
@@ -178,8 +180,10 @@ impl<'m> Pilot<'m> {
         let dt = mission.mission.dt;
         let design = initial_design(mission).context("initial formation design")?;
         let initial = Guidance::initial(mission, &design);
+        let kin = crate::motion::Kinematics::of(mission);
         let vehicle = Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0)
-            .with_law(law.clone());
+            .with_law(law.clone())
+            .with_motion(kin.clone(), dt);
         Ok(Self {
             mission,
             id,
@@ -188,6 +192,7 @@ impl<'m> Pilot<'m> {
             model: LinkModel::new(mission),
             initial,
             law,
+            kin,
             vehicle,
             hold_after: match mission.mission.pace {
                 Pace::Lockstep => None,
@@ -219,19 +224,15 @@ impl<'m> Pilot<'m> {
 
     /// Nothing heard (paced runs): one step flying the last visible guidance.
     fn hold_station(&mut self) -> Result<()> {
-        self.vehicle.hold_station(self.dt);
+        self.vehicle.hold_station(self.k, self.dt);
         self.k += 1;
         warn!(
             vehicle = self.id,
             tick = self.k,
             "coordinator silent: holding station"
         );
-        self.out.publish(
-            &self.vehicle.agent,
-            self.k,
-            VehicleState::HOLDING,
-            self.read(),
-        )
+        self.out
+            .publish(&self.vehicle, self.k, VehicleState::HOLDING, self.read())
     }
 
     /// The end of the mission. Commands read in the same drain as the end (a slow agent
@@ -299,8 +300,7 @@ impl<'m> Pilot<'m> {
                 self.k += 1;
                 stepped = true;
                 if self.k < self.ticks {
-                    self.out
-                        .publish(&self.vehicle.agent, self.k, 0, self.read())?;
+                    self.out.publish(&self.vehicle, self.k, 0, self.read())?;
                     self.reported_read = self.read();
                 }
             }
@@ -316,7 +316,9 @@ impl<'m> Pilot<'m> {
             position: vbap_ipc::msg::to_vec3(&e.position),
             velocity: vbap_ipc::msg::to_vec3(&e.velocity),
         };
-        self.vehicle = Vehicle::new(agent, self.initial.clone(), tick).with_law(self.law.clone());
+        self.vehicle = Vehicle::new(agent, self.initial.clone(), tick)
+            .with_law(self.law.clone())
+            .with_motion(self.kin.clone(), self.dt);
         self.joining = false;
         self.k = tick;
         info!(vehicle = self.id, tick, "admitted back into the formation");
@@ -334,8 +336,7 @@ impl<'m> Pilot<'m> {
         if k + 1 < self.ticks && k < limit && self.vehicle.ready_to_step(&self.model, k, self.dt) {
             self.vehicle.step(k, self.dt);
             self.k += 1;
-            self.out
-                .publish(&self.vehicle.agent, self.k, 0, self.read())?;
+            self.out.publish(&self.vehicle, self.k, 0, self.read())?;
             self.reported_read = self.read();
             return Ok(true);
         }

@@ -40,6 +40,21 @@ pub struct Report {
     pub measurement: f64,
 }
 
+/// What a vehicle says of itself besides its true state (beyond the paper: a glider
+/// under water knows its position only by dead reckoning): the planner is given these
+/// instead of the truth of the [`Report`]; the run files keep both.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Told {
+    /// Vehicle id.
+    pub id: u32,
+    /// Believed position, length unit.
+    pub position: Vec3,
+    /// Velocity through the water, length unit/s (the velocity it reports).
+    pub water: Vec3,
+    /// The current at its true position, length unit/s (for the run files only).
+    pub current: Vec3,
+}
+
 /// The planner's tunables, taken from the mission file.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PlannerParams {

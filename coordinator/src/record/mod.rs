@@ -18,7 +18,7 @@ use vbap_mission::rundir::{
 mod summary;
 
 use crate::fleet::Fleet;
-use crate::planner::{Command, Report};
+use crate::planner::{Command, Report, Told};
 use crate::truth::{self, TruthStats};
 
 /// The running figures of `summary.json` (checkpointed with the coordinator).
@@ -94,7 +94,7 @@ impl Recorder {
             mission: mission.clone(),
             field,
             dir: dir.clone(),
-            tracks: TrackWriter::open(dir)?,
+            tracks: TrackWriter::open(dir, mission.moves_beyond_ideal())?,
             truth_files: TruthWriter::open(dir)?,
             events: EventLog::open(dir)?,
             stats,
@@ -197,10 +197,19 @@ impl Recorder {
     }
 
     /// Records tick `k`: `truth` holds every vehicle's true state and reading (ordered by
-    /// id), `command` what the planner decided.
-    pub fn tick(&mut self, k: u64, truth: &[Report], command: &Command) -> io::Result<()> {
+    /// id), `told` what each says of itself (the motion columns of `vehicles.csv` when the
+    /// mission moves beyond the ideal vehicle), `command` what the planner decided.
+    pub fn tick(
+        &mut self,
+        k: u64,
+        truth: &[Report],
+        told: &[Told],
+        command: &Command,
+    ) -> io::Result<()> {
         let t = k as f64 * self.mission.mission.dt;
+        let motion = self.mission.moves_beyond_ideal();
         for q in truth {
+            let said = told.iter().find(|s| s.id == q.id);
             self.tracks.vehicle(&VehicleRow {
                 t,
                 k,
@@ -208,6 +217,11 @@ impl Recorder {
                 position: q.position,
                 velocity: q.velocity,
                 measurement: q.measurement,
+                motion: motion.then(|| {
+                    said.map_or((q.position, q.velocity, Vec3::zeros()), |s| {
+                        (s.position, s.water, s.current)
+                    })
+                }),
             })?;
         }
         let b = &command.body;

@@ -249,6 +249,7 @@ mod tests {
             position: [x, 0.0, 0.0],
             velocity: [0.0; 3],
             commands_read: tick,
+            ..VehicleState::default()
         }
     }
 

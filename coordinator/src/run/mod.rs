@@ -37,7 +37,7 @@ use vbap_mission::rundir::{RunDir, Summary};
 use crate::checkpoint::CheckpointWriter;
 use crate::fleet::Fleet;
 use crate::plan::Plan;
-use crate::planner::{Planner, PlannerError, PlannerParams, Report};
+use crate::planner::{Planner, PlannerError, PlannerParams, Report, Told};
 use crate::record::Recorder;
 use inbox::Inbox;
 use liveness::Liveness;
@@ -204,10 +204,10 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         if self.gather(&admitted)?.is_break() {
             return Ok(STOP);
         }
-        let Some(truth) = self.readings(&admitted)? else {
+        let Some((truth, told)) = self.readings(&admitted)? else {
             return Ok(STOP);
         };
-        let record = self.plan(&truth)?;
+        let record = self.plan(&truth, &told)?;
         self.fleet.end_tick();
         self.checkpoint(&record)?;
         self.publish(&record)?;
@@ -219,8 +219,10 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
     /// The states of the tick (ordered by id) with their sensor readings, fetched in one
     /// batched read, as the true reports of the tick (a state whose read the field server
     /// rejected is dropped). In lockstep, the readings of the states of later ticks already
-    /// in are asked for meanwhile. None on a termination signal.
-    fn readings(&mut self, admitted: &BTreeSet<u32>) -> Result<Option<Vec<Report>>> {
+    /// in are asked for meanwhile. With them what each vehicle says of itself (its belief,
+    /// water velocity and current). None on a termination signal.
+    #[allow(clippy::type_complexity)]
+    fn readings(&mut self, admitted: &BTreeSet<u32>) -> Result<Option<(Vec<Report>, Vec<Told>)>> {
         let k = self.k;
         let paced = self.paced.is_some();
         let states: Vec<VehicleState> = self
@@ -245,6 +247,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             self.sensors.request(k, self.dt, &ahead)?;
         }
         let mut truth: Vec<Report> = Vec::with_capacity(states.len());
+        let mut told: Vec<Told> = Vec::with_capacity(states.len());
         for s in &states {
             let Some(measurement) = self.sensors.take(s) else {
                 self.inbox.counts.rejected += 1;
@@ -262,11 +265,17 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
                 velocity: to_vec3(&s.velocity),
                 measurement,
             });
+            told.push(Told {
+                id: s.header.sender,
+                position: to_vec3(&s.believed),
+                water: to_vec3(&s.water_velocity),
+                current: to_vec3(&s.current),
+            });
         }
         self.inbox.used(k, paced);
         // Readings of states that will never be used (their vehicle was lost).
         self.sensors.forget_through(k);
-        Ok(Some(truth))
+        Ok(Some((truth, told)))
     }
 
     /// The states of later ticks already in, in tick order, for a read-ahead (not past a

@@ -11,7 +11,7 @@ use vbap_mission::rundir::Summary;
 use super::Coordinator;
 use crate::command::{fill_finished, BodyRecord};
 use crate::plan::Plan;
-use crate::planner::Report;
+use crate::planner::{Report, Told};
 use crate::tally::process_counts;
 use crate::tick::{plan_tick, TickOutcome};
 
@@ -19,7 +19,8 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
     /// The planner's step on the true reports `truth` of the tick (link model, rows of the
     /// run directory: [`plan_tick`], shared with the simulator); the link model's holds
     /// and drops go to the message records. Returns the command to publish.
-    pub(super) fn plan(&mut self, truth: &[Report]) -> Result<BodyRecord> {
+    /// `told`: what each vehicle says of itself (its belief).
+    pub(super) fn plan(&mut self, truth: &[Report], told: &[Told]) -> Result<BodyRecord> {
         let k = self.k;
         let TickOutcome {
             fates,
@@ -29,6 +30,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             k,
             self.dt,
             truth,
+            told,
             &mut self.fleet,
             &mut self.planner,
             &mut self.recorder,

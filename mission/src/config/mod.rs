@@ -21,6 +21,7 @@
 mod control;
 mod error;
 mod failure_sections;
+mod motion;
 mod pace;
 mod parse;
 mod sections;
@@ -36,6 +37,10 @@ pub use control::{ControlSection, CurvatureSource, LawKind};
 pub use error::ConfigError;
 pub use failure_sections::{
     FaultConfig, FaultKind, LinksSection, RestartPolicy, RestartSection, SurfacingPhase,
+};
+pub use motion::{
+    CurrentKind, CurrentSection, LandKind, LandSection, VehicleModelKind, DEFAULT_MAX_ACCEL,
+    DEFAULT_MAX_SPEED, DEFAULT_MAX_TURN_RATE,
 };
 pub use pace::Pace;
 pub use parse::read_mission_file;
@@ -87,6 +92,12 @@ pub struct Mission {
     pub restart: RestartSection,
     /// `[control]`.
     pub control: ControlSection,
+    /// `[current]` (beyond the paper; not written when none).
+    #[serde(skip_serializing_if = "CurrentSection::is_none")]
+    pub current: CurrentSection,
+    /// `[land]` (beyond the paper; not written when none).
+    #[serde(skip_serializing_if = "LandSection::is_none")]
+    pub land: LandSection,
     /// `[[faults]]`, in file order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub faults: Vec<FaultConfig>,
@@ -110,6 +121,8 @@ impl PartialEq for Mission {
             && self.links == other.links
             && self.restart == other.restart
             && self.control == other.control
+            && self.current == other.current
+            && self.land == other.land
             && self.faults == other.faults
     }
 }

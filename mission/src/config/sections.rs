@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::motion::VehicleModelKind;
 use super::pace::Pace;
 
 /// Climb to a maximum or descend to a minimum of the field (Section V).
@@ -254,6 +255,28 @@ pub struct VehiclesSection {
     pub start_spread: f64,
     /// Damping (1/s): K = damping · I in the control law (II.1), > 0.
     pub damping: f64,
+    /// `"ideal"` (default: the paper's double integrator) | `"glider"` (speed, acceleration
+    /// and turn limits, dead reckoning under water; beyond the paper). Written only when
+    /// not ideal.
+    #[serde(skip_serializing_if = "VehicleModelKind::is_ideal")]
+    pub model: VehicleModelKind,
+    /// Glider: largest speed through the water, length unit/s, > 0; absent =
+    /// [`super::motion::DEFAULT_MAX_SPEED`] (0.3 m/s).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_speed: Option<f64>,
+    /// Glider: largest change of the water velocity, length unit/s², > 0; absent =
+    /// [`super::motion::DEFAULT_MAX_ACCEL`] (0.01 m/s²).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_accel: Option<f64>,
+    /// Glider: largest turn rate, rad/s, > 0; absent =
+    /// [`super::motion::DEFAULT_MAX_TURN_RATE`] (0.1 rad/s).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_turn_rate: Option<f64>,
+    /// Glider: s between GPS fixes, > 0 (a fix at the first tick of every period);
+    /// absent = a fix whenever the glider is at the surface by `[links]` surfacing
+    /// schedule (every tick without one: a glider that never dives knows its position).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fix_period: Option<f64>,
 }
 
 impl Default for VehiclesSection {
@@ -263,6 +286,11 @@ impl Default for VehiclesSection {
             start: vec![0.0, 0.0],
             start_spread: 0.5,
             damping: 1.0,
+            model: VehicleModelKind::Ideal,
+            max_speed: None,
+            max_accel: None,
+            max_turn_rate: None,
+            fix_period: None,
         }
     }
 }

@@ -9,7 +9,7 @@ use vbap_ipc::msg::{from_vec3, Header};
 use vbap_ipc::ports::Sender;
 use vbap_ipc::topics::Limits;
 
-use crate::Agent;
+use crate::Vehicle;
 
 /// Publishes vehicle `id`'s states and wakes the coordinator with each.
 pub(super) struct Outbox {
@@ -42,10 +42,18 @@ impl Outbox {
             .map_err(|e| anyhow::anyhow!("publishing the state: {e}"))
     }
 
-    /// Publishes `agent`'s state at tick `k` with `flags`, having read `read` commands
+    /// Publishes `vehicle`'s state (true and reported) at tick `k` with `flags`, having read `read` commands
     /// (`VehicleState::commands_read`); keeps it among the recent states.
-    pub(super) fn publish(&mut self, agent: &Agent, k: u64, flags: u32, read: u64) -> Result<()> {
+    pub(super) fn publish(
+        &mut self,
+        vehicle: &Vehicle,
+        k: u64,
+        flags: u32,
+        read: u64,
+    ) -> Result<()> {
         self.seq += 1;
+        let agent = &vehicle.agent;
+        let told = vehicle.reported();
         let state = VehicleState {
             header: Header::new(self.id, k, k as f64 * self.dt, self.seq).with_flags(flags),
             pid: self.pid,
@@ -53,6 +61,9 @@ impl Outbox {
             position: from_vec3(&agent.position),
             velocity: from_vec3(&agent.velocity),
             commands_read: read,
+            believed: from_vec3(&told.position),
+            water_velocity: from_vec3(&told.water),
+            current: from_vec3(&told.current),
         };
         self.send(state)?;
         self.recent.push_back(state);

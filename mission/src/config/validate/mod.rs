@@ -9,6 +9,7 @@ mod field;
 mod fleet;
 mod links;
 mod mission;
+mod motion;
 
 use std::fmt;
 
@@ -32,6 +33,9 @@ impl Mission {
         links::links(&c, &self.links)?;
         links::restart(&c, &self.restart)?;
         control::check(&c, &self.control)?;
+        motion::model(&c, &self.vehicles)?;
+        motion::current(&c, &self.current, dim)?;
+        motion::land(&c, &self.land, dim, &self.vehicles.start)?;
         self.check_stability(&c)?;
         faults::check(&c, self)
     }

@@ -1,0 +1,166 @@
+//! The motion of a real vehicle (beyond the paper): the paper's vehicle is the double
+//! integrator ẍ_i = u_i of (II.1) with no limit; a real glider flies through the water at
+//! a limited speed, turns and accelerates at limited rates, is carried by the current it
+//! swims in and, under water, knows its position only by dead reckoning.
+//!
+//! [`VehicleModel`] maps the control u_i of the law to the vehicle's velocity through the
+//! water; [`advance`] moves the true position with water velocity + current and the
+//! vehicle's belief with the water velocity alone (the current is unknown to it);
+//! [`land`] keeps vehicles and the body centre out of land.
+//!
+//! With [`VehicleModel::Ideal`], no current and no land, [`advance`] is the semi-implicit
+//! Euler step of [`crate::control::integrate`] bit for bit.
+
+pub mod land;
+#[cfg(test)]
+mod tests;
+
+use crate::Vec3;
+
+/// Limits of a glider's motion through the water.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GliderLimits {
+    /// Largest speed through the water, length unit/s (> 0).
+    pub max_speed: f64,
+    /// Largest change of the water velocity, length unit/s² (> 0).
+    pub max_accel: f64,
+    /// Largest turn rate of the heading through the water, rad/s (> 0).
+    pub max_turn_rate: f64,
+}
+
+/// How the control u_i of the law moves the vehicle through the water.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum VehicleModel {
+    /// The paper's double integrator (II.1): w' = w + u dt, no limit.
+    Ideal,
+    /// A glider: u_i applied to the water velocity, then saturated by [`GliderLimits`].
+    Glider(GliderLimits),
+}
+
+impl VehicleModel {
+    /// The water velocity after a step of `dt` s from water velocity `w` (length unit/s)
+    /// under control `u` (length unit/s²).
+    ///
+    /// Ideal: w + u dt, the velocity update of (II.1) integrated by semi-implicit Euler.
+    /// Glider (beyond the paper), in this order: the change u dt is clipped to
+    /// `max_accel`·dt; the heading turns from that of `w` by at most `max_turn_rate`·dt
+    /// (not checked below 1 % of `max_speed`, where a heading means little); the speed
+    /// is capped at `max_speed`. The result never exceeds `max_speed`.
+    pub fn water_velocity(&self, w: &Vec3, u: &Vec3, dt: f64) -> Vec3 {
+        match self {
+            VehicleModel::Ideal => w + u * dt,
+            VehicleModel::Glider(l) => {
+                let mut change = u * dt;
+                let most = l.max_accel * dt;
+                if change.norm() > most {
+                    change *= most / change.norm();
+                }
+                let wanted = w + change;
+                let turned = if w.norm() > 0.01 * l.max_speed {
+                    turn_towards(w, &wanted, l.max_turn_rate * dt)
+                } else {
+                    wanted
+                };
+                cap_speed(&turned, l.max_speed)
+            }
+        }
+    }
+}
+
+/// `v` scaled down to a norm of at most `max` (length unit/s); returned as is when slower.
+pub fn cap_speed(v: &Vec3, max: f64) -> Vec3 {
+    let n = v.norm();
+    if n <= max {
+        return *v;
+    }
+    let mut out = v * (max / n);
+    // Rounding may leave the norm an ulp above: shrink until it is not.
+    while out.norm() > max {
+        out *= 1.0 - f64::EPSILON;
+    }
+    out
+}
+
+/// `to` with its direction turned from that of `from` by at most `angle` rad, keeping the
+/// norm of `to`. When the two are opposite the turn is made about z (in the plane of a
+/// 2-D mission) or about the axis nearest to perpendicular.
+fn turn_towards(from: &Vec3, to: &Vec3, angle: f64) -> Vec3 {
+    let speed = to.norm();
+    if speed == 0.0 {
+        return *to;
+    }
+    let a = from / from.norm();
+    let b = to / speed;
+    let cos = a.dot(&b).clamp(-1.0, 1.0);
+    if cos.acos() <= angle {
+        return *to;
+    }
+    let perp = b - a * cos;
+    let e = if perp.norm() > 1e-12 {
+        perp / perp.norm()
+    } else {
+        let z = Vec3::new(0.0, 0.0, 1.0);
+        let c = a.cross(&z);
+        if c.norm() > 1e-6 {
+            // In the xy plane: a quarter turn of a about z.
+            Vec3::new(-a.y, a.x, 0.0) / a.xy().norm()
+        } else {
+            a.cross(&Vec3::new(1.0, 0.0, 0.0)).normalize()
+        }
+    };
+    (a * angle.cos() + e * angle.sin()) * speed
+}
+
+/// One vehicle's state of motion: where it truly is, where it believes it is, and how it
+/// moves through the water.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Motion {
+    /// True position, length unit.
+    pub position: Vec3,
+    /// Believed position (dead reckoning since the last fix), length unit.
+    pub belief: Vec3,
+    /// Velocity through the water, length unit/s.
+    pub water: Vec3,
+    /// True velocity over the ground, length unit/s: water velocity + current, or the
+    /// displacement ÷ dt when land stopped or deflected the step.
+    pub ground: Vec3,
+}
+
+/// One step of `dt` s under control `u` (length unit/s²) with the current `current`
+/// (length unit/s, at the true position, unknown to the vehicle):
+/// w' = [`VehicleModel::water_velocity`], x' = x + (w' + c) dt (the true position,
+/// advected; its ground velocity w' + c), b' = b + w' dt (the belief: dead reckoning with the water velocity). The true
+/// position is then passed through `keep` (land: [`land::slide`]); pass the identity
+/// when there is no land. In 2-D (`dim` = 2) z stays 0.
+pub fn advance(
+    model: &VehicleModel,
+    m: &Motion,
+    u: &Vec3,
+    current: &Vec3,
+    dt: f64,
+    dim: usize,
+    keep: impl Fn(&Vec3, &Vec3) -> Vec3,
+) -> Motion {
+    let mut water = model.water_velocity(&m.water, u, dt);
+    let mut ground = water + current;
+    if dim == 2 {
+        water.z = 0.0;
+        ground.z = 0.0;
+    }
+    let free = m.position + ground * dt;
+    let mut position = keep(&m.position, &free);
+    if position != free {
+        ground = (position - m.position) / dt;
+    }
+    let mut belief = m.belief + water * dt;
+    if dim == 2 {
+        position.z = 0.0;
+        belief.z = 0.0;
+    }
+    Motion {
+        position,
+        belief,
+        water,
+        ground,
+    }
+}

@@ -1,0 +1,121 @@
+use super::land::{repulsion, slide, Avoidance};
+use super::*;
+use crate::control::integrate;
+
+fn glider() -> VehicleModel {
+    VehicleModel::Glider(GliderLimits {
+        max_speed: 0.3,
+        max_accel: 0.01,
+        max_turn_rate: 0.1,
+    })
+}
+
+#[test]
+fn ideal_with_no_current_is_the_papers_integration_bit_for_bit() {
+    let m = Motion {
+        position: Vec3::new(1.5, -2.25, 0.0),
+        belief: Vec3::new(1.5, -2.25, 0.0),
+        water: Vec3::new(0.3, 0.7, 0.0),
+        ground: Vec3::new(0.3, 0.7, 0.0),
+    };
+    let u = Vec3::new(-0.123, 4.5, 0.0);
+    let (x, v) = integrate(&m.position, &m.water, &u, 0.05);
+    let next = advance(
+        &VehicleModel::Ideal,
+        &m,
+        &u,
+        &Vec3::zeros(),
+        0.05,
+        3,
+        |_, to| *to,
+    );
+    assert_eq!(next.position, x);
+    assert_eq!(next.water, v);
+    assert_eq!(next.belief, x);
+    assert_eq!(next.ground, v);
+}
+
+#[test]
+fn a_glider_never_exceeds_its_speed_accel_or_turn_limits() {
+    let model = glider();
+    let mut w = Vec3::zeros();
+    let dt = 10.0;
+    for i in 0..500 {
+        let a = i as f64 * 0.7;
+        let u = Vec3::new(a.cos(), a.sin(), 0.0) * (i % 7) as f64;
+        let next = model.water_velocity(&w, &u, dt);
+        assert!(next.norm() <= 0.3, "speed {} at step {i}", next.norm());
+        if w.norm() > 0.003 && next.norm() > 0.0 {
+            let cos = (w.dot(&next) / (w.norm() * next.norm())).clamp(-1.0, 1.0);
+            assert!(cos.acos() <= 1.0 + 1e-9, "turned {} rad", cos.acos());
+        }
+        assert!((next - w).norm() <= 0.1 + 0.3 * 1.0 + 1e-12);
+        w = next;
+    }
+    // Full command along the heading: speeds up by at most max_accel·dt.
+    let w0 = Vec3::new(0.1, 0.0, 0.0);
+    let n = model.water_velocity(&w0, &Vec3::new(5.0, 0.0, 0.0), dt);
+    assert!((n.x - 0.2).abs() < 1e-15 && n.y == 0.0);
+    // A reversal turns by max_turn_rate·dt only.
+    let r = model.water_velocity(&Vec3::new(0.05, 0.0, 0.0), &Vec3::new(-1.0, 0.0, 0.0), dt);
+    let angle = r.y.atan2(r.x);
+    assert!((angle.abs() - 1.0).abs() < 1e-12, "turned {angle}");
+}
+
+#[test]
+fn the_current_moves_the_truth_but_not_the_belief() {
+    let m = Motion {
+        position: Vec3::zeros(),
+        belief: Vec3::zeros(),
+        water: Vec3::new(0.2, 0.0, 0.0),
+        ground: Vec3::new(0.2, 0.0, 0.0),
+    };
+    let c = Vec3::new(0.0, 0.1, 0.0);
+    let mut s = m;
+    for _ in 0..100 {
+        s = advance(&glider(), &s, &Vec3::zeros(), &c, 10.0, 2, |_, to| *to);
+    }
+    assert!((s.belief - Vec3::new(200.0, 0.0, 0.0)).norm() < 1e-9);
+    assert!((s.position - Vec3::new(200.0, 100.0, 0.0)).norm() < 1e-9);
+}
+
+#[test]
+fn cap_speed_never_leaves_the_norm_above_the_cap() {
+    for i in 1..2000 {
+        let v = Vec3::new(i as f64 * 0.37, -(i as f64) * 0.11, 0.013 * i as f64);
+        let c = cap_speed(&v, 0.3);
+        assert!(c.norm() <= 0.3);
+        assert!(c.norm() > 0.3 * (1.0 - 1e-12));
+    }
+}
+
+#[test]
+fn repulsion_is_continuous_and_points_away() {
+    let a = Avoidance {
+        distance: 100.0,
+        gain: 0.05,
+    };
+    let n = Vec3::new(0.0, 1.0, 0.0);
+    assert_eq!(repulsion(None, &a), Vec3::zeros());
+    assert_eq!(repulsion(Some((100.0, n)), &a), Vec3::zeros());
+    assert!(repulsion(Some((99.999, n)), &a).norm() < 1e-9);
+    assert!((repulsion(Some((0.0, n)), &a) - n * 0.05).norm() < 1e-15);
+    assert!(repulsion(Some((50.0, n)), &a).y > 0.0);
+}
+
+#[test]
+fn slide_keeps_a_move_off_land() {
+    // Land is y < 0.
+    let land = |p: &Vec3| p.y < 0.0;
+    let from = Vec3::new(0.0, 1.0, 0.0);
+    let n = Some(Vec3::new(0.0, 1.0, 0.0));
+    assert_eq!(
+        slide(&from, &Vec3::new(1.0, 2.0, 0.0), land, n),
+        Vec3::new(1.0, 2.0, 0.0)
+    );
+    assert_eq!(
+        slide(&from, &Vec3::new(3.0, -1.0, 0.0), land, n),
+        Vec3::new(3.0, 1.0, 0.0)
+    );
+    assert_eq!(slide(&from, &Vec3::new(3.0, -1.0, 0.0), land, None), from);
+}

@@ -1,0 +1,192 @@
+//! How a vehicle moves when the mission goes beyond the paper's ideal vehicle
+//! (`[vehicles] model = "glider"`, a `[current]`, `[land]`): the control u_i of the law
+//! acts on what the vehicle knows (its believed position, its velocity through the
+//! water), the land term of `vbap_math::vehicle::land` is added, and
+//! `vbap_math::vehicle::advance` moves the truth (carried by the current, kept off land)
+//! and the belief (dead reckoning). A glider's belief is reset to the truth by a GPS fix
+//! ([`Kinematics::fix_at`]). The simulator and the agent process both step through here.
+
+use std::sync::Arc;
+
+use vbap_math::law::{ControlInputs, ControlLaw};
+use vbap_math::vehicle::land::{repulsion, slide, Avoidance};
+use vbap_math::vehicle::{advance, GliderLimits, Motion, VehicleModel};
+use vbap_math::Vec3;
+use vbap_mission::config::{
+    Mission, VehicleModelKind, DEFAULT_MAX_ACCEL, DEFAULT_MAX_SPEED, DEFAULT_MAX_TURN_RATE,
+};
+use vbap_mission::current::{current_of, CurrentField};
+use vbap_mission::land::{avoid_distance, avoid_gain, land_of, LandMask};
+use vbap_mission::link::LinkModel;
+
+use crate::Agent;
+
+/// The motion rules of a mission, shared by all its vehicles.
+#[derive(Debug)]
+pub struct Kinematics {
+    /// How u_i moves a vehicle through the water.
+    pub model: VehicleModel,
+    /// True for a glider: it knows its position only at a fix.
+    pub dead_reckoning: bool,
+    /// `vehicles.fix_period`, s (None: fixes while at the surface by `surfacing`).
+    pub fix_period: Option<f64>,
+    /// The link model, for its surfacing schedule.
+    pub surfacing: LinkModel,
+    /// The current (None: still water).
+    pub current: Option<Arc<dyn CurrentField>>,
+    /// The land (None: no land).
+    pub land: Option<Arc<dyn LandMask>>,
+    /// The repulsive term near land.
+    pub avoidance: Avoidance,
+    /// Mission dimension.
+    pub dim: usize,
+}
+
+impl Kinematics {
+    /// The motion rules of `mission`; None for the paper's ideal vehicle in still water
+    /// without land, which moves exactly as before (`Agent::step_with`).
+    pub fn of(mission: &Mission) -> Option<Arc<Self>> {
+        Self::with(mission, current_of(mission), land_of(mission))
+    }
+
+    /// [`Kinematics::of`] with the current and the land given (a gridded current or a
+    /// land mask read from data).
+    pub fn with(
+        mission: &Mission,
+        current: Option<Arc<dyn CurrentField>>,
+        land: Option<Arc<dyn LandMask>>,
+    ) -> Option<Arc<Self>> {
+        let v = &mission.vehicles;
+        let model = match v.model {
+            VehicleModelKind::Ideal => VehicleModel::Ideal,
+            VehicleModelKind::Glider => VehicleModel::Glider(GliderLimits {
+                max_speed: v.max_speed.unwrap_or(DEFAULT_MAX_SPEED),
+                max_accel: v.max_accel.unwrap_or(DEFAULT_MAX_ACCEL),
+                max_turn_rate: v.max_turn_rate.unwrap_or(DEFAULT_MAX_TURN_RATE),
+            }),
+        };
+        if model == VehicleModel::Ideal && current.is_none() && land.is_none() {
+            return None;
+        }
+        Some(Arc::new(Self {
+            model,
+            dead_reckoning: v.model == VehicleModelKind::Glider,
+            fix_period: v.fix_period,
+            surfacing: LinkModel::new(mission),
+            current,
+            land,
+            avoidance: Avoidance {
+                distance: avoid_distance(mission),
+                gain: avoid_gain(mission),
+            },
+            dim: mission.mission.dim,
+        }))
+    }
+
+    /// True when vehicle `id` gets a GPS fix at tick `k` (tick length `dt`, s): with
+    /// `fix_period` at the first tick of every period; else while at the surface by the
+    /// links' surfacing schedule (always, without one). A vehicle that does not
+    /// dead-reckon always knows its position.
+    pub fn fix_at(&self, id: u32, k: u64, dt: f64) -> bool {
+        if !self.dead_reckoning {
+            return true;
+        }
+        let t = k as f64 * dt;
+        match self.fix_period {
+            Some(p) => (t % p) < dt * (1.0 - 1e-9) || k == 0,
+            None => self.surfacing.at_surface(id, t),
+        }
+    }
+
+    /// The current at `p` (length unit) and time `t` (s), zero in still water.
+    pub fn current_at(&self, p: &Vec3, t: f64) -> Vec3 {
+        let mut c = self
+            .current
+            .as_ref()
+            .map_or_else(Vec3::zeros, |c| c.velocity(p, t));
+        if self.dim == 2 {
+            c.z = 0.0;
+        }
+        c
+    }
+}
+
+/// What a vehicle beyond the ideal one knows and feels, besides its true state.
+#[derive(Clone, Debug)]
+pub struct Moving {
+    /// The mission's motion rules.
+    pub kin: Arc<Kinematics>,
+    /// Believed position, length unit.
+    pub belief: Vec3,
+    /// Velocity through the water, length unit/s.
+    pub water: Vec3,
+    /// The current at the true position and the time of the state, length unit/s.
+    pub current: Vec3,
+}
+
+impl Moving {
+    /// A vehicle of `agent`'s true state at tick `k` (tick length `dt`): it knows where it
+    /// is (deployed or restarted with a fix). Deployed (k = 0) it is at rest in the water,
+    /// drifting with the current (`agent`'s velocity becomes the current); restarted, its
+    /// water velocity is its velocity less the current there.
+    pub fn start(kin: Arc<Kinematics>, agent: &mut Agent, k: u64, dt: f64) -> Self {
+        let current = kin.current_at(&agent.position, k as f64 * dt);
+        if k == 0 {
+            agent.velocity = current;
+        }
+        Self {
+            belief: agent.position,
+            water: agent.velocity - current,
+            current,
+            kin,
+        }
+    }
+
+    /// One step from tick `k` of `agent` (its true state) under `law` with `inputs`:
+    /// u_i from the belief and the water velocity plus the land term at the belief, then
+    /// `vbap_math::vehicle::advance`; the belief is reset at a fix of tick k + 1.
+    /// Returns u_i.
+    pub fn step(
+        &mut self,
+        agent: &mut Agent,
+        law: &dyn ControlLaw,
+        inputs: &ControlInputs<'_>,
+        k: u64,
+        dt: f64,
+    ) -> Vec3 {
+        let kin = self.kin.clone();
+        let land = kin.land.as_deref();
+        let mut u = law.control(&self.belief, &self.water, inputs);
+        if let Some(l) = land {
+            u += repulsion(l.clearance(&self.belief), &kin.avoidance);
+        }
+        let before = Motion {
+            position: agent.position,
+            belief: self.belief,
+            water: self.water,
+            ground: agent.velocity,
+        };
+        let next = advance(
+            &kin.model,
+            &before,
+            &u,
+            &self.current,
+            dt,
+            kin.dim,
+            |from, to| match land {
+                Some(l) => slide(from, to, |p| l.is_land(p), l.clearance(from).map(|c| c.1)),
+                None => *to,
+            },
+        );
+        agent.position = next.position;
+        agent.velocity = next.ground;
+        self.water = next.water;
+        self.belief = if kin.fix_at(agent.id, k + 1, dt) {
+            next.position
+        } else {
+            next.belief
+        };
+        self.current = kin.current_at(&agent.position, (k + 1) as f64 * dt);
+        u
+    }
+}
