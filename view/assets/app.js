@@ -64,6 +64,11 @@ const PANELS = [
   { title: "ṡ / v0", series: [["sdot", "ṡ/v0", "#2ca02c"]] },
 ];
 
+// Tick labels of a logarithmic axis.
+function logTicks(u, vals) {
+  return vals.map((v) => (v == null ? "" : Math.abs(v) >= 0.01 && Math.abs(v) < 1e4 ? String(+v.toPrecision(2)) : v.toExponential(0)));
+}
+
 function panelData(p, cfg) {
   return [p.t, ...cfg.series.map(([key]) => p[key].map((v) => (cfg.log && !(v > 0) ? null : v)))];
 }
@@ -74,15 +79,16 @@ function buildPanels() {
   state.charts = PANELS.map((cfg) => {
     const div = document.createElement("div");
     const title = document.createElement("div");
-    title.className = "title"; title.textContent = cfg.title;
+    title.className = "title";
+    title.innerHTML = cfg.title + " " + cfg.series.map(([, label, colour]) => `<span style="color:${colour}">■ ${label}</span>`).join(" ");
     box.appendChild(title); box.appendChild(div);
     const opts = {
-      width: Math.max(300, box.clientWidth - 12), height: 150,
+      width: Math.max(300, box.clientWidth - 12), height: 125,
       scales: { x: { time: false }, y: cfg.log ? { distr: 3 } : {} },
-      axes: [{ values: (u, vals) => vals.map((v) => fmtTime(v)) }, { size: 60 }],
+      axes: [{ values: (u, vals) => vals.map((v) => fmtTime(v)) }, cfg.log ? { size: 60, values: logTicks } : { size: 60 }],
       series: [{ label: "t", value: (u, v) => (v == null ? "" : fmtTime(v)) },
         ...cfg.series.map(([, label, colour]) => ({ label, stroke: colour, width: 1.2, spanGaps: false }))],
-      legend: { show: true },
+      legend: { show: false },
       plugins: [markersPlugin()],
     };
     return new uPlot(opts, panelData(state.panels, cfg), div);
@@ -183,12 +189,39 @@ async function load() {
   map.setField(field);
   legend();
   buildPanels();
-  show(meta.finished ? 0 : state.frames.length - 1);
+  // A link may name the view and the time: ?view=fleet&t=SECONDS.
+  const q = new URLSearchParams(location.search);
+  if (q.get("view") === "fleet") { map.mode = "fleet"; $("viewmode").value = "fleet"; }
+  let start = meta.finished ? 0 : state.frames.length - 1;
+  if (q.has("t")) {
+    const t = Number(q.get("t"));
+    start = state.frames.findIndex((f) => f.t >= t);
+    if (start < 0) start = state.frames.length - 1;
+  }
+  show(start);
   $("slider").addEventListener("input", (e) => show(Number(e.target.value)));
   $("play").addEventListener("click", () => setPlaying(!state.playing));
   document.addEventListener("keydown", (e) => { if (e.key === " ") { e.preventDefault(); setPlaying(!state.playing); } });
   map.canvas.addEventListener("mousemove", hover);
   map.canvas.addEventListener("mouseleave", () => ($("tip").hidden = true));
+  $("viewmode").addEventListener("change", (e) => { map.mode = e.target.value; show(state.i); });
+  map.canvas.addEventListener("wheel", (e) => {
+    e.preventDefault();
+    if (map.mode !== "whole") { map.mode = "whole"; $("viewmode").value = "whole"; }
+    const r = map.canvas.getBoundingClientRect();
+    map.zoom(e.deltaY > 0 ? 1.2 : 1 / 1.2, e.clientX - r.left, e.clientY - r.top);
+    show(state.i);
+  }, { passive: false });
+  let drag = null;
+  map.canvas.addEventListener("mousedown", (e) => (drag = [e.clientX, e.clientY]));
+  window.addEventListener("mouseup", () => (drag = null));
+  map.canvas.addEventListener("mousemove", (e) => {
+    if (!drag || map.mode !== "whole") return;
+    map.pan(e.clientX - drag[0], e.clientY - drag[1]);
+    drag = [e.clientX, e.clientY];
+    show(state.i);
+  });
+  map.canvas.addEventListener("dblclick", () => { map.userBounds = null; show(state.i); });
   window.addEventListener("resize", () => { buildPanels(); show(state.i); });
   $("follow").parentElement.hidden = meta.finished;
   state.lastTick = state.frames.length ? state.frames[state.frames.length - 1].k : -1;

@@ -6,9 +6,10 @@
 const CONTACT_COLOURS = ["#2ca02c", "#17becf", "#1f4e9c", "#ff7f0e", "#777777", "#d62728", "#000000"];
 const CONTACT_NAMES = ["in contact", "surfaced", "submerged", "link down", "dead", "rejoining", "unknown"];
 
-// A sequential colour scale (light to dark blue-green), t in [0, 1].
+// A light sequential colour scale (white to mid grey-beige), t in [0, 1]: the vehicles'
+// colours stay readable on any part of the field.
 function fieldColour(t) {
-  const stops = [[247, 251, 255], [198, 219, 239], [107, 174, 214], [33, 113, 181], [8, 48, 107]];
+  const stops = [[255, 255, 255], [240, 237, 228], [222, 215, 198], [196, 186, 164], [160, 150, 128]];
   t = Math.min(1, Math.max(0, t)) * (stops.length - 1);
   const i = Math.min(stops.length - 2, Math.floor(t)), f = t - i;
   return stops[i].map((c, j) => Math.round(c + f * (stops[i + 1][j] - c)));
@@ -57,6 +58,33 @@ class RunMap {
     this.field = null;      // the /api/field grid
     this.fieldImages = [];  // one offscreen canvas per field time
     this.drawn = [];        // [{id, px, py, vehicle}] of the last draw (hover, tests)
+    this.mode = "whole";    // "whole": the map (zoom with the wheel, drag to pan); "fleet": follow the fleet
+    this.userBounds = null; // the map zoomed or panned by the user
+  }
+
+  // The region shown for frame f.
+  viewBounds(f) {
+    if (this.mode === "fleet" && f) {
+      const pts = f.v.map((v) => [v[1], v[2]]).concat(f.s);
+      if (f.b) pts.push([f.b[0], f.b[1]]);
+      const xs = pts.map((p) => p[0]), ys = pts.map((p) => p[1]);
+      const x0 = Math.min(...xs), x1 = Math.max(...xs), y0 = Math.min(...ys), y1 = Math.max(...ys);
+      const r = 0.7 * Math.max(x1 - x0, y1 - y0, 1e-9), cx = (x0 + x1) / 2, cy = (y0 + y1) / 2;
+      return [cx - r, cy - r, cx + r, cy + r];
+    }
+    return this.userBounds || this.bounds;
+  }
+
+  // Zooms by `factor` (< 1: in) about canvas pixel (px, py).
+  zoom(factor, px, py) {
+    const [x0, y0, x1, y1] = this.shown, x = this.wx(px), y = this.wy(py);
+    this.userBounds = [x + (x0 - x) * factor, y + (y0 - y) * factor, x + (x1 - x) * factor, y + (y1 - y) * factor];
+  }
+
+  // Moves the map by (dx, dy) canvas pixels.
+  pan(dx, dy) {
+    const [x0, y0, x1, y1] = this.shown, s = this.scale;
+    this.userBounds = [x0 - dx / s, y0 + dy / s, x1 - dx / s, y1 + dy / s];
   }
 
   setField(grid) {
@@ -82,17 +110,20 @@ class RunMap {
   }
 
   // World (x, y) to canvas pixels, equal scales, y up.
-  layout() {
+  layout(bounds) {
     const w = this.canvas.clientWidth, h = this.canvas.clientHeight, dpr = window.devicePixelRatio || 1;
     if (this.canvas.width !== Math.round(w * dpr) || this.canvas.height !== Math.round(h * dpr)) {
       this.canvas.width = Math.round(w * dpr); this.canvas.height = Math.round(h * dpr);
     }
-    const [x0, y0, x1, y1] = this.bounds;
+    const [x0, y0, x1, y1] = bounds;
     const s = Math.min(w / (x1 - x0), h / (y1 - y0));
     const ox = (w - s * (x1 - x0)) / 2, oy = (h - s * (y1 - y0)) / 2;
     this.px = (x) => ox + s * (x - x0);
     this.py = (y) => h - oy - s * (y - y0);
+    this.wx = (px) => x0 + (px - ox) / s;
+    this.wy = (py) => y0 + (h - oy - py) / s;
     this.scale = s;
+    this.shown = [x0 - ox / s, y0 - oy / s, x0 + (w - ox) / s, y0 + (h - oy) / s];
     return dpr;
   }
 
@@ -115,7 +146,7 @@ class RunMap {
 
   // Draws frame `i` of `frames` with trails of `trail` frames.
   draw(frames, i, trail) {
-    const dpr = this.layout();
+    const dpr = this.layout(this.viewBounds(frames[i]));
     const cx = this.canvas.getContext("2d");
     cx.setTransform(dpr, 0, 0, dpr, 0, 0);
     cx.fillStyle = "#fff"; cx.fillRect(0, 0, this.canvas.width, this.canvas.height);
