@@ -354,3 +354,92 @@ async fn a_live_run_is_followed_as_it_progresses() {
         "leftovers of {name}"
     );
 }
+
+/// CPU time (s) of the thread named `name` of process `pid`, if it is there.
+fn thread_cpu_s(pid: u32, name: &str) -> Option<f64> {
+    let ticks_per_s = 100.0; // USER_HZ, fixed at 100 on Linux for /proc
+    for task in std::fs::read_dir(format!("/proc/{pid}/task")).ok()? {
+        let task = task.ok()?.path();
+        let comm = std::fs::read_to_string(task.join("comm")).unwrap_or_default();
+        if comm.trim() != name {
+            continue;
+        }
+        let stat = std::fs::read_to_string(task.join("stat")).ok()?;
+        // Fields after the command's closing parenthesis: utime and stime are the 12th and 13th.
+        let rest = &stat[stat.rfind(')')? + 2..];
+        let f: Vec<&str> = rest.split(' ').collect();
+        let (u, s): (f64, f64) = (f.get(11)?.parse().ok()?, f.get(12)?.parse().ok()?);
+        return Some((u + s) / ticks_per_s);
+    }
+    None
+}
+
+/// One paced run of the paper's mission with 64 vehicles; with `browser`, served with
+/// `--view` and watched by headless Chromium. (late ticks, viewer CPU s, wall s).
+async fn paced_64(browser: bool) -> (u64, Option<f64>, f64) {
+    let tmp = TempDir::new("view-bench");
+    let name = unique_name("viewbench");
+    let text = tests::read(&tests::workspace().join("deploy/missions/paper.toml"))
+        .replace("name = \"paper\"", &format!("name = \"{name}\""));
+    let mission = write_mission(&tmp, "bench.toml", &text);
+    let run = tmp.join("run");
+    let mut cmd = vbap();
+    cmd.arg("run").arg(&mission).arg("--out").arg(&run).args([
+        "--quiet",
+        "--pace",
+        "1",
+        "--duration",
+        "20",
+        "--set",
+        "vehicles.count=64",
+        "--set",
+        "formation.radius=17.7",
+    ]);
+    let started = Instant::now();
+    let mut cpu = None;
+    if browser {
+        cmd.args(["--view", "127.0.0.1:0"]);
+        let (url, mut child) = start_printing_url(cmd);
+        let b = Browser::start().await;
+        b.c().goto(&url).await.expect("opening the page");
+        b.until(
+            "window.vbap && window.vbap.ready === true",
+            Duration::from_secs(60),
+        )
+        .await;
+        let pid = child.pid();
+        // The viewer's thread lives as long as the run: its last reading is its total.
+        while let Some(s) = thread_cpu_s(pid, "vbap-view") {
+            cpu = Some(s);
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        }
+        assert!(child.wait().success());
+        b.close().await;
+    } else {
+        let mut child = ChildGuard(Some(cmd.stdout(Stdio::null()).spawn().expect("vbap run")));
+        assert!(child.wait().success());
+    }
+    let wall = started.elapsed().as_secs_f64();
+    let summary: Value = serde_json::from_str(&tests::read(&run.join("summary.json"))).unwrap();
+    (summary["late_ticks"].as_u64().unwrap_or(0), cpu, wall)
+}
+
+/// Bench (not a test of speed: prints, asserts nothing about it): a live view of N = 64 at
+/// pace 1, the viewer's CPU share and the mission's late ticks with and without a browser.
+/// `cargo test --release -p tests --test view -- --ignored --nocapture bench`
+#[tokio::test(flavor = "current_thread")]
+#[ignore = "a bench: run it on purpose"]
+async fn bench_live_view_of_64_vehicles_at_pace_1() {
+    let (late_without, _, wall_without) = paced_64(false).await;
+    let (late_with, cpu, wall_with) = paced_64(true).await;
+    let cpu = cpu.expect("the viewer's thread was seen");
+    println!("live view, N = 64, pace 1, 20 s of mission (400 ticks):");
+    println!("  without a viewer: {late_without} late ticks ({wall_without:.1} s wall)");
+    println!(
+        "  with --view and a headless Chromium watching: {late_with} late ticks ({wall_with:.1} s wall)"
+    );
+    println!(
+        "  the viewer's thread: {cpu:.2} s CPU = {:.1} % of one core over the 20 s the mission runs",
+        100.0 * cpu / 20.0
+    );
+}
