@@ -55,6 +55,14 @@ enum Cmd {
     /// Write the synthetic ocean example (CF NetCDF: temperature with a front and eddies,
     /// u/v currents, a coast and an island) for `[field] kind = "grid"` missions.
     Ocean(crate::ocean::OceanArgs),
+    /// Serve a browser page that replays a run directory (time slider, map, panels).
+    View {
+        /// The run directory.
+        run_dir: PathBuf,
+        /// Address to serve on (loopback by default; another is your explicit choice).
+        #[arg(long, default_value = vbap_view::DEFAULT_ADDR)]
+        addr: String,
+    },
     /// Timing analysis of a run from its tracing logs.
     Analyze {
         /// The run directory.
@@ -94,6 +102,10 @@ struct RunArgs {
     /// Print the summary as JSON (as summary.json) instead of the human summary.
     #[arg(long)]
     json: bool,
+    /// `vbap run` only: serve the live map of the run in a browser on ADDR (default
+    /// loopback, any free port; the URL is printed).
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = vbap_view::DEFAULT_ADDR)]
+    view: Option<String>,
 }
 
 // Re-exported for analyze, replay and bench/floors, which still take it from here; other
@@ -151,6 +163,7 @@ fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> 
         Cmd::Echo(args) => crate::introspect::echo(&args),
         Cmd::Ocean(args) => crate::ocean::main(&args),
         Cmd::Analyze { run_dir, json } => vbap_report::analyze::main(&run_dir, json),
+        Cmd::View { run_dir, addr } => view(&run_dir, &addr),
     }
 }
 
@@ -172,8 +185,42 @@ fn check(mission: &Path, sets: &[KeySet]) -> Result<i32> {
     Ok(EXIT_OK)
 }
 
+/// `vbap view`: the replay page of a run directory, until Ctrl-C.
+fn view(run_dir: &Path, addr: &str) -> Result<i32> {
+    if !run_dir.join("mission.toml").is_file() {
+        let e = format!(
+            "{}: not a run directory (no mission.toml)",
+            run_dir.display()
+        );
+        return Err(InvalidInput(e).into());
+    }
+    vbap_view::serve_until_stopped(run_dir, addr).map_err(|e| InvalidInput(format!("{e:#}")))?;
+    Ok(EXIT_OK)
+}
+
+/// `vbap run --view`: the live page of the run in `dir`, served on its own thread until the
+/// returned viewer is dropped.
+fn live_view(args: &RunArgs, mission: &Mission, dir: &RunDir) -> Result<Option<vbap_view::Viewer>> {
+    let Some(addr) = &args.view else {
+        return Ok(None);
+    };
+    let viewer = vbap_view::spawn(&dir.root, addr, true)
+        .map_err(|e| InvalidInput(format!("--view {addr}: {e:#}")))?;
+    eprintln!("vbap: live view at {}", viewer.url());
+    if mission.restart.coordinator == vbap_mission::config::RestartPolicy::Never {
+        eprintln!("vbap: warning: [restart] coordinator = \"never\": the coordinator flushes its files only every 64 KiB, so the live view lags");
+    }
+    Ok(Some(viewer))
+}
+
 /// `vbap sim`: the mission in this process, with a progress bar on a terminal.
 fn sim(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> {
+    if args.view.is_some() {
+        return Err(InvalidInput(
+            "--view: only `vbap run` serves a live view (`vbap view DIR` replays a run)".into(),
+        )
+        .into());
+    }
     let (mission, dir) = prepare(args)?;
     let show = !args.quiet && std::io::stderr().is_terminal();
     let bar = indicatif::ProgressBar::new(mission.ticks());
@@ -238,6 +285,7 @@ fn run(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32>
     let dir = prepare_dir(args, &mission)?;
     // The mission's iceoryx2 config, for `iox2 ... --config RUN_DIR/iox2.toml`.
     crate::introspect::write_config(&dir, &domain)?;
+    let _viewer = live_view(args, &mission, &dir)?;
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
