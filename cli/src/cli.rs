@@ -87,6 +87,12 @@ struct RunArgs {
     /// Print the summary as JSON (as summary.json) instead of the human summary.
     #[arg(long)]
     json: bool,
+    /// Spread over machines: the hosts file (which host runs what; with --host).
+    #[arg(long, requires = "host")]
+    hosts: Option<PathBuf>,
+    /// Spread over machines: this host's name in the hosts file (runs its share only).
+    #[arg(long, requires = "hosts")]
+    host: Option<String>,
 }
 
 // Re-exported for analyze, replay and bench/floors, which still take it from here; other
@@ -211,6 +217,10 @@ fn run(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32>
     )
     .map_err(InvalidInput)?;
     let mission = prepare_mission(args)?;
+    let plan = crate::hosts::plan(args.hosts.as_deref(), args.host.as_deref(), &mission)?;
+    if plugins.is_some() && plan.is_some() {
+        return Err(InvalidInput("--hosts runs the shipped binaries: use `vbap`".into()).into());
+    }
     // One supervisor per mission name, before anything is written: a second start
     // exits 2 at once and leaves --out alone.
     let _lock = crate::lock::MissionLock::acquire(&mission.mission.name).map_err(|e| match e {
@@ -226,19 +236,42 @@ fn run(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32>
     )
     .map_err(|e| InvalidInput(e.to_string()))?;
     let dir = prepare_dir(args, &mission)?;
+    if let Some(plan) = &plan {
+        crate::hosts::record(plan, &dir)?;
+    }
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
-    let outcome = match plugins {
-        Some(p) => runtime.block_on(crate::supervise::run_with(
+    let outcome = match (plugins, &plan) {
+        (_, Some(plan)) => runtime.block_on(crate::supervise::run_share(
+            &mission,
+            &dir,
+            !args.quiet && plan.shore,
+            &crate::supervise::Executables::installed()?,
+            None,
+            Some(plan),
+        ))?,
+        (Some(p), None) => runtime.block_on(crate::supervise::run_with(
             &mission,
             &dir,
             !args.quiet,
             &crate::supervise::Executables::this_exe_as_roles()?,
             Some(p.field_of(&mission)),
         ))?,
-        None => runtime.block_on(crate::supervise::run(&mission, &dir, !args.quiet))?,
+        (None, None) => runtime.block_on(crate::supervise::run(&mission, &dir, !args.quiet))?,
     };
+    if plan.as_ref().is_some_and(|p| !p.shore) {
+        // A host without the coordinator: its processes' logs; the run's files are the shore's.
+        eprintln!(
+            "vbap: this host's share ended; logs in {}/logs",
+            dir.root.display()
+        );
+        return Ok(match (outcome.interrupted, outcome.coordinator_ok) {
+            (true, _) => 130,
+            (false, true) => EXIT_OK,
+            (false, false) => EXIT_FAILURE,
+        });
+    }
     match (&outcome.summary, outcome.interrupted) {
         (s, true) => {
             if let Some(s) = s {

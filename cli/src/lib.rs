@@ -12,6 +12,8 @@
 //!   [`rundirs`]: where runs go by default; [`domain`]: a mission's iceoryx2 domain on this
 //!   host (free? leftovers, cleaning).
 //! - [`lock`]: one supervisor per mission name on a host.
+//! - [`hosts`]: `vbap run --hosts FILE --host NAME`, one host's share of a mission
+//!   spread over machines (with `vbap_bridge`).
 //!
 //! Pictures and timing analyses are `vbap-report`'s; the steps of the processes are the
 //! libraries of `coordinator`, `vehicle_agent` and `field_server`.
@@ -26,6 +28,7 @@ pub mod custom;
 pub mod domain;
 pub mod errors;
 pub mod formation;
+pub mod hosts;
 pub mod lock;
 pub mod plugins;
 pub mod progress;

@@ -5,12 +5,14 @@
 //! - [`field`]: the sensed environments, with ground truth, and the keyed sensor noise.
 //! - [`link`], [`faults`]: the emulated glider link and the scheduled faults.
 //! - [`horizon`]: the plan horizon of the robust law, from the link model.
+//! - [`hosts`]: the hosts file of a mission spread over machines.
 //! - [`rundir`]: the run directory a mission writes (CSV, JSON lines, summary).
 
 pub mod config;
 pub mod faults;
 pub mod field;
 pub mod horizon;
+pub mod hosts;
 pub mod link;
 mod mission_field;
 pub mod rundir;
