@@ -106,6 +106,12 @@ struct RunArgs {
     /// loopback, any free port; the URL is printed).
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = vbap_view::DEFAULT_ADDR)]
     view: Option<String>,
+    /// Spread over machines: the hosts file (which host runs what; with --host).
+    #[arg(long, requires = "host")]
+    hosts: Option<PathBuf>,
+    /// Spread over machines: this host's name in the hosts file (runs its share only).
+    #[arg(long, requires = "hosts")]
+    host: Option<String>,
 }
 
 // Re-exported for analyze, replay and bench/floors, which still take it from here; other
@@ -268,6 +274,10 @@ fn run(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32>
     )
     .map_err(InvalidInput)?;
     let mission = prepare_mission(args)?;
+    let plan = crate::hosts::plan(args.hosts.as_deref(), args.host.as_deref(), &mission)?;
+    if plugins.is_some() && plan.is_some() {
+        return Err(InvalidInput("--hosts runs the shipped binaries: use `vbap`".into()).into());
+    }
     // One supervisor per mission name, before anything is written: a second start
     // exits 2 at once and leaves --out alone.
     let _lock = crate::lock::MissionLock::acquire(&mission.mission.name).map_err(|e| match e {
@@ -286,19 +296,42 @@ fn run(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32>
     // The mission's iceoryx2 config, for `iox2 ... --config RUN_DIR/iox2.toml`.
     crate::introspect::write_config(&dir, &domain)?;
     let _viewer = live_view(args, &mission, &dir)?;
+    if let Some(plan) = &plan {
+        crate::hosts::record(plan, &dir)?;
+    }
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
-    let outcome = match plugins {
-        Some(p) => runtime.block_on(crate::supervise::run_with(
+    let outcome = match (plugins, &plan) {
+        (_, Some(plan)) => runtime.block_on(crate::supervise::run_share(
+            &mission,
+            &dir,
+            !args.quiet && plan.shore,
+            &crate::supervise::Executables::installed()?,
+            None,
+            Some(plan),
+        ))?,
+        (Some(p), None) => runtime.block_on(crate::supervise::run_with(
             &mission,
             &dir,
             !args.quiet,
             &crate::supervise::Executables::this_exe_as_roles()?,
             Some(p.field_of(&mission)),
         ))?,
-        None => runtime.block_on(crate::supervise::run(&mission, &dir, !args.quiet))?,
+        (None, None) => runtime.block_on(crate::supervise::run(&mission, &dir, !args.quiet))?,
     };
+    if plan.as_ref().is_some_and(|p| !p.shore) {
+        // A host without the coordinator: its processes' logs; the run's files are the shore's.
+        eprintln!(
+            "vbap: this host's share ended; logs in {}/logs",
+            dir.root.display()
+        );
+        return Ok(match (outcome.interrupted, outcome.coordinator_ok) {
+            (true, _) => 130,
+            (false, true) => EXIT_OK,
+            (false, false) => EXIT_FAILURE,
+        });
+    }
     match (&outcome.summary, outcome.interrupted) {
         (s, true) => {
             if let Some(s) = s {

@@ -14,6 +14,8 @@
 //! - [`ocean`]: `vbap ocean`, the synthetic ocean example file of grid missions.
 //! - [`lock`]: one supervisor per mission name on a host.
 //! - [`introspect`]: `vbap services` and `vbap echo`, a look inside a running mission.
+//! - [`hosts`]: `vbap run --hosts FILE --host NAME`, one host's share of a mission
+//!   spread over machines (with `vbap_bridge`).
 //!
 //! Pictures and timing analyses are `vbap-report`'s; the steps of the processes are the
 //! libraries of `coordinator`, `vehicle_agent` and `field_server`.
@@ -29,6 +31,7 @@ pub mod domain;
 pub mod errors;
 pub mod formation;
 pub mod introspect;
+pub mod hosts;
 pub mod lock;
 pub mod ocean;
 pub mod plugins;

@@ -43,6 +43,8 @@ enum Role {
     FieldServer,
     Coordinator,
     Agent(u32),
+    /// The Zenoh bridge of a host of a mission spread over machines ([`HostPlan`]).
+    Bridge,
 }
 
 impl Role {
@@ -51,6 +53,7 @@ impl Role {
             Role::FieldServer => "field_server".into(),
             Role::Coordinator => "coordinator".into(),
             Role::Agent(id) => format!("vehicle_agent_{id}"),
+            Role::Bridge => "vbap_bridge".into(),
         }
     }
 }
@@ -221,6 +224,7 @@ fn exit_report(
         Role::FieldServer => (ProcessExit::FIELD_SERVER, 0),
         Role::Coordinator => (ProcessExit::COORDINATOR, 0),
         Role::Agent(id) => (ProcessExit::AGENT, id),
+        Role::Bridge => (u32::MAX, 0), // never reported (see `ProcessSet::watch`)
     };
     ProcessExit {
         header: Header::from_sender(Header::SUPERVISOR),
@@ -375,6 +379,22 @@ struct ProcessSet<'a> {
     /// Set when the supervisor stops the set: the processes it stops are not deaths, and
     /// the coordinator (stopping too) is not told of them.
     stopping: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    /// This host's share of a mission spread over machines (None: the whole set here).
+    plan: Option<&'a HostPlan>,
+}
+
+/// This host's share of a mission spread over machines (`vbap run --hosts --host`, see
+/// `crate::hosts`): a bridge first, then what the hosts file places here.
+#[derive(Clone, Debug)]
+pub struct HostPlan {
+    /// The bridge program and its arguments after `--mission FILE` (`--hosts F --host N`).
+    pub bridge: Executable,
+    /// The coordinator and the field server run here (the shore).
+    pub shore: bool,
+    /// The vehicles whose agents run here.
+    pub vehicles: Vec<u32>,
+    /// The hosts file (copied into the run directory as `hosts.toml`).
+    pub file: PathBuf,
 }
 
 impl<'a> ProcessSet<'a> {
@@ -397,18 +417,28 @@ impl<'a> ProcessSet<'a> {
                 }
                 &self.exes.vehicle_agent
             }
+            Role::Bridge => match self.plan {
+                Some(plan) => &plan.bridge,
+                None => &self.exes.coordinator, // never: a bridge is only in a host's plan
+            },
         };
         (exe, args)
     }
 
-    /// Starts the whole set: field server, then coordinator, each ready before the next;
-    /// then every agent at once (they start in parallel), each awaited.
+    /// Starts the whole set: (bridge,) field server, then coordinator, each ready before the
+    /// next; then every agent at once (they start in parallel), each awaited.
     async fn start_all(&mut self) -> Result<()> {
-        self.start(0).await?;
-        self.start(1).await?;
+        let agent = |r: Role| matches!(r, Role::Agent(_));
+        for slot in 0..self.procs.len() {
+            if !agent(self.procs[slot].role) {
+                self.start(slot).await?;
+            }
+        }
         let mut launched = Vec::new();
-        for slot in 2..self.procs.len() {
-            launched.push((slot, self.launch(slot).await?));
+        for slot in 0..self.procs.len() {
+            if agent(self.procs[slot].role) {
+                launched.push((slot, self.launch(slot).await?));
+            }
         }
         let mut first_error = None;
         for (slot, (name, mut child)) in launched {
@@ -493,7 +523,8 @@ impl<'a> ProcessSet<'a> {
             // while the supervisor stops everyone: an agent that exits on the stop before
             // the coordinator does would be recorded as lost).
             let stopped = stopping.load(std::sync::atomic::Ordering::SeqCst);
-            if let (Some(pid), false) = (pid, stopped) {
+            // (A bridge's end is no process of the coordinator's: not reported.)
+            if let (Some(pid), false, false) = (pid, stopped, role == Role::Bridge) {
                 let report = exit_report(role, pid, &status, wall_ns());
                 let _ = notices.send(Notice::Exit(report));
             }
@@ -524,6 +555,7 @@ impl<'a> ProcessSet<'a> {
             Role::FieldServer => r.field_server,
             Role::Coordinator => r.coordinator,
             Role::Agent(_) => r.vehicles,
+            Role::Bridge => RestartPolicy::OnFailure,
         }
     }
 }
@@ -592,6 +624,19 @@ pub async fn run_with(
     exes: &Executables,
     field: Option<std::sync::Arc<dyn vbap_mission::field::ScalarField>>,
 ) -> Result<RunOutcome> {
+    run_share(mission, dir, show_progress, exes, field, None).await
+}
+
+/// [`run_with`] of this host's share `plan` of a mission spread over machines (None: the
+/// whole process set). A host without the coordinator ends once all its processes have.
+pub async fn run_share(
+    mission: &Mission,
+    dir: &RunDir,
+    show_progress: bool,
+    exes: &Executables,
+    field: Option<std::sync::Arc<dyn vbap_mission::field::ScalarField>>,
+    plan: Option<&HostPlan>,
+) -> Result<RunOutcome> {
     let wall = Instant::now();
     let domain = Domain::new(&mission.mission.name)?;
     let cleaned = clean_domain(&domain)?;
@@ -603,8 +648,21 @@ pub async fn run_with(
     }
     let (tx, mut exits) = mpsc::unbounded_channel();
     let mut notices = Notices::start(&domain, mission.vehicles.count);
-    let mut roles = vec![Role::FieldServer, Role::Coordinator];
-    roles.extend((0..mission.vehicles.count as u32).map(Role::Agent));
+    let roles = match plan {
+        None => {
+            let mut roles = vec![Role::FieldServer, Role::Coordinator];
+            roles.extend((0..mission.vehicles.count as u32).map(Role::Agent));
+            roles
+        }
+        Some(p) => {
+            let mut roles = vec![Role::Bridge];
+            if p.shore {
+                roles.extend([Role::FieldServer, Role::Coordinator]);
+            }
+            roles.extend(p.vehicles.iter().copied().map(Role::Agent));
+            roles
+        }
+    };
     let mut set = ProcessSet {
         exes,
         mission,
@@ -615,6 +673,7 @@ pub async fn run_with(
         notices: notices.tx.clone(),
         handed: Default::default(),
         stopping: Default::default(),
+        plan,
     };
     let mut interrupted = false;
     let started = tokio::select! {
@@ -652,6 +711,12 @@ pub async fn run_with(
                 interrupted = true;
                 break;
             }
+        }
+        // A host without the coordinator: its share is done when all its processes are,
+        // and done well when the mission's final command reached it.
+        if plan.is_some_and(|p| !p.shore) && set.running() == 0 {
+            coordinator_ok = notices.mission_finished().await;
+            break;
         }
     }
     view.finish();
@@ -719,7 +784,7 @@ async fn on_exit(
         return AfterExit::GoOn;
     }
     warn!(process = %role.name(), status = ?exit.status, ?policy, restart, "process ended");
-    let essential = role == Role::Coordinator || role == Role::FieldServer;
+    let essential = matches!(role, Role::Coordinator | Role::FieldServer | Role::Bridge);
     if !restart {
         // Without the coordinator or the field server the mission cannot go on.
         return if essential {

@@ -478,7 +478,8 @@ pub mod supervisor_to_coordinator {
     #[type_name("vbap.ProcessExit.v1")]
     pub struct ProcessExit {
         pub header: Header,
-        /// [`ProcessExit::AGENT`], [`ProcessExit::COORDINATOR`] or [`ProcessExit::FIELD_SERVER`].
+        /// [`ProcessExit::AGENT`], [`ProcessExit::COORDINATOR`], [`ProcessExit::FIELD_SERVER`] or
+        /// [`ProcessExit::UNREACHABLE`].
         pub role: u32,
         /// Vehicle id (agents only).
         pub vehicle: u32,
@@ -498,5 +499,9 @@ pub mod supervisor_to_coordinator {
         pub const COORDINATOR: u32 = 1;
         /// Role: the field server.
         pub const FIELD_SERVER: u32 = 2;
+        /// Role: a vehicle agent on another host whose link is gone (its host's bridge
+        /// vanished: Zenoh liveliness). Told by this host's bridge, not a supervisor's
+        /// reaping: the process may be alive, so its next word is a join request.
+        pub const UNREACHABLE: u32 = 3;
     }
 }

@@ -181,9 +181,20 @@ impl Domain {
         path: &str,
         limits: &Limits,
     ) -> Result<publish_subscribe::PortFactory<ipc::Service, VehicleState, ()>, TopicError> {
+        self.state_like_service_as::<VehicleState>(node, path, limits)
+    }
+
+    /// [`Domain::state_like_service`] with payload type `T` (same name, size and alignment
+    /// as [`VehicleState`]: see [`Domain::body_service_as`]).
+    pub fn state_like_service_as<T: Debug + ZeroCopySend>(
+        &self,
+        node: &Node<ipc::Service>,
+        path: &str,
+        limits: &Limits,
+    ) -> Result<publish_subscribe::PortFactory<ipc::Service, T, ()>, TopicError> {
         let name = self.service_name(path)?;
         node.service_builder(&name)
-            .publish_subscribe::<VehicleState>()
+            .publish_subscribe::<T>()
             .max_publishers(1)
             .max_subscribers(3)
             .max_nodes(limits.max_nodes())

@@ -318,9 +318,19 @@ impl Domain {
         node: &Node<ipc::Service>,
         limits: &Limits,
     ) -> Result<publish_subscribe::PortFactory<ipc::Service, BodyCommand, ()>, TopicError> {
+        self.body_service_as::<BodyCommand>(node, limits)
+    }
+
+    /// [`Domain::body_service`] with payload type `T`: a type of the same name, size and
+    /// alignment as [`BodyCommand`] (the bridge copies its bytes; iceoryx2 refuses any other).
+    pub fn body_service_as<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend>(
+        &self,
+        node: &Node<ipc::Service>,
+        limits: &Limits,
+    ) -> Result<publish_subscribe::PortFactory<ipc::Service, T, ()>, TopicError> {
         let name = self.service_name("body")?;
         node.service_builder(&name)
-            .publish_subscribe::<BodyCommand>()
+            .publish_subscribe::<T>()
             .max_publishers(2)
             .max_subscribers(limits.fleet_ports())
             .max_nodes(limits.max_nodes())
@@ -363,9 +373,19 @@ impl Domain {
         node: &Node<ipc::Service>,
         limits: &Limits,
     ) -> Result<publish_subscribe::PortFactory<ipc::Service, ProcessExit, ()>, TopicError> {
+        self.exits_service_as::<ProcessExit>(node, limits)
+    }
+
+    /// [`Domain::exits_service`] with payload type `T` (same name, size and alignment as
+    /// [`ProcessExit`]: see [`Domain::body_service_as`]).
+    pub fn exits_service_as<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend>(
+        &self,
+        node: &Node<ipc::Service>,
+        limits: &Limits,
+    ) -> Result<publish_subscribe::PortFactory<ipc::Service, T, ()>, TopicError> {
         let name = self.service_name("supervisor/exits")?;
         node.service_builder(&name)
-            .publish_subscribe::<ProcessExit>()
+            .publish_subscribe::<T>()
             .max_publishers(2)
             .max_subscribers(4)
             .max_nodes(limits.max_nodes())

@@ -8,6 +8,7 @@
 //! - [`horizon`]: the plan horizon of the robust law, from the link model.
 //! - [`current`], [`land`]: the water that carries the vehicles and the land they keep
 //!   out of (beyond the paper).
+//! - [`hosts`]: the hosts file of a mission spread over machines.
 //! - [`rundir`]: the run directory a mission writes (CSV, JSON lines, summary).
 
 pub mod config;
@@ -17,6 +18,7 @@ pub mod field;
 pub mod grid;
 pub mod horizon;
 pub mod land;
+pub mod hosts;
 pub mod link;
 mod mission_field;
 pub mod rundir;

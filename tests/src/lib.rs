@@ -40,6 +40,8 @@ pub fn bin_dir() -> &'static Path {
                 "vehicle_agent",
                 "-p",
                 "coordinator",
+                "-p",
+                "vbap-bridge",
             ])
             .status()
             .expect("running cargo build");

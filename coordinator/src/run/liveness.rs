@@ -84,7 +84,7 @@ impl Liveness {
                 continue;
             }
             match e.role {
-                ProcessExit::AGENT => self.agent_exits.push(e),
+                ProcessExit::AGENT | ProcessExit::UNREACHABLE => self.agent_exits.push(e),
                 ProcessExit::FIELD_SERVER => field_died = true,
                 _ => {}
             }
@@ -168,6 +168,17 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
                 continue;
             }
             let ms = wall_ns().saturating_sub(e.died_ns) as f64 / 1e6;
+            if e.role == ProcessExit::UNREACHABLE {
+                // Its host's link is gone (across hosts): the process may live on, so its
+                // next word, when the link is back, is a join request (as after silence).
+                self.inbox.peers[v as usize].pid = 0;
+                self.lose(
+                    v,
+                    Loss::found("host unreachable", "bridge", e.pid, Some(ms)),
+                )?;
+                lost = true;
+                continue;
+            }
             let cause = if e.signal != 0 {
                 "process died"
             } else {

@@ -20,14 +20,29 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
         .map(|e| e.path())
         .filter_map(|p| log_file(&p).map(|(format, process)| (p, format, process)))
         .collect();
+    // A run over hosts: the other hosts' logs, copied to hosts/<host>/logs/, merged.
+    for host in std::fs::read_dir(dir.root.join("hosts"))
+        .into_iter()
+        .flatten()
+        .flatten()
+    {
+        let Ok(entries) = std::fs::read_dir(host.path().join("logs")) else {
+            continue;
+        };
+        files.extend(entries.flatten().map(|e| e.path()).filter_map(|p| {
+            let (format, process) = log_file(&p)?;
+            (format == Format::Csv).then_some((p, format, process))
+        }));
+    }
     files.sort_by(|a, b| a.0.cmp(&b.0));
 
     let mission = Mission::load(&dir.mission()).ok();
+    let remote = remote_vehicles(dir, mission.as_ref());
     // The command of tick `ticks` only tells the agents the mission is over: not a message
     // of the mission's links.
     let last_tick = mission.as_ref().map_or(u64::MAX, |m| m.ticks());
 
-    let parts = read_logs(&files, last_tick)?;
+    let parts = read_logs(&files, last_tick, &remote)?;
 
     let nominal_ms = mission.as_ref().and_then(|m| match m.mission.pace {
         Pace::Lockstep => None,
@@ -176,4 +191,21 @@ fn tick_report(
         waiting_for_states_us: Percentiles::of(&mut waiting),
         after_last_state_us: Percentiles::of(&mut after),
     })
+}
+
+/// The vehicles placed on another host than the coordinator's, by the run's `hosts.toml`
+/// (a run over hosts); none for a one-host run.
+fn remote_vehicles(dir: &RunDir, mission: Option<&Mission>) -> std::collections::BTreeSet<u32> {
+    let (Some(m), Ok(text)) = (
+        mission,
+        std::fs::read_to_string(dir.root.join("hosts.toml")),
+    ) else {
+        return Default::default();
+    };
+    let Ok(hosts) = vbap_mission::hosts::Hosts::parse(&text, "hosts.toml", m.vehicles.count) else {
+        return Default::default();
+    };
+    (0..m.vehicles.count as u32)
+        .filter(|&v| hosts.host_of(v) != Some(hosts.shore.as_str()))
+        .collect()
 }

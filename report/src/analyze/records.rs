@@ -55,6 +55,29 @@ pub(super) struct Partial {
     pub(super) state_recv: Vec<(u64, u64)>,
     pub(super) records: u64,
     pub(super) unparsed: u64,
+    /// The vehicles on other hosts than the coordinator's (a run over hosts: their states
+    /// and commands cross hosts, hops `state@hosts`, `body@hosts`).
+    pub(super) remote: std::sync::Arc<std::collections::BTreeSet<u32>>,
+}
+
+/// The hop `hop` of a record from `sender` to `receiver`: `<hop>@hosts` when it crossed
+/// hosts (a state of a remote vehicle, a command to one).
+fn hop_across<'a>(
+    hop: &'a str,
+    sender: u32,
+    receiver: u32,
+    remote: &std::collections::BTreeSet<u32>,
+) -> Cow<'a, str> {
+    let across = match hop {
+        "state" | "state_ack" => remote.contains(&sender),
+        "body" => remote.contains(&receiver),
+        _ => false,
+    };
+    if across {
+        Cow::Owned(format!("{hop}@hosts"))
+    } else {
+        Cow::Borrowed(hop)
+    }
 }
 
 #[derive(Default)]
@@ -96,7 +119,8 @@ impl Partial {
     /// Adds one record of a process (`is_agent`: a vehicle agent's).
     fn add(&mut self, r: Rec<'_>, is_agent: bool) {
         self.records += 1;
-        if r.hop == "body" && r.tick.is_some_and(|t| t >= self.last_tick) {
+        let plain = r.hop.split('@').next().unwrap_or(r.hop);
+        if plain == "body" && r.tick.is_some_and(|t| t >= self.last_tick) {
             return; // "the mission is over": not a command of the mission's links
         }
         let acc = match self.hops.get_mut(r.hop) {
@@ -129,12 +153,12 @@ impl Partial {
                 if r.injected_ms.is_some() {
                     acc.inline_ms.push(injected_ms);
                 }
-                if is_agent && r.hop == "body" {
+                if is_agent && plain == "body" {
                     let tick = r.tick.unwrap_or(0);
                     self.body_recv.push((tick, recv));
                     self.body_sent.push((r.seq.unwrap_or(0), tick, sent));
                 }
-                if r.hop == "state" {
+                if plain == "state" {
                     if let Some(tick) = r.tick {
                         self.state_recv.push((tick, recv));
                     }
@@ -165,11 +189,18 @@ pub(super) fn log_file(path: &Path) -> Option<(Format, String)> {
 }
 
 /// Parses one log file.
-fn read_log(path: &Path, format: Format, is_agent: bool, last_tick: u64) -> Result<Partial> {
+fn read_log(
+    path: &Path,
+    format: Format,
+    is_agent: bool,
+    last_tick: u64,
+    remote: &std::sync::Arc<std::collections::BTreeSet<u32>>,
+) -> Result<Partial> {
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let mut reader = std::io::BufReader::with_capacity(1 << 18, file);
     let mut part = Partial {
         last_tick,
+        remote: remote.clone(),
         ..Partial::default()
     };
     let mut buf = Vec::with_capacity(512);
@@ -202,10 +233,12 @@ fn read_csv_line(text: &str, part: &mut Partial, is_agent: bool) {
         }
         return;
     };
+    let remote = part.remote.clone();
+    let hop = hop_across(r.hop, r.sender, r.receiver, &remote);
     part.add(
         Rec {
             event: r.event,
-            hop: r.hop,
+            hop: &hop,
             tick: Some(r.tick),
             seq: r.seq,
             sent_ns: r.sent_ns,
@@ -261,7 +294,9 @@ fn read_json_line(text: &str, part: &mut Partial, is_agent: bool) {
 pub(super) fn read_logs(
     files: &[(PathBuf, Format, String)],
     last_tick: u64,
+    remote: &std::collections::BTreeSet<u32>,
 ) -> Result<Vec<(usize, Partial)>> {
+    let remote = std::sync::Arc::new(remote.clone());
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(files.len().max(1));
@@ -277,7 +312,7 @@ pub(super) fn read_logs(
                             break;
                         };
                         let is_agent = process.starts_with("vehicle_agent");
-                        mine.push((i, read_log(path, *format, is_agent, last_tick)?));
+                        mine.push((i, read_log(path, *format, is_agent, last_tick, &remote)?));
                     }
                     Ok(mine)
                 })

@@ -1,0 +1,193 @@
+//! The bridge's life: the Zenoh session, the outbound thread (this host's iceoryx2
+//! services → Zenoh, [`outbound`]) and the inbound loop (Zenoh → this host's services,
+//! [`inbound`]), readiness and the end.
+//!
+//! Readiness ("hosts start in any order and wait for each other"): a glider host's bridge
+//! declares its liveliness token as soon as its ports exist and prints `ready` (its
+//! supervisor then starts the agents) once it sees the shore's token. The shore's bridge
+//! prints `ready` (its supervisor then starts the field server and the coordinator) once it
+//! sees every glider host's token, and declares its own token once the coordinator's body
+//! publisher exists: a glider's agents so never speak before the coordinator listens.
+
+mod inbound;
+mod outbound;
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{mpsc, Arc};
+use std::time::Duration;
+
+use anyhow::{anyhow, Context, Result};
+use tracing::{info, warn};
+use vbap_ipc::topics::{Domain, Limits};
+use vbap_mission::config::Mission;
+use vbap_mission::hosts::Hosts;
+use zenoh::sample::SampleKind;
+use zenoh::Wait;
+
+use crate::keys::{self, Keys};
+
+/// What the bridge forwarded and refused (logged at the end).
+#[derive(Debug, Default)]
+pub struct Counts {
+    /// Messages sent to Zenoh.
+    pub out: AtomicU64,
+    /// Messages received from Zenoh and published here.
+    pub inbound: AtomicU64,
+    /// Frames refused (another payload type or version, a sender that is not its key's).
+    pub refused: AtomicU64,
+}
+
+impl Counts {
+    /// Counts a refused frame; logs the first few and then every thousandth.
+    pub(crate) fn refuse(&self, key: &str, why: &dyn std::fmt::Display) {
+        let n = self.refused.fetch_add(1, Ordering::Relaxed) + 1;
+        if n <= 10 || n % 1000 == 0 {
+            warn!(key, refused = n, reason = %why, "refused a frame: not propagated");
+        }
+    }
+}
+
+/// A message from Zenoh (the subscribers' callbacks) to the inbound loop.
+pub(crate) enum In {
+    /// A frame on key `key`.
+    Frame { key: String, bytes: Vec<u8> },
+    /// Host `.0`'s liveliness token appeared.
+    Up(String),
+    /// Host `.0`'s liveliness token vanished (its bridge ended, or its link's lease ran out).
+    Down(String),
+}
+
+/// Where this bridge is and what it forwards.
+pub(crate) struct Place<'a> {
+    pub mission: &'a Mission,
+    pub hosts: &'a Hosts,
+    pub host: &'a str,
+    pub domain: Domain,
+    pub limits: Limits,
+    pub keys: Keys,
+}
+
+impl Place<'_> {
+    pub fn is_shore(&self) -> bool {
+        self.hosts.is_shore(self.host)
+    }
+    /// The vehicles whose agents run on this host.
+    pub fn local_vehicles(&self) -> Vec<u32> {
+        self.hosts.hosts[self.host].vehicles.clone()
+    }
+    /// The vehicles of every other host.
+    pub fn remote_vehicles(&self) -> Vec<u32> {
+        (0..self.mission.vehicles.count as u32)
+            .filter(|v| !self.local_vehicles().contains(v))
+            .collect()
+    }
+    /// The hosts other than the shore.
+    pub fn glider_hosts(&self) -> Vec<String> {
+        self.hosts
+            .hosts
+            .keys()
+            .filter(|h| !self.hosts.is_shore(h))
+            .cloned()
+            .collect()
+    }
+}
+
+/// Set when the bridge is to end (a termination signal, or the mission's final command
+/// forwarded).
+#[derive(Default)]
+pub(crate) struct Stop {
+    flag: AtomicBool,
+}
+
+impl Stop {
+    pub fn set(&self) {
+        self.flag.store(true, Ordering::SeqCst);
+    }
+    pub fn is_set(&self) -> bool {
+        self.flag.load(Ordering::SeqCst)
+            || iceoryx2_bb_posix::signal::SignalHandler::termination_requested()
+    }
+}
+
+/// Runs the bridge of host `host` of `mission` placed by `hosts` until a termination
+/// signal or the mission's final command; `ready` is called once this host may start its
+/// processes (see the module doc).
+pub fn run(
+    mission: &Mission,
+    hosts: &Hosts,
+    host: &str,
+    ready: impl FnOnce(),
+) -> Result<Arc<Counts>> {
+    let place = Place {
+        mission,
+        hosts,
+        host,
+        domain: Domain::new(&mission.mission.name)?,
+        limits: Limits::for_fleet(mission.vehicles.count),
+        keys: Keys::new(&mission.mission.name),
+    };
+    let config = keys::config(hosts, host)?;
+    let session = zenoh::open(config)
+        .wait()
+        .map_err(|e| anyhow!("opening the Zenoh session of host {host}: {e}"))?;
+    info!(
+        host,
+        shore = place.is_shore(),
+        lease_ms = keys::LEASE_MS,
+        "zenoh session open"
+    );
+    let counts = Arc::new(Counts::default());
+    let stop = Arc::new(Stop::default());
+    let (tx, rx) = mpsc::channel::<In>();
+    let _subscribers = inbound::subscribe(&session, &place, &tx)?;
+
+    let (up_tx, up_rx) = mpsc::channel::<()>();
+    let out = {
+        let (session, stop, counts) = (session.clone(), stop.clone(), counts.clone());
+        let (domain, limits, keys) = (place.domain.clone(), place.limits, place.keys.clone());
+        let spec = outbound::Spec {
+            shore: place.is_shore(),
+            host: host.to_string(),
+            local: place.local_vehicles(),
+            remote: place.remote_vehicles(),
+        };
+        std::thread::Builder::new()
+            .name("outbound".into())
+            .spawn(move || {
+                outbound::run(
+                    &session, &domain, &limits, &keys, &spec, &stop, &counts, up_tx,
+                )
+            })
+            .context("starting the outbound thread")?
+    };
+    // The outbound ports exist (or the thread failed: its error is returned below).
+    let _ = up_rx.recv();
+    let result = inbound::run(&session, &place, &rx, &stop, &counts, ready);
+    stop.set();
+    let out = out
+        .join()
+        .map_err(|_| anyhow!("the outbound thread panicked"))?;
+    let closed = session.close().wait();
+    info!(
+        out = counts.out.load(Ordering::Relaxed),
+        inbound = counts.inbound.load(Ordering::Relaxed),
+        refused = counts.refused.load(Ordering::Relaxed),
+        "bridge done"
+    );
+    result?;
+    out?;
+    closed.map_err(|e| anyhow!("closing the Zenoh session: {e}"))?;
+    Ok(counts)
+}
+
+/// The callback of the liveliness subscriber: host tokens appearing and vanishing.
+pub(crate) fn liveliness_event(tx: &mpsc::Sender<In>, sample: &zenoh::sample::Sample) {
+    let host = Keys::last(sample.key_expr().as_str()).to_string();
+    let _ = tx.send(match sample.kind() {
+        SampleKind::Put => In::Up(host),
+        SampleKind::Delete => In::Down(host),
+    });
+}
+
+/// How often the inbound loop looks at its stop flag and readiness with nothing received.
+pub(crate) const POLL: Duration = Duration::from_millis(50);

@@ -1,0 +1,399 @@
+//! Zenoh → this host's iceoryx2 services, published and notified exactly as the local
+//! writer would (same service, same wake event); the hosts' liveliness.
+//!
+//! On the shore: remote vehicles' states (publisher of `<m>/vehicle/<id>/state`, waking
+//! the coordinator with `Event::Vehicle(id)`), the glider hosts' process exits, and for
+//! every remote vehicle whose host is up a *proxy node* `vehicle_agent_<id>` in this
+//! domain (the coordinator's node-list scan finds the vehicle alive while its host is).
+//! When a glider host's token vanishes, its vehicles are reported
+//! [`ProcessExit::UNREACHABLE`] on `<m>/supervisor/exits` (the coordinator loses them at
+//! once and redesigns; the process may live on, so its next state is a join request) and
+//! their proxy nodes end. On a glider host: the body commands (publisher of `<m>/body`,
+//! `Event::Body` on every local vehicle's wake service).
+
+use std::collections::BTreeMap;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc;
+
+use anyhow::{anyhow, Result};
+use iceoryx2::node::Node;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::prelude::ipc;
+use iceoryx2::service::port_factory::PortFactory as _;
+use tracing::{info, warn};
+use vbap_ipc::msg::agent_to_coordinator::VehicleState;
+use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
+use vbap_ipc::msg::supervisor_to_coordinator::ProcessExit;
+use vbap_ipc::msg::{wall_ns, Header};
+use vbap_ipc::ports::{self, Sender};
+use vbap_ipc::topics;
+use vbap_ipc::wait::Event;
+use zenoh::Wait;
+
+use super::{liveliness_event, Counts, In, Place, Stop, POLL};
+use crate::keys::Keys;
+use crate::wire::{self, Raw, RawBody, RawExit, RawState};
+
+/// The Zenoh subscribers of this host (kept alive by the caller): their callbacks send to
+/// `tx`.
+pub(crate) fn subscribe(
+    session: &zenoh::Session,
+    place: &Place<'_>,
+    tx: &mpsc::Sender<In>,
+) -> Result<Vec<zenoh::pubsub::Subscriber<()>>> {
+    let keys = &place.keys;
+    let wanted = if place.is_shore() {
+        vec![keys.states(), keys.all_exits()]
+    } else {
+        vec![keys.body()]
+    };
+    let mut subs = Vec::new();
+    for key in wanted {
+        let tx = tx.clone();
+        subs.push(
+            session
+                .declare_subscriber(key.clone())
+                .callback(move |s| {
+                    let _ = tx.send(In::Frame {
+                        key: s.key_expr().as_str().to_string(),
+                        bytes: s.payload().to_bytes().into_owned(),
+                    });
+                })
+                .wait()
+                .map_err(|e| anyhow!("subscribing to {key}: {e}"))?,
+        );
+    }
+    let tx = tx.clone();
+    subs.push(
+        session
+            .liveliness()
+            .declare_subscriber(keys.hosts())
+            .history(true)
+            .callback(move |s| liveliness_event(&tx, &s))
+            .wait()
+            .map_err(|e| anyhow!("subscribing to the hosts' liveliness: {e}"))?,
+    );
+    Ok(subs)
+}
+
+/// The shore's inbound ports.
+struct Shore {
+    node: Node<ipc::Service>,
+    states: BTreeMap<u32, Sender<RawState>>,
+    exits: Sender<RawExit>,
+    /// Proxy nodes of the remote vehicles whose host is up.
+    proxies: BTreeMap<u32, Node<ipc::Service>>,
+    /// The pid of each remote vehicle's process, from its last state.
+    pids: BTreeMap<u32, u32>,
+}
+
+/// A glider host's inbound ports.
+struct Glider {
+    body: Publisher<ipc::Service, RawBody, ()>,
+    wakes: Vec<Notifier<ipc::Service>>,
+}
+
+/// The inbound loop: opens the ports, declares this host's token when it may, calls
+/// `ready` when this host may start its processes, forwards until `stop`.
+pub(crate) fn run(
+    session: &zenoh::Session,
+    place: &Place<'_>,
+    rx: &mpsc::Receiver<In>,
+    stop: &Stop,
+    counts: &Counts,
+    ready: impl FnOnce(),
+) -> Result<()> {
+    let (domain, limits) = (&place.domain, &place.limits);
+    let node = domain.node("vbap_bridge_in")?;
+    // The coordinator is up once the body service has its publisher.
+    let body_service = domain.body_service_as::<RawBody>(&node, limits)?;
+    let mut shore = None;
+    let mut glider = None;
+    if place.is_shore() {
+        let mut states = BTreeMap::new();
+        for id in place.remote_vehicles() {
+            let publisher = ports::publisher(&domain.state_like_service_as::<RawState>(
+                &node,
+                &format!("vehicle/{id}/state"),
+                limits,
+            )?)?;
+            let wake = ports::notifier(&domain.coordinator_wake(&node, limits)?, Event::Data)?;
+            states.insert(id, Sender::new(publisher, wake, Event::Vehicle(id)));
+        }
+        let exits = Sender::new(
+            ports::publisher(&domain.exits_service_as::<RawExit>(&node, limits)?)?,
+            ports::notifier(&domain.coordinator_wake(&node, limits)?, Event::Exit)?,
+            Event::Exit,
+        );
+        shore = Some(Shore {
+            node,
+            states,
+            exits,
+            proxies: BTreeMap::new(),
+            pids: BTreeMap::new(),
+        });
+    } else {
+        let mut wakes = Vec::new();
+        for id in place.local_vehicles() {
+            wakes.push(ports::notifier(
+                &domain.vehicle_wake(&node, id, limits)?,
+                Event::Body,
+            )?);
+        }
+        glider = Some(Glider {
+            body: ports::publisher(&domain.body_service_as::<RawBody>(&node, limits)?)?,
+            wakes,
+        });
+    }
+    let liveliness = session.liveliness();
+    let declare = || {
+        liveliness
+            .declare_token(place.keys.host(place.host))
+            .wait()
+            .map_err(|e| anyhow!("declaring this host's liveliness token: {e}"))
+    };
+    // A glider host is up as soon as its ports are; the shore once its coordinator is.
+    let mut token = if place.is_shore() {
+        None
+    } else {
+        Some(declare()?)
+    };
+    let mut up: BTreeMap<String, bool> = BTreeMap::new();
+    let mut ready = Some(ready);
+    while !stop.is_set() {
+        match rx.recv_timeout(POLL) {
+            Ok(In::Frame { key, bytes }) => {
+                let finished = match (&mut shore, &glider) {
+                    (Some(s), _) => s.frame(place, &key, &bytes, counts)?,
+                    (_, Some(g)) => g.frame(&key, &bytes, counts)?,
+                    _ => false,
+                };
+                if finished {
+                    info!("the mission's final command is published here: bridge ends");
+                    stop.set();
+                }
+            }
+            Ok(In::Up(h)) => {
+                info!(host = %h, "host up");
+                up.insert(h.clone(), true);
+                if let Some(s) = &mut shore {
+                    s.host_up(place, &h)?;
+                }
+            }
+            Ok(In::Down(h)) => {
+                warn!(host = %h, "host gone");
+                up.insert(h.clone(), false);
+                if let Some(s) = &mut shore {
+                    s.host_down(place, &h)?;
+                }
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        }
+        let all_up = |names: &[String]| names.iter().all(|n| up.get(n) == Some(&true));
+        let may_start = if place.is_shore() {
+            all_up(&place.glider_hosts())
+        } else {
+            all_up(std::slice::from_ref(&place.hosts.shore))
+        };
+        if may_start {
+            if let Some(r) = ready.take() {
+                info!("every host this one waits for is up: ready");
+                r();
+            }
+        }
+        if token.is_none()
+            && ready.is_none()
+            && body_service.dynamic_config().number_of_publishers() > 0
+        {
+            info!("the coordinator publishes: this host's token declared");
+            token = Some(declare()?);
+        }
+    }
+    drop(token);
+    Ok(())
+}
+
+impl Shore {
+    /// A frame from a glider host: a state of a remote vehicle, or its host's exits.
+    fn frame(
+        &mut self,
+        place: &Place<'_>,
+        key: &str,
+        bytes: &[u8],
+        counts: &Counts,
+    ) -> Result<bool> {
+        let last = Keys::last(key);
+        if key.contains("/state/") {
+            let Some((id, sender)) = last
+                .parse::<u32>()
+                .ok()
+                .and_then(|id| Some((id, self.states.get(&id)?)))
+            else {
+                counts.refuse(key, &"no remote vehicle of this id");
+                return Ok(false);
+            };
+            let raw = match wire::decode::<RawState>(bytes) {
+                Ok(r) => r,
+                Err(e) => {
+                    counts.refuse(key, &e);
+                    return Ok(false);
+                }
+            };
+            let h = std::mem::offset_of!(VehicleState, header);
+            let from = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, sender));
+            if from != id {
+                counts.refuse(
+                    key,
+                    &format!("a state of sender {from} on vehicle {id}'s key"),
+                );
+                return Ok(false);
+            }
+            self.pids.insert(
+                id,
+                wire::u32_at(raw.bytes(), std::mem::offset_of!(VehicleState, pid)),
+            );
+            sender.send(raw)?;
+        } else {
+            let raw = match wire::decode::<RawExit>(bytes) {
+                Ok(r) => r,
+                Err(e) => {
+                    counts.refuse(key, &e);
+                    return Ok(false);
+                }
+            };
+            let role = wire::u32_at(raw.bytes(), std::mem::offset_of!(ProcessExit, role));
+            let vehicle = wire::u32_at(raw.bytes(), std::mem::offset_of!(ProcessExit, vehicle));
+            let theirs = place
+                .hosts
+                .hosts
+                .get(last)
+                .is_some_and(|h| h.vehicles.contains(&vehicle));
+            if role != ProcessExit::AGENT || !theirs {
+                counts.refuse(
+                    key,
+                    &format!("an exit of role {role}, vehicle {vehicle} from host {last}"),
+                );
+                return Ok(false);
+            }
+            self.exits.send(raw)?;
+        }
+        counts.inbound.fetch_add(1, Ordering::Relaxed);
+        Ok(false)
+    }
+
+    /// Host `host` is up: proxy nodes for its vehicles.
+    fn host_up(&mut self, place: &Place<'_>, host: &str) -> Result<()> {
+        let _ = &self.node;
+        for &id in place
+            .hosts
+            .hosts
+            .get(host)
+            .map(|h| h.vehicles.as_slice())
+            .unwrap_or(&[])
+        {
+            if !self.proxies.contains_key(&id) {
+                self.proxies
+                    .insert(id, place.domain.agent_node(&topics::agent_node_name(id))?);
+            }
+        }
+        Ok(())
+    }
+
+    /// Host `host` is gone: its vehicles are reported unreachable, their proxies end.
+    fn host_down(&mut self, place: &Place<'_>, host: &str) -> Result<()> {
+        for &id in place
+            .hosts
+            .hosts
+            .get(host)
+            .map(|h| h.vehicles.as_slice())
+            .unwrap_or(&[])
+        {
+            if self.proxies.remove(&id).is_some() {
+                let pid = self.pids.get(&id).copied().unwrap_or(0);
+                self.exits.send(unreachable(id, pid))?;
+                warn!(
+                    vehicle = id,
+                    pid, host, "vehicle unreachable: reported to the coordinator"
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Glider {
+    /// A body command from the shore: published here, every local agent woken; true when
+    /// it is the mission's final one.
+    fn frame(&self, key: &str, bytes: &[u8], counts: &Counts) -> Result<bool> {
+        let raw = match wire::decode::<RawBody>(bytes) {
+            Ok(r) => r,
+            Err(e) => {
+                counts.refuse(key, &e);
+                return Ok(false);
+            }
+        };
+        let h = std::mem::offset_of!(BodyCommand, header);
+        let sender = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, sender));
+        let flags = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, flags));
+        if sender != Header::COORDINATOR {
+            counts.refuse(key, &format!("a body command of sender {sender}"));
+            return Ok(false);
+        }
+        self.body
+            .send_copy(raw)
+            .map_err(|e| anyhow!("publishing the body: {e:?}"))?;
+        for w in &self.wakes {
+            let _ = w.notify();
+        }
+        counts.inbound.fetch_add(1, Ordering::Relaxed);
+        Ok(flags & BodyCommand::FINISHED != 0)
+    }
+}
+
+/// The report that vehicle `vehicle` (process `pid`, 0: unknown) is unreachable, written
+/// field by field into the bytes of a [`ProcessExit`].
+fn unreachable(vehicle: u32, pid: u32) -> RawExit {
+    use std::mem::offset_of;
+    let mut b = [0u8; std::mem::size_of::<ProcessExit>()];
+    let mut put = |at: usize, v: &[u8]| b[at..at + v.len()].copy_from_slice(v);
+    let h = offset_of!(ProcessExit, header);
+    put(
+        h + offset_of!(Header, sender),
+        &Header::SUPERVISOR.to_ne_bytes(),
+    );
+    put(
+        offset_of!(ProcessExit, role),
+        &ProcessExit::UNREACHABLE.to_ne_bytes(),
+    );
+    put(offset_of!(ProcessExit, vehicle), &vehicle.to_ne_bytes());
+    put(offset_of!(ProcessExit, pid), &pid.to_ne_bytes());
+    put(offset_of!(ProcessExit, died_ns), &wall_ns().to_ne_bytes());
+    RawExit { bytes: b }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unreachable_report_reads_back_as_a_process_exit() {
+        let raw = unreachable(7, 4242);
+        let b = raw.bytes();
+        assert_eq!(
+            wire::u32_at(b, std::mem::offset_of!(ProcessExit, role)),
+            ProcessExit::UNREACHABLE
+        );
+        assert_eq!(
+            wire::u32_at(b, std::mem::offset_of!(ProcessExit, vehicle)),
+            7
+        );
+        assert_eq!(
+            wire::u32_at(b, std::mem::offset_of!(ProcessExit, pid)),
+            4242
+        );
+        assert_eq!(wire::u32_at(b, 0), Header::SUPERVISOR);
+        assert!(wire::u64_at(b, std::mem::offset_of!(ProcessExit, died_ns)) > 0);
+    }
+}

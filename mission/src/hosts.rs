@@ -1,0 +1,209 @@
+//! The hosts file of a mission spread over machines (`vbap run MISSION --hosts FILE --host
+//! NAME`): which host runs what, and the Zenoh endpoint each host listens on.
+//!
+//! ```toml
+//! [hosts.shore]
+//! endpoint = "tcp/10.88.0.1:7447"
+//! processes = ["coordinator", "field_server"]
+//! [hosts.glider_a]
+//! endpoint = "tcp/10.88.0.2:7447"
+//! vehicles = [0, 1]
+//! ```
+//!
+//! Rules: the coordinator and the field server are on one host (the *shore*: the sensor
+//! requests do not cross hosts); every vehicle `0..N` is on exactly one host; a host name
+//! holds letters, digits and `_`; endpoints are `tcp/<address>:<port>`.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Deserialize;
+
+/// A process a host may run besides vehicle agents.
+pub const PROCESSES: [&str; 2] = ["coordinator", "field_server"];
+
+/// One host of the file.
+#[derive(Clone, Debug, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Host {
+    /// The Zenoh endpoint this host's bridge listens on, `tcp/<address>:<port>`.
+    pub endpoint: String,
+    /// `coordinator` and/or `field_server` (default: none).
+    #[serde(default)]
+    pub processes: Vec<String>,
+    /// The vehicle ids whose agents run here (default: none).
+    #[serde(default)]
+    pub vehicles: Vec<u32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    hosts: BTreeMap<String, Host>,
+}
+
+/// A validated hosts file for a fleet of N vehicles.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Hosts {
+    /// Every host by name.
+    pub hosts: BTreeMap<String, Host>,
+    /// The host of the coordinator and the field server.
+    pub shore: String,
+}
+
+impl Hosts {
+    /// Reads and validates the hosts file `path` for a fleet of `vehicles`; the error names
+    /// the file and the key.
+    pub fn load(path: &Path, vehicles: usize) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        Self::parse(&text, &path.display().to_string(), vehicles)
+    }
+
+    /// [`Hosts::load`] of the text `text` of file `origin`.
+    pub fn parse(text: &str, origin: &str, vehicles: usize) -> Result<Self, String> {
+        let file: File = toml::from_str(text).map_err(|e| format!("{origin}: {e}"))?;
+        let err = |key: String, reason: String| format!("{origin}: {key}: {reason}");
+        let mut shore = None;
+        let mut field = None;
+        let mut owner: Vec<Option<&str>> = vec![None; vehicles];
+        for (name, h) in &file.hosts {
+            if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                return Err(err(
+                    format!("hosts.{name}"),
+                    "a host name holds only letters, digits and _".into(),
+                ));
+            }
+            check_endpoint(&h.endpoint)
+                .map_err(|r| err(format!("hosts.{name}.endpoint = {:?}", h.endpoint), r))?;
+            for p in &h.processes {
+                let key = format!("hosts.{name}.processes");
+                match p.as_str() {
+                    "coordinator" if shore.is_none() => shore = Some(name.clone()),
+                    "field_server" if field.is_none() => field = Some(name.clone()),
+                    "coordinator" | "field_server" => {
+                        return Err(err(key, format!("{p:?} is placed on two hosts")))
+                    }
+                    _ => {
+                        return Err(err(
+                            key,
+                            format!("unknown process {p:?} (known: {PROCESSES:?})"),
+                        ))
+                    }
+                }
+            }
+            for &v in &h.vehicles {
+                let key = format!("hosts.{name}.vehicles");
+                let Some(slot) = owner.get_mut(v as usize) else {
+                    return Err(err(
+                        key,
+                        format!("vehicle {v} is not in the fleet (vehicles.count = {vehicles})"),
+                    ));
+                };
+                if let Some(other) = slot {
+                    return Err(err(key, format!("vehicle {v} is also on host {other:?}")));
+                }
+                *slot = Some(name.as_str());
+            }
+        }
+        let Some(shore) = shore else {
+            return Err(err(
+                "hosts".into(),
+                "no host runs the \"coordinator\"".into(),
+            ));
+        };
+        if field.as_deref() != Some(shore.as_str()) {
+            return Err(err(
+                "hosts".into(),
+                format!("the \"field_server\" must run on the coordinator's host {shore:?} (sensor requests do not cross hosts)"),
+            ));
+        }
+        if let Some(v) = owner.iter().position(Option::is_none) {
+            return Err(err("hosts".into(), format!("vehicle {v} is on no host")));
+        }
+        Ok(Self {
+            hosts: file.hosts,
+            shore,
+        })
+    }
+
+    /// Host `name`, or an error naming the hosts there are.
+    pub fn host(&self, name: &str) -> Result<&Host, String> {
+        self.hosts.get(name).ok_or_else(|| {
+            let known: Vec<&str> = self.hosts.keys().map(String::as_str).collect();
+            format!("--host {name:?}: no such host in the hosts file (hosts: {known:?})")
+        })
+    }
+
+    /// The host of vehicle `id`.
+    pub fn host_of(&self, id: u32) -> Option<&str> {
+        self.hosts
+            .iter()
+            .find(|(_, h)| h.vehicles.contains(&id))
+            .map(|(n, _)| n.as_str())
+    }
+
+    /// True when `name` is the shore (the coordinator's host).
+    pub fn is_shore(&self, name: &str) -> bool {
+        self.shore == name
+    }
+}
+
+fn check_endpoint(endpoint: &str) -> Result<(), String> {
+    let Some(addr) = endpoint.strip_prefix("tcp/") else {
+        return Err("must be tcp/<address>:<port> (the bridge speaks TCP only)".into());
+    };
+    match addr.rsplit_once(':') {
+        Some((host, port)) if !host.is_empty() && port.parse::<u16>().is_ok() => Ok(()),
+        _ => Err("must be tcp/<address>:<port>".into()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+[hosts.shore]
+endpoint = "tcp/10.88.0.1:7447"
+processes = ["coordinator", "field_server"]
+[hosts.glider_a]
+endpoint = "tcp/10.88.0.2:7447"
+vehicles = [0, 1]
+[hosts.glider_b]
+endpoint = "tcp/10.88.0.3:7447"
+vehicles = [2]
+"#;
+
+    #[test]
+    fn the_issue_form_places_every_process() {
+        let h = Hosts::parse(GOOD, "hosts.toml", 3).unwrap();
+        assert_eq!(h.shore, "shore");
+        assert_eq!(h.host_of(1), Some("glider_a"));
+        assert_eq!(h.host_of(2), Some("glider_b"));
+        assert!(h.host("nowhere").unwrap_err().contains("glider_a"));
+    }
+
+    #[test]
+    fn bad_placements_name_the_key() {
+        let e = Hosts::parse(GOOD, "hosts.toml", 4).unwrap_err();
+        assert!(e.contains("vehicle 3 is on no host"), "{e}");
+        let e = Hosts::parse(GOOD, "hosts.toml", 2).unwrap_err();
+        assert!(
+            e.contains("hosts.glider_b.vehicles: vehicle 2 is not in the fleet"),
+            "{e}"
+        );
+        let twice = GOOD.replace("vehicles = [2]", "vehicles = [1, 2]");
+        let e = Hosts::parse(&twice, "hosts.toml", 3).unwrap_err();
+        assert!(e.contains("vehicle 1 is also on host"), "{e}");
+        let udp = GOOD.replace("tcp/10.88.0.3", "udp/10.88.0.3");
+        let e = Hosts::parse(&udp, "hosts.toml", 3).unwrap_err();
+        assert!(e.contains("hosts.glider_b.endpoint"), "{e}");
+        let split = GOOD.replace("\"coordinator\", \"field_server\"", "\"coordinator\"");
+        let split = split.replace(
+            "vehicles = [2]",
+            "vehicles = [2]\nprocesses = [\"field_server\"]",
+        );
+        let e = Hosts::parse(&split, "hosts.toml", 3).unwrap_err();
+        assert!(e.contains("must run on the coordinator's host"), "{e}");
+    }
+}
