@@ -19,7 +19,7 @@ pub trait LandMask: Send + Sync + std::fmt::Debug {
 }
 
 /// Analytic land: a straight coast or a round island (in the xy plane; z is ignored).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum AnalyticLand {
     /// Land where (x − point)·normal < 0; `normal` is a unit vector pointing to the sea.
     Coast {

@@ -95,7 +95,7 @@ pub struct PlannerParams {
     pub curvature_memory: f64,
     /// `[land]`: the body centre never enters it (beyond the paper; none by default).
     #[serde(default)]
-    pub land: vbap_mission::config::LandSection,
+    pub land: Option<vbap_mission::land::AnalyticLand>,
 }
 
 fn default_curvature_memory() -> f64 {
@@ -130,7 +130,7 @@ impl PlannerParams {
             hessian_configured: m.formation.hessian_guess.is_some(),
             curvature: m.control.curvature,
             curvature_memory: m.control.curvature_memory,
-            land: m.land.clone(),
+            land: vbap_mission::land::analytic_land(&m.land, f64::INFINITY),
         }
     }
 }
@@ -400,8 +400,8 @@ impl Planner {
     /// (`vbap_math::vehicle::land::slide`). Under a committed path the vehicles out of
     /// contact still predict the path as committed until the next command reaches them.
     fn off_land(&self, mut next: VirtualBody) -> VirtualBody {
-        use vbap_mission::land::{analytic_land, LandMask};
-        let Some(land) = analytic_land(&self.params.land, f64::INFINITY) else {
+        use vbap_mission::land::LandMask;
+        let Some(land) = &self.params.land else {
             return next;
         };
         let from = self.body.r;
