@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use vbap_math::Vec3;
 
-use crate::config::{LandKind, Mission};
+use crate::config::{LandKind, LandSection, Mission};
 
 /// Land, as the motion code sees it.
 pub trait LandMask: Send + Sync + std::fmt::Debug {
@@ -19,7 +19,7 @@ pub trait LandMask: Send + Sync + std::fmt::Debug {
 }
 
 /// Analytic land: a straight coast or a round island (in the xy plane; z is ignored).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum AnalyticLand {
     /// Land where (x − point)·normal < 0; `normal` is a unit vector pointing to the sea.
     Coast {
@@ -80,7 +80,13 @@ pub fn land_of(mission: &Mission) -> Option<Arc<dyn LandMask>> {
     if let Some(grid_land) = mission.land() {
         return Some(grid_land);
     }
-    let l = &mission.land;
+    analytic_land(&mission.land, 2.0 * avoid_distance(mission))
+        .map(|l| Arc::new(l) as Arc<dyn LandMask>)
+}
+
+/// The analytic land of a `[land]` section, its clearance searched within `search` (length
+/// unit); None without land.
+pub fn analytic_land(l: &LandSection, search: f64) -> Option<AnalyticLand> {
     let v = |x: &[f64]| {
         Vec3::new(
             x.first().copied().unwrap_or(0.0),
@@ -88,19 +94,18 @@ pub fn land_of(mission: &Mission) -> Option<Arc<dyn LandMask>> {
             0.0,
         )
     };
-    let search = 2.0 * avoid_distance(mission);
     match l.kind {
         LandKind::None => None,
-        LandKind::Coast => Some(Arc::new(AnalyticLand::Coast {
+        LandKind::Coast => Some(AnalyticLand::Coast {
             point: v(&l.point),
             normal: v(&l.normal).normalize(),
             search,
-        })),
-        LandKind::Island => Some(Arc::new(AnalyticLand::Island {
+        }),
+        LandKind::Island => Some(AnalyticLand::Island {
             center: v(&l.center),
             radius: l.radius,
             search,
-        })),
+        }),
     }
 }
 

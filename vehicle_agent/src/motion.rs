@@ -38,6 +38,9 @@ pub struct Kinematics {
     pub land: Option<Arc<dyn LandMask>>,
     /// The repulsive term near land.
     pub avoidance: Avoidance,
+    /// `vehicles.current_estimate`: a glider estimates the current from the drift found at
+    /// each fix and dead-reckons with it.
+    pub estimate_current: bool,
     /// Mission dimension.
     pub dim: usize,
 }
@@ -79,6 +82,7 @@ impl Kinematics {
                 distance: avoid_distance(mission),
                 gain: avoid_gain(mission),
             },
+            estimate_current: v.current_estimate,
             dim: mission.mission.dim,
         }))
     }
@@ -122,6 +126,11 @@ pub struct Moving {
     pub water: Vec3,
     /// The current at the true position and the time of the state, length unit/s.
     pub current: Vec3,
+    /// The vehicle's own estimate of the current (`vehicles.current_estimate`; zero
+    /// otherwise), length unit/s.
+    pub estimate: Vec3,
+    /// Time since the last fix, s.
+    pub since_fix: f64,
 }
 
 impl Moving {
@@ -139,6 +148,8 @@ impl Moving {
             water: agent.velocity - current,
             current,
             kin,
+            estimate: Vec3::zeros(),
+            since_fix: 0.0,
         }
     }
 
@@ -181,10 +192,20 @@ impl Moving {
         agent.position = next.position;
         agent.velocity = next.ground;
         self.water = next.water;
+        // Dead reckoning with the current as estimated (zero unless estimated).
+        let reckoned = next.belief + self.estimate * dt;
+        self.since_fix += dt;
         self.belief = if kin.fix_at(agent.id, k + 1, dt) {
+            if kin.estimate_current {
+                // The drift found at the fix is the current not yet accounted for, averaged
+                // over the time since the last fix (as gliders estimate the depth-averaged
+                // current from a dive).
+                self.estimate += (next.position - reckoned) / self.since_fix;
+            }
+            self.since_fix = 0.0;
             next.position
         } else {
-            next.belief
+            reckoned
         };
         self.current = kin.current_at(&agent.position, (k + 1) as f64 * dt);
         u

@@ -93,6 +93,9 @@ pub struct PlannerParams {
     /// `control.curvature_memory`, design spacings of travel.
     #[serde(default = "default_curvature_memory")]
     pub curvature_memory: f64,
+    /// `[land]`: the body centre never enters it (beyond the paper; none by default).
+    #[serde(default)]
+    pub land: Option<vbap_mission::land::AnalyticLand>,
 }
 
 fn default_curvature_memory() -> f64 {
@@ -127,6 +130,7 @@ impl PlannerParams {
             hessian_configured: m.formation.hessian_guess.is_some(),
             curvature: m.control.curvature,
             curvature_memory: m.control.curvature_memory,
+            land: vbap_mission::land::analytic_land(&m.land, f64::INFINITY),
         }
     }
 }
@@ -383,11 +387,31 @@ impl Planner {
             schedule: self.schedule.clone(),
         };
         self.last_velocity = command.velocity;
-        self.body = match in_force {
+        let next = match in_force {
             Some(seg) => self.advanced_committed(&seg, dt),
             None => self.advanced(&rates, sdot * dt),
         };
+        self.body = self.off_land(next);
         Ok(command)
+    }
+
+    /// `next` with its centre kept off `[land]` (beyond the paper): a move of the centre
+    /// that would end on land keeps only its part along the coast, or stops
+    /// (`vbap_math::vehicle::land::slide`). Under a committed path the vehicles out of
+    /// contact still predict the path as committed until the next command reaches them.
+    fn off_land(&self, mut next: VirtualBody) -> VirtualBody {
+        use vbap_mission::land::LandMask;
+        let Some(land) = &self.params.land else {
+            return next;
+        };
+        let from = self.body.r;
+        next.r = vbap_math::vehicle::land::slide(
+            &from,
+            &next.r,
+            |p| land.is_land(p),
+            land.clearance(&from).map(|c| c.1),
+        );
+        next
     }
 
     /// The body of the next tick: moved by `ds` along `rates` ((III.4), (V.7)), its scale

@@ -277,6 +277,11 @@ pub struct VehiclesSection {
     /// schedule (every tick without one: a glider that never dives knows its position).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fix_period: Option<f64>,
+    /// Glider: estimate the current from the drift found at each fix and dead-reckon with
+    /// it (as real gliders estimate the depth-averaged current); default false: dead
+    /// reckoning with the water velocity alone.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub current_estimate: bool,
 }
 
 impl Default for VehiclesSection {
@@ -291,6 +296,7 @@ impl Default for VehiclesSection {
             max_accel: None,
             max_turn_rate: None,
             fix_period: None,
+            current_estimate: false,
         }
     }
 }
