@@ -443,3 +443,50 @@ async fn bench_live_view_of_64_vehicles_at_pace_1() {
         100.0 * cpu / 20.0
     );
 }
+
+#[test]
+fn bad_view_arguments_exit_2_naming_them() {
+    let tmp = TempDir::new("view-args");
+    let out = vbap()
+        .arg("view")
+        .arg(tmp.join("nothing"))
+        .output()
+        .expect("vbap view");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not a run directory"));
+
+    let run = tmp.join("run");
+    let paper = tests::workspace().join("deploy/missions/paper.toml");
+    let out = vbap()
+        .arg("sim")
+        .arg(&paper)
+        .arg("--out")
+        .arg(&run)
+        .arg("--view")
+        .output()
+        .expect("vbap sim");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--view"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    tests::run_ok(vbap().arg("sim").arg(&paper).arg("--out").arg(&run).args([
+        "--quiet",
+        "--duration",
+        "1",
+    ]));
+    let out = vbap()
+        .arg("view")
+        .arg(&run)
+        .args(["--addr", "127.0.0.1:99999"])
+        .output()
+        .expect("vbap view");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("cannot listen on 127.0.0.1:99999"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

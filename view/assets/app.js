@@ -104,7 +104,8 @@ function legend() {
 
 function status() {
   const m = state.meta, f = state.frames[state.i];
-  const what = m.live && !m.finished ? "live" : m.finished ? (m.verdict || "finished") : "in progress";
+  const what = state.disconnected ? "the server stopped (replay it with `vbap view DIR`)"
+    : m.live && !m.finished ? "live" : m.finished ? (m.verdict || "finished") : "in progress";
   $("title").textContent = m.name;
   $("status").textContent = `${m.vehicles} vehicles · ${m.ticks} ticks · ${what} · ${m.link_drops} link drops`;
   $("time").textContent = f ? `t = ${fmtTime(f.t)} (tick ${f.k})` : "no tick yet";
@@ -148,6 +149,11 @@ function hover(ev) {
 function follow() {
   const es = new EventSource(`/api/stream?from=${state.meta.ticks}&events=${state.events.length}`);
   state.stream = es;
+  // The live server stops with its run: no reconnecting to it.
+  es.onerror = () => {
+    es.close();
+    if (!state.meta.finished) { state.meta.live = false; state.disconnected = true; status(); }
+  };
   es.addEventListener("update", (msg) => {
     const u = JSON.parse(msg.data);
     const atEnd = state.i >= state.frames.length - 1;

@@ -356,3 +356,42 @@ fn a_growing_run_is_streamed_newest_frame_first_and_a_stalled_browser_holds_noth
     assert_eq!(u["verdict"], "stalled");
     assert_eq!(json(addr, "/api/meta")["ticks"], 5000);
 }
+
+#[test]
+fn files_cut_back_by_a_resumed_coordinator_are_read_again() {
+    let dir = run_dir(30, false);
+    let viewer = vbap_view::spawn(dir.path(), "127.0.0.1:0", true).unwrap();
+    let addr = viewer.addr();
+    assert_eq!(json(addr, "/api/meta")["ticks"], 30);
+    let mut s = open_stream(addr, "?from=30");
+    assert_eq!(next_update(&mut s)["ticks"], 30);
+    // The run files cut back to tick 12 (as to a checkpoint), then written on to 20.
+    for f in [
+        "vehicles.csv",
+        "body.csv",
+        "formation.csv",
+        "truth.csv",
+        "events.jsonl",
+    ] {
+        std::fs::remove_file(dir.path().join(f)).unwrap();
+    }
+    append_ticks(dir.path(), 0..12);
+    let u = loop {
+        let u = next_update(&mut s);
+        if u["ticks"] == 12 {
+            break u;
+        }
+    };
+    assert_eq!(u["frame"]["k"], 11);
+    append_ticks(dir.path(), 12..20);
+    while next_update(&mut s)["ticks"] != 20 {}
+    let frames = json(addr, "/api/frames?max=100")["frames"].clone();
+    let ks: Vec<u64> = frames
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["k"].as_u64().unwrap())
+        .collect();
+    assert_eq!(ks, (0..20).collect::<Vec<u64>>());
+    assert_eq!(frames[15]["v"].as_array().unwrap().len(), 3);
+}
