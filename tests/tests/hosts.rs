@@ -103,7 +103,7 @@ impl Drop for Net {
 fn start_host(net: &Net, tmp: &TempDir, file: &Path, hosts: &Path, host: &str) -> ChildGuard {
     let script = "mount -t tmpfs tmpfs /dev/shm && mkdir -p /tmp/iceoryx2 && \
                   mount -t tmpfs tmpfs /tmp/iceoryx2 && \"$@\"; rc=$?; \
-                  ls -A /dev/shm /tmp/iceoryx2 > \"$LEFT\" 2>&1; exit $rc";
+                  find /dev/shm /tmp/iceoryx2 -type f > \"$LEFT\" 2>&1; exit $rc";
     let locks = tmp.join(&format!("{host}.locks"));
     std::fs::create_dir_all(&locks).unwrap();
     ChildGuard(Some(
@@ -153,10 +153,7 @@ fn signal_host(tmp: &TempDir, host: &str, sig: &str) {
 fn assert_clean(net: Net, tmp: &TempDir) {
     for h in HOSTS {
         let left = read(&tmp.join(&format!("{h}.left")));
-        let files: Vec<&str> = left
-            .lines()
-            .filter(|l| !l.is_empty() && !l.ends_with(':'))
-            .collect();
+        let files: Vec<&str> = left.lines().filter(|l| !l.is_empty()).collect();
         assert!(files.is_empty(), "host {h} left files behind: {left}");
     }
     let pids = processes_mentioning(&tmp.path.to_string_lossy());
