@@ -154,7 +154,10 @@ mod tests {
             decode::<RawState>(&old),
             Err(Refused::Type { .. })
         ));
-        assert!(matches!(decode::<RawState>(b"nonsense"), Err(Refused::Magic)));
+        assert!(matches!(
+            decode::<RawState>(b"nonsense"),
+            Err(Refused::Magic)
+        ));
     }
 
     #[test]
