@@ -57,7 +57,7 @@ impl Keys {
 }
 
 /// The Zenoh configuration of host `host`: a peer listening on its own endpoint; a glider
-/// host connects to the shore (a star, as the services are), retrying for ever; multicast
+/// host connects to the shore (a star, as the services are), retrying for ever (Zenoh's default period, 1 s doubling to 4 s); multicast
 /// and gossip scouting off (only the hosts file's endpoints); link lease [`LEASE_MS`].
 pub fn config(hosts: &Hosts, host: &str) -> Result<zenoh::Config> {
     let me = hosts.host(host).map_err(|e| anyhow!(e))?;
@@ -84,8 +84,6 @@ pub fn config(hosts: &Hosts, host: &str) -> Result<zenoh::Config> {
     set(&mut c, "connect/endpoints", json_list(&connect))?;
     set(&mut c, "connect/timeout_ms", "-1".into())?;
     set(&mut c, "connect/exit_on_failure", "false".into())?;
-    set(&mut c, "connect/retry/period_init_ms", "100".into())?;
-    set(&mut c, "connect/retry/period_max_ms", "500".into())?;
     set(&mut c, "scouting/multicast/enabled", "false".into())?;
     set(&mut c, "scouting/gossip/enabled", "false".into())?;
     set(&mut c, "transport/link/tx/lease", LEASE_MS.to_string())?;

@@ -1,5 +1,5 @@
 //! `vbap-bridge`: one process per host that forwards, between this host's iceoryx2 domain
-//! and Zenoh, exactly the services that cross hosts (docs/ARCHITECTURE.md §12).
+//! and Zenoh, exactly the services that cross hosts (docs/ARCHITECTURE.md §14).
 //!
 //! | stream | Zenoh key | direction | iceoryx2 side |
 //! |---|---|---|---|

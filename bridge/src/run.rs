@@ -41,7 +41,7 @@ impl Counts {
     /// Counts a refused frame; logs the first few and then every thousandth.
     pub(crate) fn refuse(&self, key: &str, why: &dyn std::fmt::Display) {
         let n = self.refused.fetch_add(1, Ordering::Relaxed) + 1;
-        if n <= 10 || n % 1000 == 0 {
+        if n <= 10 || n.is_multiple_of(1000) {
             warn!(key, refused = n, reason = %why, "refused a frame: not propagated");
         }
     }

@@ -126,3 +126,67 @@ pub fn u64_at(bytes: &[u8], offset: usize) -> u64 {
     b.copy_from_slice(&bytes[offset..offset + 8]);
     u64::from_ne_bytes(b)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vbap_ipc::msg::Header;
+    use vbap_ipc::topics::{Domain, Limits};
+
+    #[test]
+    fn a_frame_reads_back_and_another_type_or_size_is_refused() {
+        let state = RawState::from_bytes(&[7u8; std::mem::size_of::<VehicleState>()]);
+        let frame = encode(&state);
+        assert_eq!(decode::<RawState>(&frame).unwrap().bytes(), state.bytes());
+        assert!(matches!(
+            decode::<RawBody>(&frame),
+            Err(Refused::Type { .. })
+        ));
+        let short = &frame[..frame.len() - 1];
+        assert!(matches!(
+            decode::<RawState>(short),
+            Err(Refused::Size { .. })
+        ));
+        let old = String::from_utf8_lossy(&frame)
+            .replace("v4", "v3")
+            .into_bytes();
+        assert!(matches!(
+            decode::<RawState>(&old),
+            Err(Refused::Type { .. })
+        ));
+        assert!(matches!(
+            decode::<RawState>(b"nonsense"),
+            Err(Refused::Magic)
+        ));
+    }
+
+    #[test]
+    fn the_raw_types_open_the_real_services_and_carry_their_bytes() {
+        let name = format!("wire_{}", std::process::id());
+        let domain = Domain::new(&name).unwrap();
+        let limits = Limits::for_fleet(2);
+        let node = domain.node("wire_test").unwrap();
+        let real = domain.state_service(&node, 1, &limits).unwrap();
+        let raw = domain
+            .state_like_service_as::<RawState>(&node, "vehicle/1/state", &limits)
+            .unwrap();
+        let sub = vbap_ipc::ports::subscriber(&raw).unwrap();
+        let publisher = vbap_ipc::ports::publisher(&real).unwrap();
+        let sent = VehicleState {
+            header: Header::new(1, 5, 0.25, 9),
+            pid: 1234,
+            ..VehicleState::default()
+        };
+        publisher.send_copy(sent).unwrap();
+        let got = *sub
+            .receive()
+            .unwrap()
+            .expect("the raw subscriber reads the state");
+        let at = std::mem::offset_of!(VehicleState, pid);
+        assert_eq!(u32_at(got.bytes(), at), 1234);
+        assert_eq!(u64_at(got.bytes(), std::mem::offset_of!(Header, tick)), 5);
+        drop((sub, publisher, real, raw, node));
+        domain.remove_files();
+        assert!(domain.files().is_empty());
+    }
+}

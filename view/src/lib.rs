@@ -2,7 +2,7 @@
 //! time slider; `vbap run MISSION --view` follows a running one, streamed over
 //! Server-Sent Events. Everything shown is read from the run directory's files (by column
 //! name): the processes of a run write them anyway, so watching adds no message, no
-//! subscriber and no wait to the mission (docs/ARCHITECTURE.md §12).
+//! subscriber and no wait to the mission (docs/ARCHITECTURE.md §13).
 //!
 //! - [`model`]: the run as read so far (ticks, vehicles, contact, events);
 //! - [`frames`]: map frames (design slots fitted as the judge fits them, pulses of

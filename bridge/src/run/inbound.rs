@@ -293,9 +293,8 @@ impl Shore {
             .map(|h| h.vehicles.as_slice())
             .unwrap_or(&[])
         {
-            if !self.proxies.contains_key(&id) {
-                self.proxies
-                    .insert(id, place.domain.agent_node(&topics::agent_node_name(id))?);
+            if let std::collections::btree_map::Entry::Vacant(slot) = self.proxies.entry(id) {
+                slot.insert(place.domain.agent_node(&topics::agent_node_name(id))?);
             }
         }
         Ok(())
