@@ -6,7 +6,7 @@
 use vbap_math::body::VirtualBody;
 use vbap_math::formation::FormationDesign;
 use vbap_math::kalman::GradientFilter;
-use vbap_mission::config::LawKind;
+use vbap_mission::config::{LawKind, Mission};
 
 use crate::planner::{Command, Planner, PlannerError, Report};
 
@@ -40,6 +40,12 @@ pub trait Plan {
     fn law(&self) -> LawKind {
         LawKind::Paper
     }
+    /// Called on a plan restored from a checkpoint, with its mission: what the checkpoint
+    /// does not keep (a gridded field's land, loaded with the mission) is attached again.
+    /// Nothing by default.
+    fn restored(&mut self, mission: &Mission) {
+        let _ = mission;
+    }
 }
 
 impl Plan for Planner {
@@ -70,6 +76,9 @@ impl Plan for Planner {
     }
     fn law(&self) -> LawKind {
         Planner::law(self)
+    }
+    fn restored(&mut self, mission: &Mission) {
+        self.attach_land(mission);
     }
 }
 

@@ -3,9 +3,8 @@
 //! the current ([`vbap_math::vehicle::advance`]).
 //!
 //! [`CurrentField`] is what the motion code asks of a current; [`AnalyticCurrent`] is
-//! built from `[current]` by [`current_of`]. `current.kind = "grid"` is the slot for
-//! gridded u, v (w) read from a file by the gridded-field reader: it is refused by
-//! validation until that reader is wired here.
+//! built from `[current]` by [`current_of`]; `current.kind = "grid"` reads u and v from a
+//! file with the gridded-field reader ([`GridCurrent`]).
 
 use std::sync::Arc;
 
@@ -59,6 +58,23 @@ impl CurrentField for AnalyticCurrent {
     }
 }
 
+/// A gridded current (`current.kind = "grid"`): u and v interpolated from a file as a
+/// gridded field is (C¹, their values only); w = 0. Over land (fill values) the grids hold
+/// the nearby water's values, as a gridded field does.
+#[derive(Clone, Debug)]
+pub struct GridCurrent {
+    /// The eastward / x velocity, length unit/s.
+    pub u: Arc<crate::grid::GridField>,
+    /// The northward / y velocity, length unit/s.
+    pub v: Arc<crate::grid::GridField>,
+}
+
+impl CurrentField for GridCurrent {
+    fn velocity(&self, p: &Vec3, t: f64) -> Vec3 {
+        Vec3::new(self.u.value(p, t), self.v.value(p, t), 0.0)
+    }
+}
+
 /// The current of `mission` (None: still water).
 pub fn current_of(mission: &Mission) -> Option<Arc<dyn CurrentField>> {
     let c = &mission.current;
@@ -70,7 +86,13 @@ pub fn current_of(mission: &Mission) -> Option<Arc<dyn CurrentField>> {
         out
     };
     match c.kind {
-        CurrentKind::None | CurrentKind::Grid => None,
+        CurrentKind::None => None,
+        CurrentKind::Grid => c.grid.0.as_ref().map(|[u, v]| {
+            Arc::new(GridCurrent {
+                u: Arc::clone(u),
+                v: Arc::clone(v),
+            }) as Arc<dyn CurrentField>
+        }),
         kind => Some(Arc::new(AnalyticCurrent {
             kind,
             velocity: v(&c.velocity),
@@ -107,5 +129,47 @@ mod tests {
             ..e
         };
         assert!((tide.velocity(&Vec3::zeros(), 50.0).x + 0.1).abs() < 1e-12);
+    }
+
+    /// The shipped ocean's u and v, read as a gridded current: the current at a point is
+    /// the u and v grids' interpolants there, and every key of `[current]` is checked.
+    #[test]
+    fn a_gridded_current_reads_u_and_v_of_a_file() {
+        let missions = concat!(env!("CARGO_MANIFEST_DIR"), "/../deploy/missions");
+        let base = format!(
+            "[mission]\nname = \"g\"\n[field]\nkind = \"grid\"\nfile = \"ocean.nc\"\n\
+             variable = \"temperature\"\norigin = [7.9, 43.9]\n"
+        );
+        let origin = format!("{missions}/x.toml");
+        let text = format!("{base}[current]\nkind = \"grid\"\nfile = \"ocean.nc\"\n");
+        let m = Mission::from_toml_str(&text, &origin).unwrap_or_else(|e| panic!("{e}"));
+        let current = current_of(&m).expect("a gridded current");
+        let [u, v] = m.current.grid.0.clone().expect("u and v loaded");
+        assert_eq!(u.variable, "u");
+        assert_eq!(v.variable, "v");
+        let p = Vec3::new(3000.0, -2000.0, 0.0);
+        let c = current.velocity(&p, 0.0);
+        assert_eq!(c, Vec3::new(u.value(&p, 0.0), v.value(&p, 0.0), 0.0));
+        assert!(c.norm() > 0.0 && c.norm() < 2.0, "a sea current, m/s: {c}");
+        for (extra, key) in [
+            ("[current]\nkind = \"grid\"\n", "current.file"),
+            (
+                "[current]\nkind = \"grid\"\nfile = \"none.nc\"\n",
+                "current.file",
+            ),
+            (
+                "[current]\nkind = \"grid\"\nfile = \"ocean.nc\"\nu = \"w\"\n",
+                "current.file",
+            ),
+            (
+                "[current]\nkind = \"uniform\"\nvelocity = [0.1, 0.0]\nu = \"u\"\n",
+                "current.u",
+            ),
+        ] {
+            let err = Mission::from_toml_str(&format!("{base}{extra}"), &origin)
+                .expect_err(extra)
+                .to_string();
+            assert!(err.contains(key), "{extra}: {err}");
+        }
     }
 }

@@ -33,18 +33,72 @@ impl Mission {
     /// resolved mission names it wherever it is written. An error names the mission, the key,
     /// the file, the variable and what is wrong.
     pub(crate) fn load_grid(&mut self, base: Option<&Path>) -> Result<(), ConfigError> {
-        if self.field.kind != FieldKind::Grid || self.field.grid.0.is_some() {
-            return Ok(());
-        }
-        let f = &self.field;
-        let given = f.file.clone().unwrap_or_default();
-        let mut file = Path::new(&given).to_path_buf();
+        self.load_field_grid(base)?;
+        self.load_current_grid(base)
+    }
+
+    /// A file named by the mission, relative to `base`, made absolute.
+    fn mission_path(given: &str, base: Option<&Path>) -> std::path::PathBuf {
+        let mut file = Path::new(given).to_path_buf();
         if file.is_relative() {
             if let Some(b) = base {
                 file = b.join(file);
             }
         }
-        let file = std::path::absolute(&file).unwrap_or(file);
+        std::path::absolute(&file).unwrap_or(file)
+    }
+
+    /// Reads the u and v grids of a `current.kind = "grid"`: `current.file`, variables
+    /// `current.u` / `current.v` (default "u", "v"), axes found and projected as the
+    /// field's (`field.geographic`, `field.origin`, coordinate names `field.x` ...).
+    fn load_current_grid(&mut self, base: Option<&Path>) -> Result<(), ConfigError> {
+        use crate::config::CurrentKind;
+        if self.current.kind != CurrentKind::Grid || self.current.grid.0.is_some() {
+            return Ok(());
+        }
+        let given = self.current.file.clone().unwrap_or_default();
+        let file = Self::mission_path(&given, base);
+        let f = &self.field;
+        let load = |variable: &str| {
+            let spec = GridSpec {
+                file: file.clone(),
+                variable: Some(variable.to_string()),
+                names: AxisNames {
+                    x: f.x.clone(),
+                    y: f.y.clone(),
+                    z: f.z.clone(),
+                    time: f.time.clone(),
+                },
+                geographic: f.geographic,
+                origin: f.origin.as_ref().map(|o| [o[0], o[1]]),
+                land_above: None,
+                extent: f.extent.clone(),
+                dim: self.mission.dim,
+            };
+            GridField::load(&spec)
+                .map(Arc::new)
+                .map_err(|e| ConfigError::Invalid {
+                    origin: self.origin.clone(),
+                    key: "current.file".into(),
+                    value: format!("{given:?}"),
+                    reason: e.to_string(),
+                })
+        };
+        let u = load(self.current.u.as_deref().unwrap_or("u"))?;
+        let v = load(self.current.v.as_deref().unwrap_or("v"))?;
+        self.current.file = Some(file.display().to_string());
+        self.current.grid = crate::grid::CurrentGridSlot(Some([u, v]));
+        Ok(())
+    }
+
+    /// Reads the grid of a `kind = "grid"` field (see [`Mission::load_grid`]).
+    fn load_field_grid(&mut self, base: Option<&Path>) -> Result<(), ConfigError> {
+        if self.field.kind != FieldKind::Grid || self.field.grid.0.is_some() {
+            return Ok(());
+        }
+        let f = &self.field;
+        let given = f.file.clone().unwrap_or_default();
+        let file = Self::mission_path(&given, base);
         let spec = GridSpec {
             file: file.clone(),
             variable: f.variable.clone(),

@@ -96,6 +96,10 @@ pub struct PlannerParams {
     /// `[land]`: the body centre never enters it (beyond the paper; none by default).
     #[serde(default)]
     pub land: Option<vbap_mission::land::AnalyticLand>,
+    /// The land of a gridded field (loaded with the mission; not in the checkpoint:
+    /// [`Planner::attach_land`] gives it back to a restored plan). Wins over `land`.
+    #[serde(skip)]
+    pub grid_land: vbap_mission::land::LandRef,
 }
 
 fn default_curvature_memory() -> f64 {
@@ -131,6 +135,7 @@ impl PlannerParams {
             curvature: m.control.curvature,
             curvature_memory: m.control.curvature_memory,
             land: vbap_mission::land::analytic_land(&m.land, f64::INFINITY),
+            grid_land: vbap_mission::land::LandRef(m.land()),
         }
     }
 }
@@ -401,8 +406,10 @@ impl Planner {
     /// contact still predict the path as committed until the next command reaches them.
     fn off_land(&self, mut next: VirtualBody) -> VirtualBody {
         use vbap_mission::land::LandMask;
-        let Some(land) = &self.params.land else {
-            return next;
+        let land: &dyn LandMask = match (&self.params.grid_land.0, &self.params.land) {
+            (Some(grid), _) => grid.as_ref(),
+            (None, Some(analytic)) => analytic,
+            (None, None) => return next,
         };
         let from = self.body.r;
         next.r = vbap_math::vehicle::land::slide(
@@ -412,6 +419,12 @@ impl Planner {
             land.clearance(&from).map(|c| c.1),
         );
         next
+    }
+
+    /// Gives a plan restored from a checkpoint the land of its mission's gridded field,
+    /// which the checkpoint does not keep.
+    pub fn attach_land(&mut self, mission: &Mission) {
+        self.params.grid_land = vbap_mission::land::LandRef(mission.land());
     }
 
     /// The body of the next tick: moved by `ds` along `rates` ((III.4), (V.7)), its scale

@@ -76,7 +76,10 @@ impl<'a, P: Plan + Serialize + DeserializeOwned> Coordinator<'a, P> {
             Checkpoint::load(dir).context("reading the checkpoint")?;
         let resumed_marks = resumed.as_ref().map(|cp| cp.journal);
         let start = match resumed {
-            Some(cp) => resume(cp, mission, dir, &mut inbox, &mut live, truth)?,
+            Some(mut cp) => {
+                cp.planner.restored(mission);
+                resume(cp, mission, dir, &mut inbox, &mut live, truth)?
+            }
             None => Start {
                 planner: new_planner(&ids)?,
                 fleet: Fleet::new(mission, &ids),

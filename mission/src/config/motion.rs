@@ -56,7 +56,7 @@ pub enum CurrentKind {
     /// A shear: `velocity` + `strength`·((y − center_y)/width) along x, a current that
     /// grows across y.
     Shear,
-    /// Gridded u, v (w) from a file: read by the gridded-field reader (not in this build;
+    /// Gridded u, v from a file (`current.file`, `current.u`, `current.v`), read by the
     /// the slot is kept for it).
     Grid,
 }
@@ -93,6 +93,20 @@ pub struct CurrentSection {
     /// s, ≥ 0: when > 0 the whole current is multiplied by cos(2π t / period) (a tide);
     /// 0 = steady.
     pub period: f64,
+    /// Grid: the file of the current (NetCDF or NumPy, as `field.file`), relative to the
+    /// mission file; its axes are found and projected as the field's (`field.geographic`,
+    /// `field.origin`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
+    /// Grid: the variable of the eastward / x velocity (length unit/s; default `"u"`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub u: Option<String>,
+    /// Grid: the variable of the northward / y velocity (length unit/s; default `"v"`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v: Option<String>,
+    /// The loaded u and v grids (kind = "grid"; not a key): read once with the mission.
+    #[serde(skip)]
+    pub grid: crate::grid::CurrentGridSlot,
 }
 
 impl CurrentSection {
@@ -161,6 +175,9 @@ impl super::Mission {
     /// True when the vehicles move beyond the paper's ideal vehicle: a glider model, a
     /// current or land. Such a run writes the motion columns of `vehicles.csv`.
     pub fn moves_beyond_ideal(&self) -> bool {
-        !self.vehicles.model.is_ideal() || !self.current.is_none() || !self.land.is_none()
+        !self.vehicles.model.is_ideal()
+            || !self.current.is_none()
+            || !self.land.is_none()
+            || self.land().is_some()
     }
 }

@@ -69,6 +69,29 @@ impl std::fmt::Debug for GridSlot {
     }
 }
 
+/// The u and v grids of a `current.kind = "grid"` (not keys). Takes no part in equality.
+#[derive(Clone, Default)]
+pub struct CurrentGridSlot(pub Option<[std::sync::Arc<GridField>; 2]>);
+
+impl PartialEq for CurrentGridSlot {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for CurrentGridSlot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.0 {
+            Some([u, v]) => write!(
+                f,
+                "CurrentGridSlot({} {:?} {:?})",
+                u.file, u.variable, v.variable
+            ),
+            None => write!(f, "CurrentGridSlot(none)"),
+        }
+    }
+}
+
 /// What to read and how (the `[field]` keys of `kind = "grid"`, resolved).
 #[derive(Clone, Debug, Default)]
 pub struct GridSpec {

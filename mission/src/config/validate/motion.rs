@@ -37,12 +37,25 @@ pub(super) fn current(c: &Check, cur: &CurrentSection, dim: usize) -> Checked {
     let k = cur.kind;
     c.non_negative("current.period", cur.period)?;
     if k == CurrentKind::Grid {
-        return Err(c.fail(
-            "current.kind",
-            "\"grid\"",
-            "gridded currents need the gridded-field reader, not in this build; use \
-             \"uniform\", \"eddy\" or \"shear\"",
-        ));
+        return c.ensure(
+            cur.file.is_some(),
+            "current.file",
+            "(absent)",
+            "current.kind = \"grid\" needs the file of its u and v variables",
+        );
+    }
+    for (key, given) in [
+        ("current.file", &cur.file),
+        ("current.u", &cur.u),
+        ("current.v", &cur.v),
+    ] {
+        if let Some(g) = given {
+            return Err(c.fail(
+                key,
+                format!("{g:?}"),
+                "only used by current.kind = \"grid\"; remove it or set the kind",
+            ));
+        }
     }
     let none = k == CurrentKind::None;
     if none {
