@@ -136,10 +136,8 @@ mod tests {
     #[test]
     fn a_gridded_current_reads_u_and_v_of_a_file() {
         let missions = concat!(env!("CARGO_MANIFEST_DIR"), "/../deploy/missions");
-        let base = format!(
-            "[mission]\nname = \"g\"\n[field]\nkind = \"grid\"\nfile = \"ocean.nc\"\n\
-             variable = \"temperature\"\norigin = [7.9, 43.9]\n"
-        );
+        let base = "[mission]\nname = \"g\"\n[field]\nkind = \"grid\"\nfile = \"ocean.nc\"\n\
+             variable = \"temperature\"\norigin = [7.9, 43.9]\n";
         let origin = format!("{missions}/x.toml");
         let text = format!("{base}[current]\nkind = \"grid\"\nfile = \"ocean.nc\"\n");
         let m = Mission::from_toml_str(&text, &origin).unwrap_or_else(|e| panic!("{e}"));
