@@ -2,7 +2,7 @@
 //! payload's type and version, so a peer of another build is refused, never read.
 //!
 //! A frame is `VBAPW1` (magic and wire version), one byte giving the length of the type
-//! name, the type name (`vbap.VehicleState.v4`: the versioned iceoryx2 type name of the
+//! name, the type name (`vbap.VehicleState.v5`: the versioned iceoryx2 type name of the
 //! payload), then the payload's bytes exactly as in shared memory. Both ends run on the
 //! same architecture (the bytes are native-endian; a host of another byte order or
 //! layout has another size or is refused by name only if the version differs: run one
@@ -59,7 +59,7 @@ macro_rules! raw {
     };
 }
 
-raw!(RawState, VehicleState, "vbap.VehicleState.v4");
+raw!(RawState, VehicleState, "vbap.VehicleState.v5");
 raw!(RawBody, BodyCommand, "vbap.BodyCommand.v5");
 raw!(RawExit, ProcessExit, "vbap.ProcessExit.v1");
 
@@ -148,7 +148,7 @@ mod tests {
             Err(Refused::Size { .. })
         ));
         let old = String::from_utf8_lossy(&frame)
-            .replace("v4", "v3")
+            .replace("v5", "v4")
             .into_bytes();
         assert!(matches!(
             decode::<RawState>(&old),

@@ -82,6 +82,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         optimum: Some((ox, oy)),
         events,
         geographic: None,
+        current: None,
     };
     write_mission_svg(&plot, std::path::Path::new("/tmp/plot_demo.svg"))?;
 
@@ -136,6 +137,7 @@ fn crowded_plot() -> Result<(), Box<dyn std::error::Error>> {
             (1.0, 1.05, "kill 5".into()),
         ],
         geographic: None,
+        current: None,
     };
     write_mission_svg(&crowded, std::path::Path::new("/tmp/plot_demo_crowded.svg"))?;
     Ok(())

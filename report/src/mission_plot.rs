@@ -63,6 +63,12 @@ pub fn write_mission_plot(
             field.value(&p, t)
         }
     };
+    let current = vbap_mission::current::current_of(m).map(|c| {
+        move |x: f64, y: f64| {
+            let v = c.velocity(&Vec3::new(x, y, z), t);
+            (v.x, v.y)
+        }
+    });
     let plot = MissionPlot {
         title: format!("{} (seed {})", m.mission.name, m.mission.seed),
         length_unit: m.mission.length_unit.clone(),
@@ -74,6 +80,9 @@ pub fn write_mission_plot(
         optimum: field.optimum(t, m.mission.goal).map(|o| (o.x, o.y)),
         events: Vec::new(),
         geographic: m.grid().and_then(|g| g.origin),
+        current: current
+            .as_ref()
+            .map(|c| c as &dyn Fn(f64, f64) -> (f64, f64)),
     };
     crate::plot::write_mission_svg(&plot, &dir.plot())
         .with_context(|| format!("drawing {}", dir.plot().display()))

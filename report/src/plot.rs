@@ -97,6 +97,9 @@ pub struct MissionPlot<'a> {
     /// [lon, lat] (degrees) of the local (0, 0) of a geographic grid field: the axes are then
     /// labelled in degrees (positions stay local; x = R cos(lat0) Δlon, y = R Δlat).
     pub geographic: Option<[f64; 2]>,
+    /// The current (x, y velocity, length unit/s) at (x, y) at the final time, drawn as
+    /// arrows on a coarse lattice over the field (None: still water).
+    pub current: Option<&'a dyn Fn(f64, f64) -> (f64, f64)>,
 }
 
 /// A rectangle of the plane, in the plot's length unit.

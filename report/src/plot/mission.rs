@@ -39,6 +39,9 @@ pub fn render_mission_svg(plot: &MissionPlot<'_>) -> Result<String, PlotError> {
             (g, l, r)
         };
         draw_field(&mut chart, &grid, levels.as_ref(), rects, px)?;
+        if let Some(current) = plot.current {
+            draw_current(&mut chart, current, bounds)?;
+        }
         chart
             .configure_mesh()
             .disable_mesh()
@@ -143,6 +146,72 @@ pub fn render_mission_svg(plot: &MissionPlot<'_>) -> Result<String, PlotError> {
     }
     Ok(svg)
 }
+
+/// Arrows of the current on a lattice of [`CURRENT_ARROWS`] columns over `bounds`, the
+/// longest as long as 0.8 of a lattice cell; a label gives the longest's speed.
+fn draw_current(
+    chart: &mut Chart<'_, '_>,
+    current: &dyn Fn(f64, f64) -> (f64, f64),
+    bounds: Bounds,
+) -> Result<(), PlotError> {
+    let cell = bounds.width() / CURRENT_ARROWS as f64;
+    let rows = (bounds.height() / cell).floor().max(1.0) as usize;
+    let mut arrows = Vec::new();
+    for i in 0..CURRENT_ARROWS {
+        for j in 0..rows {
+            let x = bounds.x_min + (i as f64 + 0.5) * cell;
+            let y = bounds.y_min + (j as f64 + 0.5) * cell;
+            let (u, v) = current(x, y);
+            if u.is_finite() && v.is_finite() {
+                arrows.push(((x, y), (u, v)));
+            }
+        }
+    }
+    let longest = arrows
+        .iter()
+        .map(|(_, (u, v))| u.hypot(*v))
+        .fold(0.0, f64::max);
+    if longest <= 0.0 {
+        return Ok(());
+    }
+    let scale = 0.8 * cell / longest;
+    let style = RGBColor(0x33, 0x33, 0x33).stroke_width(1);
+    for ((x, y), (u, v)) in arrows {
+        let (dx, dy) = (u * scale, v * scale);
+        let tip = (x + dx / 2.0, y + dy / 2.0);
+        let tail = (x - dx / 2.0, y - dy / 2.0);
+        // The head: two strokes back from the tip at ±25° of a quarter of the length.
+        let (c, s) = (25f64.to_radians().cos(), 25f64.to_radians().sin());
+        let head = |sign: f64| {
+            let (bx, by) = (-dx * 0.25, -dy * 0.25);
+            (
+                tip.0 + bx * c - sign * by * s,
+                tip.1 + sign * bx * s + by * c,
+            )
+        };
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![tail, tip, head(1.0), tip, head(-1.0)],
+                style,
+            )))
+            .map_err(draw_err)?;
+    }
+    let label = format!("current arrows: longest {longest:.3} length unit/s");
+    chart
+        .draw_series(std::iter::once(Text::new(
+            label,
+            (
+                bounds.x_min + 0.02 * bounds.width(),
+                bounds.y_min + 0.03 * bounds.height(),
+            ),
+            font(12.0),
+        )))
+        .map_err(draw_err)?;
+    Ok(())
+}
+
+/// Columns of the current's arrow lattice on the mission plot.
+const CURRENT_ARROWS: usize = 16;
 
 pub(super) const RED_STAR: RGBColor = RGBColor(0xe4, 0x1a, 0x1c);
 

@@ -70,6 +70,7 @@ fn example(field: &dyn Fn(f64, f64) -> f64, n: usize) -> MissionPlot<'_> {
         optimum: Some((30.0, 20.0)),
         events: vec![(0.0, 10.0, "vehicle 2 killed".into())],
         geographic: None,
+        current: None,
     }
 }
 
@@ -190,6 +191,7 @@ fn empty_plot_is_an_error() {
         optimum: None,
         events: vec![],
         geographic: None,
+        current: None,
     };
     assert!(matches!(
         render_mission_svg(&plot),
