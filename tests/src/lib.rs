@@ -21,7 +21,13 @@ pub fn workspace() -> PathBuf {
         .to_path_buf()
 }
 
-/// Builds the four binaries (release, once per test process) and returns their directory.
+/// Builds the binaries (release, once per test process) and returns their directory.
+///
+/// It builds every binary of the workspace together with its test targets, so that cargo
+/// resolves the features exactly as the README's `cargo test --workspace --release` does:
+/// a build of a few packages (`-p …`) unifies them differently and compiles the heavy
+/// dependencies (zenoh, iceoryx2) a second time. After that test command's own build,
+/// this one finds everything fresh.
 pub fn bin_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
@@ -32,16 +38,9 @@ pub fn bin_dir() -> &'static Path {
                 "build",
                 "--release",
                 "--quiet",
-                "-p",
-                "vbap-cli",
-                "-p",
-                "field_server",
-                "-p",
-                "vehicle_agent",
-                "-p",
-                "coordinator",
-                "-p",
-                "vbap-bridge",
+                "--workspace",
+                "--bins",
+                "--tests",
             ])
             .status()
             .expect("running cargo build");
