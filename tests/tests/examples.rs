@@ -35,10 +35,8 @@ fn example_bins() -> &'static Path {
 
 /// The paper's mission (Table I) under the name `name`, `duration` s long.
 fn paper_mission(dir: &TempDir, name: &str, duration: f64) -> PathBuf {
-    let text = read(&workspace().join("deploy/missions/paper.toml"))
-        .replace("name = \"paper\"", &format!("name = \"{name}\""))
+    let text = tests::mission::shipped_renamed("paper", name)
         .replace("duration = 100.0", &format!("duration = {duration}"));
-    assert!(text.contains(name), "the mission was renamed");
     write_mission(dir, "mission.toml", &text)
 }
 

@@ -3,39 +3,14 @@
 //! mission keeps every glider within its speed through the water.
 
 use tests::columns::Table;
+use tests::mission::GaussianHill;
 use tests::*;
 
 fn coast_mission(extra: &str) -> String {
-    format!(
-        r#"
-[mission]
-name = "{}"
-seed = 7
-duration = 20.0
-dt = 0.05
-goal = "max"
-dim = 2
-tolerance = 1.0
-
-[field]
-kind = "gaussian"
-center = [6.0, 3.0]
-amplitude = 10.0
-width = 6.0
-noise_std = 0.1
-
-[vehicles]
-count = 4
-start = [0.0, 0.0]
-start_spread = 0.3
-{extra}
-[land]
-kind = "coast"
-point = [3.0, 0.0]
-normal = [-1.0, 0.0]
-"#,
-        unique_name("coast")
-    )
+    GaussianHill::new(&unique_name("coast"))
+        .then(extra)
+        .then("[land]\nkind = \"coast\"\npoint = [3.0, 0.0]\nnormal = [-1.0, 0.0]\n")
+        .toml()
 }
 
 #[test]

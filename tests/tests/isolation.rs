@@ -6,32 +6,17 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
+use tests::mission::GaussianHill;
 use tests::*;
 
 fn mission(name: &str, duration: f64, pace: &str, extra: &str) -> String {
-    format!(
-        r#"
-[mission]
-name = "{name}"
-seed = 5
-duration = {duration}
-dt = 0.05
-pace = {pace}
-
-[field]
-kind = "gaussian"
-center = [6.0, 3.0]
-amplitude = 10.0
-width = 6.0
-noise_std = 0.1
-
-[vehicles]
-count = 4
-start = [0.0, 0.0]
-start_spread = 0.3
-{extra}
-"#
-    )
+    GaussianHill::new(name)
+        .seed(5)
+        .duration(duration)
+        .pace(pace)
+        .default_objective()
+        .then(extra)
+        .toml()
 }
 
 fn run_cmd(file: &Path, out: &Path) -> Command {

@@ -3,34 +3,15 @@
 use std::time::Duration;
 
 use tests::columns::Table;
+use tests::mission::GaussianHill;
 use tests::*;
 
 fn mission_2d(name: &str, n: usize, duration: f64, pace: &str) -> String {
-    format!(
-        r#"
-[mission]
-name = "{name}"
-seed = 7
-duration = {duration}
-dt = 0.05
-pace = {pace}
-goal = "max"
-dim = 2
-tolerance = 1.0
-
-[field]
-kind = "gaussian"
-center = [6.0, 3.0]
-amplitude = 10.0
-width = 6.0
-noise_std = 0.1
-
-[vehicles]
-count = {n}
-start = [0.0, 0.0]
-start_spread = 0.3
-"#
-    )
+    GaussianHill::new(name)
+        .count(n)
+        .duration(duration)
+        .pace(pace)
+        .toml()
 }
 
 fn mission_3d(name: &str, duration: f64) -> String {
@@ -210,8 +191,12 @@ fn two_missions_at_once_do_not_interfere() {
         "a.toml",
         &mission_2d(&unique_name("twoa"), 4, 6.0, "\"lockstep\""),
     );
-    let b_text =
-        mission_2d(&unique_name("twob"), 5, 6.0, "\"lockstep\"").replace("seed = 7", "seed = 8");
+    let b_text = GaussianHill::new(&unique_name("twob"))
+        .count(5)
+        .duration(6.0)
+        .pace("\"lockstep\"")
+        .seed(8)
+        .toml();
     let b = write_mission(&tmp, "b.toml", &b_text);
     let mut runs: Vec<ChildGuard> = [(&a, "run_a"), (&b, "run_b")]
         .iter()

@@ -2,43 +2,19 @@
 //! is the paper's run, byte for byte; over impaired links it is a different run, and the
 //! multi-process system still reproduces the simulator.
 
+use tests::mission::GaussianHill;
 use tests::*;
 
 fn mission(name: &str, links: &str, law: &str) -> String {
-    format!(
-        r#"
-[mission]
-name = "{name}"
-seed = 5
-duration = 12.0
-dt = 0.05
-goal = "max"
-dim = 2
-tolerance = 1.0
-
-[field]
-kind = "gaussian"
-center = [6.0, 3.0]
-amplitude = 10.0
-width = 6.0
-noise_std = 0.1
-
-[vehicles]
-count = 5
-start_spread = 0.3
-
-[links]
-{links}
-
-[[faults]]
-kind = "kill"
-vehicle = 2
-at = 4.0
-
-[control]
-law = "{law}"
-"#
-    )
+    GaussianHill::new(name)
+        .seed(5)
+        .duration(12.0)
+        .count(5)
+        .default_start()
+        .then(&format!(
+            "\n[links]\n{links}\n\n[[faults]]\nkind = \"kill\"\nvehicle = 2\nat = 4.0\n\n[control]\nlaw = \"{law}\"\n"
+        ))
+        .toml()
 }
 
 const IDEAL: &str = "delay = 0.0\nloss = 0.0";

@@ -223,8 +223,7 @@ fn a_json_summary_on_request() {
 fn run_equals_sim_with_the_truth_files_through_a_kill_and_lossy_links() {
     let tmp = TempDir::new("truth-eq");
     let name = unique_name("truth");
-    let text = read(&mission_file("lossy_kill.toml"))
-        .replace("name = \"lossy_kill\"", &format!("name = \"{name}\""))
+    let text = tests::mission::shipped_renamed("lossy_kill", &name)
         .replace("duration = 300.0", "duration = 70.0");
     let file = write_mission(&tmp, "m.toml", &text);
     vbap_quiet("sim", &file, &tmp.join("sim"));

@@ -287,8 +287,7 @@ async fn a_replay_shows_every_vehicle_and_the_slider_moves_them() {
 async fn a_live_run_is_followed_as_it_progresses() {
     let tmp = TempDir::new("view-live");
     let name = unique_name("viewlive");
-    let text = tests::read(&tests::workspace().join("deploy/missions/lossy_kill.toml"))
-        .replace("name = \"lossy_kill\"", &format!("name = \"{name}\""));
+    let text = tests::mission::shipped_renamed("lossy_kill", &name);
     let mission = write_mission(&tmp, "live.toml", &text);
     let run = tmp.join("run");
     let mut cmd = vbap();
@@ -379,8 +378,7 @@ fn thread_cpu_s(pid: u32, name: &str) -> Option<f64> {
 async fn paced_64(browser: bool) -> (u64, Option<f64>, f64) {
     let tmp = TempDir::new("view-bench");
     let name = unique_name("viewbench");
-    let text = tests::read(&tests::workspace().join("deploy/missions/paper.toml"))
-        .replace("name = \"paper\"", &format!("name = \"{name}\""));
+    let text = tests::mission::shipped_renamed("paper", &name);
     let mission = write_mission(&tmp, "bench.toml", &text);
     let run = tmp.join("run");
     let mut cmd = vbap();
