@@ -25,10 +25,13 @@
 //! The command's parts: [`report`] (what is recorded), [`measure`] (the measurements in
 //! order), [`render`] (the tables), [`floors`] and [`system`] (the floors, the runs).
 
+mod fanout;
 mod floors;
 mod measure;
+mod overhead;
 mod render;
 mod report;
+mod skeleton;
 mod system;
 
 use std::path::{Path, PathBuf};
@@ -71,6 +74,12 @@ pub struct BenchArgs {
     /// Helper: the number of agents of the wake-up floor (internal).
     #[arg(long, hide = true)]
     pub agents: Option<usize>,
+    /// Helper: warm-up rounds of the fan-out (internal).
+    #[arg(long, hide = true)]
+    pub warmup: Option<u64>,
+    /// Helper: measured rounds of the fan-out (internal).
+    #[arg(long, hide = true)]
+    pub rounds: Option<usize>,
     /// Helper: exit when this process is no longer our parent (internal).
     #[arg(long, hide = true)]
     pub parent: Option<u32>,
