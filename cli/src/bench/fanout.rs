@@ -49,6 +49,11 @@ pub struct FanoutSide {
     pub cpu_us: f64,
     /// Of which the sender's, µs.
     pub sender_cpu_us: f64,
+    /// Of the sender's, the write of the command (iceoryx2: the copy into shared memory;
+    /// UDP: all N sends), µs; the rest wakes the receivers.
+    pub write_cpu_us: f64,
+    /// One receiver's CPU time per fan-out, µs (mean over receivers).
+    pub receiver_cpu_us: f64,
     /// Latency to the last receiver of a fan-out, µs (one sample per fan-out).
     pub last_us: Percentiles,
     /// Fan-outs measured.
@@ -144,7 +149,12 @@ pub fn fanout(
 }
 
 /// Reads every receiver's report and sums up one side.
-fn collect(helpers: Vec<Helper>, sender_cpu_ns: u64, rounds: usize) -> Result<FanoutSide> {
+fn collect(
+    helpers: Vec<Helper>,
+    (sender_cpu_ns, write_ns): (u64, u64),
+    rounds: usize,
+) -> Result<FanoutSide> {
+    let receivers = helpers.len().max(1);
     let mut last = vec![0u64; rounds];
     let mut missed = 0;
     let mut cpu = sender_cpu_ns;
@@ -171,6 +181,8 @@ fn collect(helpers: Vec<Helper>, sender_cpu_ns: u64, rounds: usize) -> Result<Fa
     Ok(FanoutSide {
         cpu_us: cpu as f64 / 1e3 / rounds as f64,
         sender_cpu_us: sender_cpu_ns as f64 / 1e3 / rounds as f64,
+        write_cpu_us: write_ns as f64 / 1e3 / rounds as f64,
+        receiver_cpu_us: (cpu - sender_cpu_ns) as f64 / 1e3 / rounds as f64 / receivers as f64,
         last_us: Percentiles::of(&mut last_us),
         rounds,
         missed,
@@ -235,7 +247,7 @@ fn iox_fanout(
         }
         let mut command = Box::new(BodyCommand::empty());
         command.n_vehicles = n as u32;
-        let mut sender_ns = 0;
+        let (mut sender_ns, mut write_ns) = (0, 0);
         for r in 0..(warmup + rounds) as u64 {
             stop.check()?;
             let c0 = cpu_ns(ClockId::CLOCK_THREAD_CPUTIME_ID);
@@ -243,11 +255,13 @@ fn iox_fanout(
             command.header.sent_ns = wall_ns();
             body.send_copy(*command)
                 .map_err(|e| anyhow!("publishing the command: {e:?}"))?;
+            let c1 = cpu_ns(ClockId::CLOCK_THREAD_CPUTIME_ID);
             for a in &agents {
                 a.notify().map_err(|e| anyhow!("waking an agent: {e:?}"))?;
             }
             if r >= warmup as u64 {
                 sender_ns += cpu_ns(ClockId::CLOCK_THREAD_CPUTIME_ID).saturating_sub(c0);
+                write_ns += c1.saturating_sub(c0);
             }
             std::thread::sleep(interval); // the pace of the fan-outs (see the module doc)
         }
@@ -257,7 +271,7 @@ fn iox_fanout(
         for a in &agents {
             let _ = a.notify();
         }
-        collect(helpers, sender_ns, rounds)
+        collect(helpers, (sender_ns, write_ns), rounds)
     })
 }
 
@@ -340,7 +354,7 @@ fn udp_fanout(
     for addr in &to {
         let _ = socket.send_to(&buf, addr);
     }
-    collect(helpers, sender_ns, rounds)
+    collect(helpers, (sender_ns, sender_ns), rounds)
 }
 
 /// Helper role: one receiver of the UDP fan-out.

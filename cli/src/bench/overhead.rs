@@ -187,8 +187,15 @@ pub fn render(r: &Report, s: &mut String) {
         );
         let _ = writeln!(
             s,
-            "   {:<34} {:>12} {:>12} {:>13} {:>13} {:>7}",
-            "", "CPU µs/fan", "of it sender", "last p50 µs", "last p99 µs", "missed"
+            "   {:<34} {:>10} {:>8} {:>8} {:>10} {:>11} {:>11} {:>6}",
+            "",
+            "CPU µs/fan",
+            "sender",
+            "(write)",
+            "receiver",
+            "last p50 µs",
+            "last p99 µs",
+            "missed"
         );
         for (name, side) in [
             ("iceoryx2 (one write, N in place)", &f.iceoryx2),
@@ -196,10 +203,12 @@ pub fn render(r: &Report, s: &mut String) {
         ] {
             let _ = writeln!(
                 s,
-                "   {:<34} {:>12.1} {:>12.1} {:>13.1} {:>13.1} {:>7}",
+                "   {:<34} {:>10.1} {:>8.1} {:>8.1} {:>10.1} {:>11.1} {:>11.1} {:>6}",
                 name,
                 side.cpu_us,
                 side.sender_cpu_us,
+                side.write_cpu_us,
+                side.receiver_cpu_us,
                 side.last_us.p50,
                 side.last_us.p99,
                 side.missed
@@ -264,4 +273,43 @@ pub fn goals(o: &Overhead) -> Vec<Goal> {
         lat.map(|v| v >= 5.0),
     );
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pair(ratio: Option<f64>) -> HopPair {
+        HopPair {
+            floor_p50_us: 10.0,
+            hop_p50_us: ratio.map(|r| r * 10.0),
+            ratio,
+        }
+    }
+
+    #[test]
+    fn the_hop_goal_is_the_median_of_the_pairs() {
+        let mut o = Overhead::default();
+        assert_eq!(o.hop_median(), None);
+        o.hop_repeats = [3.0, 1.2, 9.0, 1.4, 2.0].map(|r| pair(Some(r))).to_vec();
+        assert_eq!(o.hop_median(), Some(2.0));
+        // A run without a hop is left out, not counted as zero.
+        o.hop_repeats = vec![pair(Some(1.0)), pair(None), pair(Some(3.0))];
+        assert_eq!(o.hop_median(), Some(3.0));
+        let g = goals(&o);
+        let hop = g.iter().find(|g| g.goal.contains("median of 5")).unwrap();
+        assert_eq!(hop.met, Some(false));
+    }
+
+    #[test]
+    fn the_skeleton_ratio_is_run_tick_over_skeleton_tick() {
+        let mut o = Overhead::default();
+        o.skeleton_row(16, 3000.0, Some(1500.0));
+        o.skeleton_row(256, 100.0, None);
+        assert_eq!(o.skeleton[0].ratio, Some(2.0));
+        let g = goals(&o);
+        assert_eq!(g[0].value, Some(2.0));
+        assert_eq!(g[0].met, Some(false));
+        assert_eq!(g[1].value, None);
+    }
 }
