@@ -168,10 +168,10 @@ fn lockstep_scaling(
         phase(&format!("vbap sim, N = {n}, {ticks} ticks"));
         let sim = system::simulate(&mission, work)?;
         stop.check()?;
-        phase(&format!("vbap run, N = {n}, {ticks} ticks, lockstep"));
         phase(&format!("skeleton floor, N = {n} ({rounds} ticks)"));
         let skeleton = super::skeleton::skeleton_floor(work, n, rounds, stop)?;
         stop.check()?;
+        phase(&format!("vbap run, N = {n}, {ticks} ticks, lockstep"));
         let run = system::run(&mission, work, stop, false)?;
         suspect(&run, suspect_runs);
         overhead.skeleton_row(n, skeleton, run.tick_rate);

@@ -19,6 +19,10 @@
 //! 4. **Glider-days per wall minute**: 6 gliders (deploy/missions/glider.toml, dt = 10 s,
 //!    surfacing every 2 h for 10 min), `vbap sim` and `vbap run`.
 //! 5. **Footprint**: start-up time of the process set and memory (PSS) per vehicle.
+//! 6. to 8. (issue 17, [`overhead`]): the lockstep tick against the skeleton floor (our
+//!    topology and messages, no math, no files: [`skeleton`]), the N = 4 hop as the median
+//!    of 5 interleaved floor/run pairs, the fan-out of one command to 256 processes
+//!    through iceoryx2 against UDP unicast ([`fanout`]).
 //!
 //! How each figure is derived from the runs is in [`system`] and in BENCHMARKS.md.
 
