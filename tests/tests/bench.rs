@@ -26,6 +26,9 @@ fn quick_bench_measures_every_floor_and_run() {
         "5. start-up and memory",
         "Goals",
         "busy polling",
+        "6. lockstep tick against the skeleton floor",
+        "7. state hop p50 (N = 4) / warm raw iceoryx2 p50, 5 interleaved repetitions",
+        "8. fan-out of one command",
     ] {
         assert!(text.contains(section), "no {section:?} in\n{text}");
     }
@@ -64,7 +67,44 @@ fn quick_bench_measures_every_floor_and_run() {
         assert!(row["error"].is_null(), "{row}");
         assert!(row["ticks"].as_u64().unwrap() > 0, "{row}");
     }
-    assert_eq!(r["goals"].as_array().unwrap().len(), 5);
+    // Issue 17: the skeleton floor beside every lockstep run, 5 hop repetitions, the
+    // fan-out through both transports.
+    let o = &r["overhead"];
+    let skeleton = o["skeleton"].as_array().unwrap();
+    assert_eq!(skeleton.len(), 3, "{o}");
+    for row in skeleton {
+        assert!(row["skeleton_ticks_per_s"].as_f64().unwrap() > 0.0, "{row}");
+        assert!(row["ratio"].as_f64().unwrap() > 0.0, "{row}");
+    }
+    let repeats = o["hop_repeats"].as_array().unwrap();
+    assert_eq!(repeats.len(), 5, "{o}");
+    for p in repeats {
+        assert!(p["floor_p50_us"].as_f64().unwrap() > 0.0, "{p}");
+        assert!(p["ratio"].as_f64().unwrap() > 0.0, "{p}");
+    }
+    for side in ["iceoryx2", "udp"] {
+        let f = &o["fanout"][side];
+        assert!(f["cpu_us"].as_f64().unwrap() > 0.0, "{side}: {f}");
+        assert!(f["last_us"]["p50"].as_f64().unwrap() > 0.0, "{side}: {f}");
+        assert!(f["rounds"].as_u64().unwrap() > 0, "{side}: {f}");
+    }
+    let goals: Vec<String> = r["goals"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| g["goal"].as_str().unwrap().to_string())
+        .collect();
+    assert!(goals.len() >= 10, "{goals:?}");
+    for name in [
+        "lockstep tick / skeleton tick (N = 16)",
+        "hop p50 / warm raw iceoryx2 (N = 4, median of 5)",
+        "fan-out CPU, UDP / iceoryx2 (N = 256)",
+    ] {
+        assert!(
+            goals.iter().any(|g| g == name),
+            "no goal {name:?}: {goals:?}"
+        );
+    }
     // Every helper and every run was reaped, every shared-memory file removed.
     assert!(processes_mentioning(&tmp.path.to_string_lossy()).is_empty());
     let leftovers: Vec<_> = std::fs::read_dir("/dev/shm")

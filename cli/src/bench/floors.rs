@@ -52,6 +52,14 @@ pub enum Role {
     WakeAgent,
     /// Spins at the lowest priority, keeping a CPU out of idle (the warm floors).
     Spin,
+    /// One agent of the skeleton floor ([`super::skeleton`]).
+    SkeletonAgent,
+    /// The field server of the skeleton floor.
+    SkeletonField,
+    /// One receiver of the fan-out through iceoryx2 ([`super::fanout`]).
+    FanoutIox,
+    /// One receiver of the fan-out over UDP.
+    FanoutUdp,
 }
 
 /// `header.flags` of the last ping: the peer exits.
@@ -61,7 +69,7 @@ const TICK: Event = Event::Body;
 /// Wake-up of the wake-up floor's agents: exit.
 const QUIT: Event = Event::Exit;
 /// How long a measurement waits for its peer before it gives up.
-const PEER_TIMEOUT: Duration = Duration::from_secs(10);
+pub(super) const PEER_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// Bytes of a [`VehicleState`] on the wire (UDP): the size of the struct itself.
 const WIRE: usize = std::mem::size_of::<VehicleState>();
@@ -81,14 +89,14 @@ pub struct HopFloor {
 }
 
 /// A helper process, killed and reaped when dropped.
-struct Helper {
+pub(super) struct Helper {
     child: Child,
     stdout: Option<BufReader<ChildStdout>>,
     name: String,
 }
 
 impl Helper {
-    fn spawn(work: &Path, name: &str, args: &[String]) -> Result<Self> {
+    pub(super) fn spawn(work: &Path, name: &str, args: &[String]) -> Result<Self> {
         Self::spawn_with(work, name, args, false)
     }
 
@@ -127,13 +135,12 @@ impl Helper {
     }
 
     /// Reads the helper's `ready ...` line; returns what follows `ready`.
-    fn ready(&mut self) -> Result<String> {
+    pub(super) fn ready(&mut self) -> Result<String> {
         let mut line = String::new();
         if let Some(out) = self.stdout.as_mut() {
             out.read_line(&mut line)
                 .with_context(|| format!("reading helper {}'s stdout", self.name))?;
         }
-        self.stdout = None;
         match line.trim().strip_prefix("ready") {
             Some(rest) => Ok(rest.trim().to_string()),
             None => bail!(
@@ -143,8 +150,19 @@ impl Helper {
         }
     }
 
+    /// The helper's next line on stdout (after `ready`), without its newline; empty at
+    /// the end of its output.
+    pub(super) fn line(&mut self) -> Result<String> {
+        let mut line = String::new();
+        if let Some(out) = self.stdout.as_mut() {
+            out.read_line(&mut line)
+                .with_context(|| format!("reading helper {}'s stdout", self.name))?;
+        }
+        Ok(line.trim_end().to_string())
+    }
+
     /// Waits up to `timeout` for the helper to exit on its own, then kills it.
-    fn reap(mut self, timeout: Duration) {
+    pub(super) fn reap(mut self, timeout: Duration) {
         let deadline = Instant::now() + timeout;
         while Instant::now() < deadline {
             if !matches!(self.child.try_wait(), Ok(None)) {
@@ -225,7 +243,7 @@ fn receiver(
 /// Blocks until the waiter's listener has events, the timeout passes or SIGINT/SIGTERM
 /// (then the bench's stop flag is set); calls `on_event` with every event received. A
 /// wake-up that finds no event waits again ([`Waiter::wait_for_event`]).
-fn wait_events(
+pub(super) fn wait_events(
     waiter: &Waiter<'_>,
     timeout: Duration,
     on_event: impl FnMut(Event),
@@ -284,7 +302,10 @@ impl Samples {
 
 /// Runs `body` in a fresh private domain, then removes the domain's files (after every
 /// node of `body` is dropped and every helper reaped).
-fn in_private_domain<T>(tag: &str, body: impl FnOnce(&Domain) -> Result<T>) -> Result<T> {
+pub(super) fn in_private_domain<T>(
+    tag: &str,
+    body: impl FnOnce(&Domain) -> Result<T>,
+) -> Result<T> {
     let domain = Domain::new(&unique_name(tag))?;
     clean_domain(&domain)?;
     let result = body(&domain);
@@ -697,7 +718,7 @@ impl Warm {
 }
 
 /// Tells the parent the ports exist: `ready [what]` on stdout, flushed.
-fn say_ready(what: &str) {
+pub(super) fn say_ready(what: &str) {
     let mut out = std::io::stdout().lock();
     let _ = writeln!(out, "ready {what}");
     let _ = out.flush();
@@ -719,6 +740,29 @@ pub fn helper(role: Role, args: &BenchArgs) -> Result<i32> {
         Role::IoxPongPoll => iox_pong(&domain()?, true),
         Role::UdpPongPoll => udp_pong(true),
         Role::Spin => spin(),
+        Role::SkeletonAgent | Role::SkeletonField | Role::FanoutIox => {
+            let (Some(id), Some(agents)) = (args.id, args.agents) else {
+                return Err(
+                    InvalidInput(format!("--role {role:?} needs --id and --agents")).into(),
+                );
+            };
+            match role {
+                Role::SkeletonAgent => super::skeleton::agent(&domain()?, id, agents),
+                Role::SkeletonField => super::skeleton::field(&domain()?, agents),
+                _ => super::fanout::iox_receiver(
+                    &domain()?,
+                    id,
+                    agents,
+                    args.warmup.unwrap_or(0),
+                    args.rounds.unwrap_or(0),
+                ),
+            }
+        }
+        Role::FanoutUdp => super::fanout::udp_receiver(
+            args.id.unwrap_or(0),
+            args.warmup.unwrap_or(0),
+            args.rounds.unwrap_or(0),
+        ),
         Role::WakeAgent => {
             let (Some(id), Some(agents)) = (args.id, args.agents) else {
                 return Err(

@@ -8,6 +8,7 @@ use anyhow::Result;
 use vbap_mission::config::{Mission, Pace};
 
 use super::floors::{self, HopFloor};
+use super::overhead::{self, Overhead};
 use super::report::{
     goals, CpuMark, Glider, GliderRate, LockstepPlan, LockstepRow, Machine, Plan, Realtime,
     RealtimeRow, Report, SystemHop,
@@ -25,7 +26,7 @@ fn phase(what: &str) {
 /// The paper's mission (deploy/missions/paper.toml), with N vehicles on a polygon whose
 /// edge is that of the paper's optimal square (radius 1.229 for N = 4), so neighbours
 /// keep the paper's spacing at every N.
-fn paper_mission(n: usize, duration: f64, dt: f64, pace: Pace) -> Result<Mission> {
+pub(super) fn paper_mission(n: usize, duration: f64, dt: f64, pace: Pace) -> Result<Mission> {
     const PAPER: &str = include_str!("../../../deploy/missions/paper.toml");
     let mut m = Mission::from_toml_str(PAPER, "deploy/missions/paper.toml (embedded)")?;
     let edge = 2.0 * m.formation.radius * (std::f64::consts::PI / 4.0).sin();
@@ -61,7 +62,11 @@ pub(super) fn bench(args: &BenchArgs, work: &Path, stop: &StopFlag) -> Result<Re
     let cpu_start = CpuMark::read();
     let hops = hop_floors(&plan, work, stop)?;
     let mut suspect_runs = Vec::new();
-    let (lockstep, hop_system) = lockstep_scaling(&plan, work, stop, &mut suspect_runs)?;
+    let mut overhead = Overhead::default();
+    let (lockstep, hop_system) =
+        lockstep_scaling(&plan, work, stop, &mut suspect_runs, &mut overhead)?;
+    overhead.hop_repeats = overhead::hop_repeats(&plan, work, stop, &mut suspect_runs)?;
+    overhead.fanout = Some(overhead::fanout(args.quick, work, stop)?);
     let realtime = realtime_capacity(&plan, work, stop, &mut suspect_runs)?;
     let glider = glider_rates(&plan, work, stop, &mut suspect_runs)?;
     let footprint = footprints(&plan, work, stop, &mut suspect_runs)?;
@@ -84,6 +89,7 @@ pub(super) fn bench(args: &BenchArgs, work: &Path, stop: &StopFlag) -> Result<Re
         realtime,
         glider,
         footprint,
+        overhead,
         goals: Vec::new(),
         work_dir: None,
         suspect_runs,
@@ -144,6 +150,7 @@ fn lockstep_scaling(
     work: &Path,
     stop: &StopFlag,
     suspect_runs: &mut Vec<PathBuf>,
+    overhead: &mut Overhead,
 ) -> Result<(Vec<LockstepRow>, Vec<SystemHop>)> {
     let mut lockstep = Vec::new();
     let mut hop_system = Vec::new();
@@ -161,9 +168,13 @@ fn lockstep_scaling(
         phase(&format!("vbap sim, N = {n}, {ticks} ticks"));
         let sim = system::simulate(&mission, work)?;
         stop.check()?;
+        phase(&format!("skeleton floor, N = {n} ({rounds} ticks)"));
+        let skeleton = super::skeleton::skeleton_floor(work, n, rounds, stop)?;
+        stop.check()?;
         phase(&format!("vbap run, N = {n}, {ticks} ticks, lockstep"));
         let run = system::run(&mission, work, stop, false)?;
         suspect(&run, suspect_runs);
+        overhead.skeleton_row(n, skeleton, run.tick_rate);
         let per = |rate: f64| 1e6 / (rate * n as f64);
         if let Some(h) = &run.state_hop {
             hop_system.push(SystemHop {

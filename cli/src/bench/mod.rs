@@ -19,16 +19,23 @@
 //! 4. **Glider-days per wall minute**: 6 gliders (deploy/missions/glider.toml, dt = 10 s,
 //!    surfacing every 2 h for 10 min), `vbap sim` and `vbap run`.
 //! 5. **Footprint**: start-up time of the process set and memory (PSS) per vehicle.
+//! 6. to 8. (issue 17, [`overhead`]): the lockstep tick against the skeleton floor (our
+//!    topology and messages, no math, no files: [`skeleton`]), the N = 4 hop as the median
+//!    of 5 interleaved floor/run pairs, the fan-out of one command to 256 processes
+//!    through iceoryx2 against UDP unicast ([`fanout`]).
 //!
 //! How each figure is derived from the runs is in [`system`] and in BENCHMARKS.md.
 
 //! The command's parts: [`report`] (what is recorded), [`measure`] (the measurements in
 //! order), [`render`] (the tables), [`floors`] and [`system`] (the floors, the runs).
 
+mod fanout;
 mod floors;
 mod measure;
+mod overhead;
 mod render;
 mod report;
+mod skeleton;
 mod system;
 
 use std::path::{Path, PathBuf};
@@ -71,6 +78,12 @@ pub struct BenchArgs {
     /// Helper: the number of agents of the wake-up floor (internal).
     #[arg(long, hide = true)]
     pub agents: Option<usize>,
+    /// Helper: warm-up rounds of the fan-out (internal).
+    #[arg(long, hide = true)]
+    pub warmup: Option<u64>,
+    /// Helper: measured rounds of the fan-out (internal).
+    #[arg(long, hide = true)]
+    pub rounds: Option<usize>,
     /// Helper: exit when this process is no longer our parent (internal).
     #[arg(long, hide = true)]
     pub parent: Option<u32>,

@@ -32,6 +32,8 @@ pub(super) fn render(r: &Report) -> String {
     let _ = writeln!(s);
     footprint(r, &mut s);
     let _ = writeln!(s);
+    super::overhead::render(r, &mut s);
+    let _ = writeln!(s);
     goals(r, &mut s);
     let _ = writeln!(s);
     footer(r, &mut s);

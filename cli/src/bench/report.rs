@@ -7,6 +7,7 @@ use serde::Serialize;
 use vbap_mission::rundir::Percentiles;
 
 use super::floors::HopFloor;
+use super::overhead::Overhead;
 use super::system::Footprint;
 
 /// Sample counts and mission lengths of one bench run.
@@ -279,6 +280,8 @@ pub(super) struct Report {
     pub(super) realtime: Realtime,
     pub(super) glider: Glider,
     pub(super) footprint: Vec<Footprint>,
+    /// Issue 17: the skeleton floor, the hop as a median of repetitions, the fan-out.
+    pub(super) overhead: Overhead,
     pub(super) goals: Vec<Goal>,
     /// Where the run directories are (kept), if they are.
     pub(super) work_dir: Option<PathBuf>,
@@ -301,7 +304,7 @@ pub(super) fn goals(r: &Report) -> Vec<Goal> {
         None
     };
     let days = r.glider.run.days_per_wall_min;
-    vec![
+    let mut out = vec![
         Goal {
             goal: "hop p50 / raw iceoryx2 p50 (N = 4; warm floor)".into(),
             value: ratio_floor,
@@ -332,7 +335,9 @@ pub(super) fn goals(r: &Report) -> Vec<Goal> {
             target: "≥ 30".into(),
             met: Some(days >= 30.0),
         },
-    ]
+    ];
+    out.extend(super::overhead::goals(&r.overhead));
+    out
 }
 
 /// The p50s the hop is compared with: the warm floors when measured (a loaded `vbap run`

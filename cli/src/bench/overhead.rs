@@ -1,0 +1,315 @@
+//! Overhead over our own skeleton, the hop as a median of repetitions, and the fan-out
+//! against UDP (issue 17): their measurements, tables and goals.
+//!
+//! - The skeleton floor ([`super::skeleton`]) is measured just before each lockstep run of
+//!   table 2, at the same N and as many ticks as the wake-up floor's rounds; its row holds
+//!   the run's rate of that table.
+//! - The N = 4 hop against the warm raw iceoryx2 floor is measured [`HOP_REPEATS`] times,
+//!   each repetition a floor measurement (CPUs kept awake) then its own `vbap run`; the
+//!   goal is the median of the ratios of the pairs.
+//! - The fan-out of one command to [`FANOUT_RECEIVERS`] processes ([`super::fanout`]).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::Result;
+use serde::Serialize;
+use vbap_mission::config::Pace;
+
+use super::fanout::{self, Fanout};
+use super::floors;
+use super::measure::paper_mission;
+use super::report::{Goal, Plan, Report};
+use super::system;
+use super::StopFlag;
+
+/// Repetitions of the N = 4 hop against its floor.
+pub const HOP_REPEATS: usize = 5;
+/// Receivers of the fan-out.
+pub const FANOUT_RECEIVERS: usize = 256;
+
+/// One N of the skeleton comparison.
+#[derive(Clone, Debug, Serialize)]
+pub struct SkeletonRow {
+    pub vehicles: usize,
+    /// The skeleton's ticks per second.
+    pub skeleton_ticks_per_s: f64,
+    /// `vbap run`'s lockstep ticks per second (table 2).
+    pub run_ticks_per_s: Option<f64>,
+    /// Lockstep tick / skeleton tick.
+    pub ratio: Option<f64>,
+}
+
+/// One repetition of the N = 4 hop against its floor.
+#[derive(Clone, Debug, Serialize)]
+pub struct HopPair {
+    /// Warm raw iceoryx2 one-way p50, µs.
+    pub floor_p50_us: f64,
+    /// The `vbap run` state hop p50, µs.
+    pub hop_p50_us: Option<f64>,
+    /// hop / floor.
+    pub ratio: Option<f64>,
+}
+
+/// The figures of this module.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Overhead {
+    pub skeleton: Vec<SkeletonRow>,
+    pub hop_repeats: Vec<HopPair>,
+    pub fanout: Option<Fanout>,
+}
+
+impl Overhead {
+    /// Records the skeleton's rate next to the lockstep run's.
+    pub fn skeleton_row(&mut self, vehicles: usize, skeleton: f64, run: Option<f64>) {
+        self.skeleton.push(SkeletonRow {
+            vehicles,
+            skeleton_ticks_per_s: skeleton,
+            run_ticks_per_s: run,
+            ratio: run.map(|r| skeleton / r),
+        });
+    }
+
+    /// The median of the hop / floor ratios.
+    pub fn hop_median(&self) -> Option<f64> {
+        let mut r: Vec<f64> = self.hop_repeats.iter().filter_map(|p| p.ratio).collect();
+        if r.is_empty() {
+            return None;
+        }
+        r.sort_by(f64::total_cmp);
+        Some(r[r.len() / 2])
+    }
+}
+
+/// The N = 4 hop against the warm raw iceoryx2 floor, [`HOP_REPEATS`] interleaved pairs.
+pub fn hop_repeats(
+    plan: &Plan,
+    work: &Path,
+    stop: &StopFlag,
+    suspect_runs: &mut Vec<PathBuf>,
+) -> Result<Vec<HopPair>> {
+    let ticks = plan.lockstep.first().map_or(1000, |l| l.ticks);
+    let mut out = Vec::with_capacity(HOP_REPEATS);
+    for i in 0..HOP_REPEATS {
+        eprintln!(
+            "vbap bench: hop repetition {} of {HOP_REPEATS}: warm raw iceoryx2 floor, then vbap run, N = 4",
+            i + 1
+        );
+        let floor = {
+            let _warm = floors::Warm::start(work);
+            floors::iceoryx2_ping_pong(
+                work,
+                plan.pingpong_warmup,
+                plan.pingpong_samples,
+                false,
+                stop,
+            )?
+        };
+        stop.check()?;
+        let dt = 0.05;
+        let mission = paper_mission(4, ticks as f64 * dt, dt, Pace::Lockstep)?;
+        let run = system::run(&mission, work, stop, false)?;
+        if run.suspect() {
+            suspect_runs.push(run.dir.clone());
+        }
+        let hop = run.state_hop.as_ref().map(|h| h.transport_us.p50);
+        out.push(HopPair {
+            floor_p50_us: floor.one_way_us.p50,
+            hop_p50_us: hop,
+            ratio: hop.map(|h| h / floor.one_way_us.p50),
+        });
+    }
+    Ok(out)
+}
+
+/// The fan-out of one command to [`FANOUT_RECEIVERS`] processes, both transports.
+pub fn fanout(quick: bool, work: &Path, stop: &StopFlag) -> Result<Fanout> {
+    let (warmup, rounds) = if quick { (10, 60) } else { (20, 300) };
+    eprintln!(
+        "vbap bench: fan-out of one command to {FANOUT_RECEIVERS} processes: iceoryx2, then UDP ({rounds} rounds each)"
+    );
+    fanout::fanout(
+        work,
+        FANOUT_RECEIVERS,
+        warmup,
+        rounds,
+        Duration::from_millis(20),
+        stop,
+    )
+}
+
+/// The tables of this module (sections 6 to 8).
+pub fn render(r: &Report, s: &mut String) {
+    let o = &r.overhead;
+    let opt = |v: Option<f64>, p: usize| v.map_or("n/a".into(), |v| format!("{v:.p$}"));
+    let _ = writeln!(
+        s,
+        "6. lockstep tick against the skeleton floor (our topology and messages, no math, no files)"
+    );
+    let _ = writeln!(
+        s,
+        "   {:>4} {:>14} {:>12} {:>20}",
+        "N", "skeleton t/s", "vbap run t/s", "run tick / skeleton"
+    );
+    for row in &o.skeleton {
+        let _ = writeln!(
+            s,
+            "   {:>4} {:>14.1} {:>12} {:>20}",
+            row.vehicles,
+            row.skeleton_ticks_per_s,
+            opt(row.run_ticks_per_s, 1),
+            opt(row.ratio, 2)
+        );
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(
+        s,
+        "7. state hop p50 (N = 4) / warm raw iceoryx2 p50, {HOP_REPEATS} interleaved repetitions"
+    );
+    for (i, p) in o.hop_repeats.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "   {}: floor {:>6.1} µs, hop {:>6} µs, ratio {}",
+            i + 1,
+            p.floor_p50_us,
+            opt(p.hop_p50_us, 1),
+            opt(p.ratio, 2)
+        );
+    }
+    let _ = writeln!(s, "   median ratio: {}", opt(o.hop_median(), 2));
+    let _ = writeln!(s);
+    if let Some(f) = &o.fanout {
+        let _ = writeln!(
+            s,
+            "8. fan-out of one command ({} bytes) to {} processes, one every {} ms",
+            f.bytes, f.receivers, f.interval_ms
+        );
+        let _ = writeln!(
+            s,
+            "   {:<34} {:>10} {:>8} {:>8} {:>10} {:>11} {:>11} {:>6}",
+            "",
+            "CPU µs/fan",
+            "sender",
+            "(write)",
+            "receiver",
+            "last p50 µs",
+            "last p99 µs",
+            "missed"
+        );
+        for (name, side) in [
+            ("iceoryx2 (one write, N in place)", &f.iceoryx2),
+            ("UDP unicast (N sends)", &f.udp),
+        ] {
+            let _ = writeln!(
+                s,
+                "   {:<34} {:>10.1} {:>8.1} {:>8.1} {:>10.1} {:>11.1} {:>11.1} {:>6}",
+                name,
+                side.cpu_us,
+                side.sender_cpu_us,
+                side.write_cpu_us,
+                side.receiver_cpu_us,
+                side.last_us.p50,
+                side.last_us.p99,
+                side.missed
+            );
+        }
+        let _ = writeln!(
+            s,
+            "   UDP / iceoryx2: CPU {:.2}×, latency to the last agent (p50) {:.2}×",
+            f.udp.cpu_us / f.iceoryx2.cpu_us,
+            f.udp.last_us.p50 / f.iceoryx2.last_us.p50
+        );
+        let _ = writeln!(s, "   loopback multicast: {}", f.multicast);
+    }
+}
+
+/// The goals of issue 17 this module measures.
+pub fn goals(o: &Overhead) -> Vec<Goal> {
+    let mut out = Vec::new();
+    let mut goal = |goal: String, value: Option<f64>, target: &str, met: Option<bool>| {
+        out.push(Goal {
+            goal,
+            value,
+            target: target.into(),
+            met,
+        })
+    };
+    for n in [16, 256] {
+        let v = o
+            .skeleton
+            .iter()
+            .find(|r| r.vehicles == n)
+            .and_then(|r| r.ratio);
+        goal(
+            format!("lockstep tick / skeleton tick (N = {n})"),
+            v,
+            "≤ 1.3",
+            v.map(|v| v <= 1.3),
+        );
+    }
+    let m = o.hop_median();
+    goal(
+        format!("hop p50 / warm raw iceoryx2 (N = 4, median of {HOP_REPEATS})"),
+        m,
+        "≤ 1.5",
+        m.map(|v| v <= 1.5),
+    );
+    let cpu = o.fanout.as_ref().map(|f| f.udp.cpu_us / f.iceoryx2.cpu_us);
+    let lat = o
+        .fanout
+        .as_ref()
+        .map(|f| f.udp.last_us.p50 / f.iceoryx2.last_us.p50);
+    goal(
+        format!("fan-out CPU, UDP / iceoryx2 (N = {FANOUT_RECEIVERS})"),
+        cpu,
+        "≥ 10",
+        cpu.map(|v| v >= 10.0),
+    );
+    goal(
+        format!("fan-out latency to the last, UDP / iceoryx2 (N = {FANOUT_RECEIVERS})"),
+        lat,
+        "≥ 5",
+        lat.map(|v| v >= 5.0),
+    );
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pair(ratio: Option<f64>) -> HopPair {
+        HopPair {
+            floor_p50_us: 10.0,
+            hop_p50_us: ratio.map(|r| r * 10.0),
+            ratio,
+        }
+    }
+
+    #[test]
+    fn the_hop_goal_is_the_median_of_the_pairs() {
+        let mut o = Overhead::default();
+        assert_eq!(o.hop_median(), None);
+        o.hop_repeats = [3.0, 1.2, 9.0, 1.4, 2.0].map(|r| pair(Some(r))).to_vec();
+        assert_eq!(o.hop_median(), Some(2.0));
+        // A run without a hop is left out, not counted as zero.
+        o.hop_repeats = vec![pair(Some(1.0)), pair(None), pair(Some(3.0))];
+        assert_eq!(o.hop_median(), Some(3.0));
+        let g = goals(&o);
+        let hop = g.iter().find(|g| g.goal.contains("median of 5")).unwrap();
+        assert_eq!(hop.met, Some(false));
+    }
+
+    #[test]
+    fn the_skeleton_ratio_is_run_tick_over_skeleton_tick() {
+        let mut o = Overhead::default();
+        o.skeleton_row(16, 3000.0, Some(1500.0));
+        o.skeleton_row(256, 100.0, None);
+        assert_eq!(o.skeleton[0].ratio, Some(2.0));
+        let g = goals(&o);
+        assert_eq!(g[0].value, Some(2.0));
+        assert_eq!(g[0].met, Some(false));
+        assert_eq!(g[1].value, None);
+    }
+}
