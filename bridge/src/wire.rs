@@ -60,7 +60,7 @@ macro_rules! raw {
 }
 
 raw!(RawState, VehicleState, "vbap.VehicleState.v5");
-raw!(RawBody, BodyCommand, "vbap.BodyCommand.v5");
+raw!(RawBody, BodyCommand, "vbap.BodyCommand.v6");
 raw!(RawExit, ProcessExit, "vbap.ProcessExit.v1");
 
 /// The frame of payload `p`.

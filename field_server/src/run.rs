@@ -96,7 +96,7 @@ impl Service {
             msgs.recv_now("field_request", &batch.header, Header::FIELD_SERVER);
             self.answer(batch);
             // A reply to a client that died meanwhile is lost, which is fine.
-            let _ = request.send_copy(*self.reply);
+            let _ = vbap_ipc::prefix::respond(&request, &*self.reply);
             let _ = ports.coordinator.notify();
         }
         Ok(())

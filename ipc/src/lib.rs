@@ -4,6 +4,7 @@
 //! - [`topics`]: every iceoryx2 service name and limit.
 //! - [`ports`], [`wait`]: the ports of a process (publisher + notifier, subscriber +
 //!   listener) and the one wait loop, with typed wake-up events.
+//! - [`prefix`]: writing a fixed-capacity payload into shared memory, entries in use only.
 //! - [`msglog`]: the per-message records, `logs/<process>.msgs.csv` (writer and parser).
 //! - [`telemetry`]: the one tracing set-up of every process.
 //! - [`process`]: a process's life: start-up, ending with the supervisor, exit codes.
@@ -11,6 +12,7 @@
 pub mod msg;
 pub mod msglog;
 pub mod ports;
+pub mod prefix;
 pub mod process;
 pub mod telemetry;
 pub mod topics;

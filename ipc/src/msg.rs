@@ -11,7 +11,7 @@ use vbap_math::schedule::{BodySchedule, Segment, MAX_PLAN};
 use vbap_math::Vec3;
 
 /// Largest fleet a mission may have (fixed capacity of the swarm snapshot).
-pub const MAX_VEHICLES: usize = 256;
+pub const MAX_VEHICLES: usize = 1024;
 /// Largest number of virtual leaders a formation design may have.
 pub const MAX_LEADERS: usize = 256;
 
@@ -228,7 +228,7 @@ pub mod coordinator_to_agent {
     /// Agents read it in place (zero copy).
     #[derive(Debug, Clone, Copy, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.BodyCommand.v5")]
+    #[type_name("vbap.BodyCommand.v6")]
     pub struct BodyCommand {
         pub header: Header,
         /// Virtual body parameter s.
@@ -389,7 +389,7 @@ pub mod coordinator_to_field {
     /// The sensor reads of one tick (service `<mission>/field/sample`).
     #[derive(Debug, Clone, Copy, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.SampleBatch.v1")]
+    #[type_name("vbap.SampleBatch.v2")]
     pub struct SampleBatch {
         pub header: Header,
         /// Number of valid entries in `reads`.
@@ -437,7 +437,7 @@ pub mod field_to_coordinator {
     /// The answer to a [`super::coordinator_to_field::SampleBatch`], entry by entry.
     #[derive(Debug, Clone, Copy, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.ReadingBatch.v1")]
+    #[type_name("vbap.ReadingBatch.v2")]
     pub struct ReadingBatch {
         pub header: Header,
         /// Sequence number of the request answered.

@@ -118,6 +118,24 @@ impl Domain {
     /// [`Domain::shm_prefix`]).
     pub fn new(mission: &str) -> Result<Self, TopicError> {
         let mut config = Config::default();
+        // Expired connections a port keeps (those of a publisher, client or server that
+        // left while it still held samples). iceoryx2's default, 128, costs every subscriber
+        // a ~460 KiB slot map on the heap: 118 MiB of the coordinator's 136 MiB at N = 256
+        // (one state subscriber per vehicle). Our services have one or two writers, and a
+        // restarted writer is drained at the next tick: 4 is plenty (≥ the 2 borrowed samples
+        // iceoryx2 requires).
+        config
+            .defaults
+            .publish_subscribe
+            .subscriber_expired_connection_buffer = Self::EXPIRED_CONNECTIONS;
+        config
+            .defaults
+            .request_response
+            .client_expired_connection_buffer = Self::EXPIRED_CONNECTIONS;
+        config
+            .defaults
+            .request_response
+            .server_expired_connection_buffer = Self::EXPIRED_CONNECTIONS;
         let prefix = domain_prefix(mission);
         config.global.prefix = FileName::new(prefix.as_bytes()).map_err(|e| TopicError::Name {
             name: prefix.clone(),
@@ -128,6 +146,9 @@ impl Domain {
             config,
         })
     }
+
+    /// Expired connections each port keeps (iceoryx2's `*_expired_connection_buffer`).
+    pub const EXPIRED_CONNECTIONS: usize = 4;
 
     /// The iceoryx2 configuration of this domain.
     pub fn config(&self) -> &Config {

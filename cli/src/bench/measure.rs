@@ -58,6 +58,7 @@ fn glider_mission(n: usize, duration: f64, period: f64, window: f64) -> Result<M
 pub(super) fn bench(args: &BenchArgs, work: &Path, stop: &StopFlag) -> Result<Report> {
     let started = Instant::now();
     let plan = Plan::new(args.quick);
+    let plan = if args.large { plan.with_large() } else { plan };
     let mut machine = Machine::probe();
     let cpu_start = CpuMark::read();
     let hops = hop_floors(&plan, work, stop)?;

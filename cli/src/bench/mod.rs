@@ -58,6 +58,9 @@ pub struct BenchArgs {
     /// Quick run: fewer samples, shorter missions, no N = 256 (a smoke run, < 1 min).
     #[arg(long)]
     pub quick: bool,
+    /// Also run N = 1024 (lockstep scaling, real-time sweep, start-up and memory).
+    #[arg(long)]
+    pub large: bool,
     /// Also write the results as JSON to this file.
     #[arg(long)]
     pub out: Option<PathBuf>,

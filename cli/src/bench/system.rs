@@ -548,6 +548,24 @@ impl Marks {
 /// The `target` of message records as it appears in a JSON log line.
 const MSG_TARGET_FIELD: &str = "\"target\":\"vbap::msg\"";
 
+/// Fleet size the `--large` bench adds (issue 17: linear cost and real time at N = 1024).
+pub(super) const LARGE_N: usize = 1024;
+
+impl super::report::Plan {
+    /// `--large`: N = [`LARGE_N`] added to the lockstep scaling (100 ticks), the real-time
+    /// sweep and the footprint runs (about 3 more minutes on 2 cores).
+    pub(super) fn with_large(mut self) -> Self {
+        self.lockstep.push(super::report::LockstepPlan {
+            vehicles: LARGE_N,
+            ticks: 100,
+            floor_rounds: 150,
+        });
+        self.realtime.push(LARGE_N);
+        self.footprint.push(LARGE_N);
+        self
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -141,13 +141,12 @@ impl Ports {
         )?)
     }
 
-    /// Publishes `body` (copied into the subscribers' shared memory), its `sent_ns` stamped
-    /// now.
+    /// Publishes `body` (its entries in use copied into the subscribers' shared memory), its
+    /// `sent_ns` stamped now.
     pub fn publish(&self, body: &mut BodyCommand) -> Result<()> {
         body.header.sent_ns = wall_ns();
-        self.body
-            .send_copy(*body)
-            .map_err(port_err("publishing the body"))?;
+        vbap_ipc::prefix::publish(&self.body, body)
+            .map_err(|e| anyhow::anyhow!("publishing the body: {e}"))?;
         Ok(())
     }
 

@@ -103,10 +103,8 @@ impl SensorReads {
         self.seq += 1;
         self.batch.n = keys.len() as u32;
         self.batch.header = Header::new(Header::COORDINATOR, k, k as f64 * dt, self.seq);
-        let pending = self
-            .client
-            .send_copy(*self.batch)
-            .map_err(|e| anyhow::anyhow!("sending the sensor reads of tick {k}: {e:?}"))?;
+        let pending = vbap_ipc::prefix::request(&self.client, &*self.batch)
+            .map_err(|e| anyhow::anyhow!("sending the sensor reads of tick {k}: {e}"))?;
         self.notify_field()?;
         self.pending = Some((pending, keys));
         self.sent_at = Instant::now();

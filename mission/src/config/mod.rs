@@ -55,7 +55,7 @@ use serde::{Deserialize, Serialize};
 use vbap_math::{Mat3, Vec3};
 
 /// Most vehicles a mission may have (iceoryx2 resources and O(N²) potentials stay bounded).
-pub const MAX_VEHICLES: usize = 256;
+pub const MAX_VEHICLES: usize = 1024;
 /// Most ticks (duration / dt) a mission may have.
 pub const MAX_TICKS: f64 = 10_000_000.0;
 /// Longest mission name (it prefixes every service name and the run directory).

@@ -70,7 +70,7 @@ const BAD: &[(&str, &str)] = &[
         "field.bumps",
     ),
     ("[vehicles]\ncount = 2", "vehicles.count"),
-    ("[vehicles]\ncount = 257", "vehicles.count"),
+    ("[vehicles]\ncount = 1025", "vehicles.count"),
     ("[vehicles]\ncount = -1", "vehicles.count"),
     ("[mission]\ndim = 3\n[field]\ncenter = [1.0, 2.0, 3.0]\n[vehicles]\nstart = [0.0, 0.0, 0.0]\ncount = 3", "vehicles.count"),
     ("[vehicles]\nstart = [0.0, 0.0, 0.0]", "vehicles.start"),
