@@ -50,6 +50,15 @@ pub fn hermite(s: f64) -> ([f64; 4], [f64; 4], [f64; 4]) {
     )
 }
 
+/// The basis of [`hermite`] as polynomials: b_i(s) = Σₖ `HERMITE_COEFFS[i][k]` sᵏ. A grid
+/// precomputes with it, per cell, the polynomial weight of each node of its stencil.
+pub const HERMITE_COEFFS: [[f64; 4]; 4] = [
+    [1.0, 0.0, -3.0, 2.0],
+    [0.0, 1.0, -2.0, 1.0],
+    [0.0, 0.0, 3.0, -2.0],
+    [0.0, 0.0, -1.0, 1.0],
+];
+
 /// Degrees to local metres about (lon₀, lat₀): x = R cos(lat₀) Δlon, y = R Δlat (angles in
 /// radians, R = [`EARTH_RADIUS_M`]), Δlon wrapped into [−180°, 180°) so 0..360 and
 /// −180..180 longitudes give the same x.
@@ -93,6 +102,25 @@ mod tests {
         assert_eq!(b1, [0.0, 0.0, 1.0, 0.0]);
         assert_eq!(d0, [0.0, 1.0, 0.0, 0.0]);
         assert_eq!(d1, [0.0, 0.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn hermite_coefficients_are_the_basis() {
+        for k in 0..=20 {
+            let s = f64::from(k) / 20.0;
+            let (b, db, d2b) = hermite(s);
+            for i in 0..4 {
+                let c = HERMITE_COEFFS[i];
+                let v = c[0] + c[1] * s + c[2] * s * s + c[3] * s * s * s;
+                let d = c[1] + 2.0 * c[2] * s + 3.0 * c[3] * s * s;
+                let d2 = 2.0 * c[2] + 6.0 * c[3] * s;
+                assert!(
+                    (v - b[i]).abs() < 1e-15 && (d - db[i]).abs() < 1e-14,
+                    "{i} at {s}"
+                );
+                assert!((d2 - d2b[i]).abs() < 1e-14, "{i} at {s}");
+            }
+        }
     }
 
     #[test]

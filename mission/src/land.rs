@@ -19,25 +19,8 @@ pub trait LandMask: Send + Sync + std::fmt::Debug {
 }
 
 /// A mission's land held where a value must be cloned, compared and serialised (the
-/// planner's parameters): it takes no part in equality and is not serialised; a plan
-/// restored from a checkpoint gets it again from its mission.
-#[derive(Clone, Default)]
-pub struct LandRef(pub Option<Arc<dyn LandMask>>);
-
-impl PartialEq for LandRef {
-    fn eq(&self, _: &Self) -> bool {
-        true
-    }
-}
-
-impl std::fmt::Debug for LandRef {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match &self.0 {
-            Some(l) => write!(f, "LandRef({l:?})"),
-            None => write!(f, "LandRef(none)"),
-        }
-    }
-}
+/// planner's parameters): see [`Loaded`](crate::loaded::Loaded).
+pub type LandRef = crate::loaded::Loaded<Arc<dyn LandMask>>;
 
 /// Analytic land: a straight coast or a round island (in the xy plane; z is ignored).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

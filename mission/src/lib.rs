@@ -20,5 +20,6 @@ pub mod horizon;
 pub mod hosts;
 pub mod land;
 pub mod link;
+pub mod loaded;
 mod mission_field;
 pub mod rundir;

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use crate::config::{ConfigError, FieldKind, Mission};
 use crate::field::Field;
-use crate::grid::{AxisNames, GridField, GridSlot, GridSpec};
+use crate::grid::{AxisNames, GridField, GridSpec};
 
 impl Mission {
     /// The environment this mission describes.
@@ -87,7 +87,7 @@ impl Mission {
         let u = load(self.current.u.as_deref().unwrap_or("u"))?;
         let v = load(self.current.v.as_deref().unwrap_or("v"))?;
         self.current.file = Some(file.display().to_string());
-        self.current.grid = crate::grid::CurrentGridSlot(Some([u, v]));
+        self.current.grid = crate::loaded::Loaded(Some([u, v]));
         Ok(())
     }
 
@@ -121,7 +121,7 @@ impl Mission {
             reason: e.to_string(),
         })?;
         self.field.file = Some(file.display().to_string());
-        self.field.grid = GridSlot(Some(Arc::new(grid)));
+        self.field.grid = crate::loaded::Loaded(Some(Arc::new(grid)));
         Ok(())
     }
 }

@@ -112,6 +112,59 @@ fn lockstep_equals_in_process_gliders_in_a_current() {
     assert!(drift > 0.05, "beliefs never drifted ({drift})");
 }
 
+/// A 3-D glider mission whose gliders fly a sawtooth dive (`vehicles.dive_depth`): the
+/// shipped quadratic3d.toml, shortened, with gliders diving to z = −3 at 0.5 L/s (at the
+/// surface every 12 s) in a uniform current they do not know.
+fn mission_diving(name: &str) -> String {
+    let base = std::fs::read_to_string(workspace().join("deploy/missions/quadratic3d.toml"))
+        .expect("quadratic3d.toml");
+    let text = base
+        .replacen("name = \"quadratic3d\"", &format!("name = \"{name}\""), 1)
+        .replacen("duration = 150.0", "duration = 30.0", 1)
+        .replacen(
+            "damping = 5.0",
+            "damping = 5.0\nmodel = \"glider\"\nmax_speed = 2.0\nmax_accel = 4.0\n\
+             max_turn_rate = 3.0\ndive_depth = -3.0\ndive_rate = 0.5",
+            1,
+        );
+    format!("{text}\n[current]\nkind = \"uniform\"\nvelocity = [0.2, 0.1, 0.0]\n")
+}
+
+#[test]
+fn lockstep_equals_in_process_diving_gliders() {
+    let tmp = assert_run_equals_sim(&mission_diving(&unique_name("eqdv")));
+    let t = Table::read(&tmp.join("sim").join("vehicles.csv"));
+    let (mut deepest, mut fastest, mut drift) = (0.0f64, 0.0f64, 0.0f64);
+    let mut surfaced = 0;
+    for r in t.rows() {
+        let z = r.num("z");
+        assert!((-3.0 - 1e-9..=1e-9).contains(&z), "z = {z} off the dive");
+        assert_eq!(z, r.num("bz"), "the depth is known");
+        deepest = deepest.min(z);
+        let w = (r.num("wx").powi(2) + r.num("wy").powi(2) + r.num("wz").powi(2)).sqrt();
+        fastest = fastest.max(w);
+        let off = (r.num("x") - r.num("bx")).hypot(r.num("y") - r.num("by"));
+        if r.num("k") > 0.0 && z.abs() < 1e-9 {
+            surfaced += 1;
+            assert_eq!(off, 0.0, "a glider at the surface has its fix");
+        }
+        drift = drift.max(off);
+    }
+    assert!(deepest < -2.9, "the gliders never dived ({deepest})");
+    assert!(
+        surfaced >= 8,
+        "{surfaced} ticks at the surface (4 gliders, t = 12 and 24 s)"
+    );
+    assert!(
+        drift > 0.1,
+        "under water the beliefs never drifted ({drift})"
+    );
+    assert!(
+        fastest <= 2.0 * (1.0 + 1e-12),
+        "{fastest} through the water (max 2.0)"
+    );
+}
+
 /// `vbap sim` and `vbap run` of the same mission write byte-identical tracks; returns the
 /// directory holding both runs (`sim/`, `run/`).
 fn assert_run_equals_sim(text: &str) -> TempDir {

@@ -9,11 +9,13 @@
 use std::sync::Arc;
 
 use vbap_math::law::{ControlInputs, ControlLaw};
+use vbap_math::vehicle::dive::Dive;
 use vbap_math::vehicle::land::{repulsion, slide, Avoidance};
 use vbap_math::vehicle::{advance, GliderLimits, Motion, VehicleModel};
 use vbap_math::Vec3;
 use vbap_mission::config::{
-    Mission, VehicleModelKind, DEFAULT_MAX_ACCEL, DEFAULT_MAX_SPEED, DEFAULT_MAX_TURN_RATE,
+    Mission, VehicleModelKind, DEFAULT_DIVE_RATE, DEFAULT_MAX_ACCEL, DEFAULT_MAX_SPEED,
+    DEFAULT_MAX_TURN_RATE,
 };
 use vbap_mission::current::{current_of, CurrentField};
 use vbap_mission::land::{avoid_distance, avoid_gain, land_of, LandMask};
@@ -43,6 +45,9 @@ pub struct Kinematics {
     pub estimate_current: bool,
     /// Mission dimension.
     pub dim: usize,
+    /// `vehicles.dive_depth`: the sawtooth dive z follows (3-D gliders; None: z is the
+    /// law's). With it `model` keeps the horizontal speed within √(max² − rate²).
+    pub dive: Option<Dive>,
 }
 
 impl Kinematics {
@@ -60,10 +65,16 @@ impl Kinematics {
         land: Option<Arc<dyn LandMask>>,
     ) -> Option<Arc<Self>> {
         let v = &mission.vehicles;
+        let dive = v.dive_depth.map(|depth| Dive {
+            depth,
+            rate: v.dive_rate.unwrap_or(DEFAULT_DIVE_RATE),
+        });
+        let max_speed = v.max_speed.unwrap_or(DEFAULT_MAX_SPEED);
         let model = match v.model {
             VehicleModelKind::Ideal => VehicleModel::Ideal,
             VehicleModelKind::Glider => VehicleModel::Glider(GliderLimits {
-                max_speed: v.max_speed.unwrap_or(DEFAULT_MAX_SPEED),
+                // Diving, the speed through the water is the horizontal one and the dive's.
+                max_speed: dive.map_or(max_speed, |d| (max_speed.powi(2) - d.rate.powi(2)).sqrt()),
                 max_accel: v.max_accel.unwrap_or(DEFAULT_MAX_ACCEL),
                 max_turn_rate: v.max_turn_rate.unwrap_or(DEFAULT_MAX_TURN_RATE),
             }),
@@ -84,6 +95,7 @@ impl Kinematics {
             },
             estimate_current: v.current_estimate,
             dim: mission.mission.dim,
+            dive,
         }))
     }
 
@@ -94,6 +106,9 @@ impl Kinematics {
     pub fn fix_at(&self, id: u32, k: u64, dt: f64) -> bool {
         if !self.dead_reckoning {
             return true;
+        }
+        if let Some(d) = &self.dive {
+            return d.at_surface(k, dt);
         }
         let t = k as f64 * dt;
         match self.fix_period {
@@ -139,6 +154,9 @@ impl Moving {
     /// drifting with the current (`agent`'s velocity becomes the current); restarted, its
     /// water velocity is its velocity less the current there.
     pub fn start(kin: Arc<Kinematics>, agent: &mut Agent, k: u64, dt: f64) -> Self {
+        if let Some(d) = &kin.dive {
+            agent.position.z = d.z(k as f64 * dt);
+        }
         let current = kin.current_at(&agent.position, k as f64 * dt);
         if k == 0 {
             agent.velocity = current;
@@ -171,13 +189,18 @@ impl Moving {
         if let Some(l) = land {
             u += repulsion(l.clearance(&self.belief), &kin.avoidance);
         }
+        if kin.dive.is_some() {
+            // z is the dive's: the law steers in the horizontal plane only.
+            u.z = 0.0;
+            self.water.z = 0.0;
+        }
         let before = Motion {
             position: agent.position,
             belief: self.belief,
             water: self.water,
             ground: agent.velocity,
         };
-        let next = advance(
+        let mut next = advance(
             &kin.model,
             &before,
             &u,
@@ -189,6 +212,16 @@ impl Moving {
                 None => *to,
             },
         );
+        if let Some(d) = &kin.dive {
+            // The profile sets z (a depth sensor: the belief knows it); a vertical current
+            // does not move a diving glider off it.
+            let z = d.z((k + 1) as f64 * dt);
+            let vz = d.vz(k as f64 * dt);
+            next.position.z = z;
+            next.belief.z = z;
+            next.water.z = vz;
+            next.ground.z = vz;
+        }
         agent.position = next.position;
         agent.velocity = next.ground;
         self.water = next.water;

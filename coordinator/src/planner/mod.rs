@@ -135,7 +135,7 @@ impl PlannerParams {
             curvature: m.control.curvature,
             curvature_memory: m.control.curvature_memory,
             land: vbap_mission::land::analytic_land(&m.land, f64::INFINITY),
-            grid_land: vbap_mission::land::LandRef(m.land()),
+            grid_land: vbap_mission::loaded::Loaded(m.land()),
         }
     }
 }
@@ -424,7 +424,7 @@ impl Planner {
     /// Gives a plan restored from a checkpoint the land of its mission's gridded field,
     /// which the checkpoint does not keep.
     pub fn attach_land(&mut self, mission: &Mission) {
-        self.params.grid_land = vbap_mission::land::LandRef(mission.land());
+        self.params.grid_land = vbap_mission::loaded::Loaded(mission.land());
     }
 
     /// The body of the next tick: moved by `ds` along `rates` ((III.4), (V.7)), its scale

@@ -11,6 +11,7 @@
 //! With [`VehicleModel::Ideal`], no current and no land, [`advance`] is the semi-implicit
 //! Euler step of [`crate::control::integrate`] bit for bit.
 
+pub mod dive;
 pub mod land;
 #[cfg(test)]
 mod tests;

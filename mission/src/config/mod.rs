@@ -38,6 +38,7 @@ pub use error::ConfigError;
 pub use failure_sections::{
     FaultConfig, FaultKind, LinksSection, RestartPolicy, RestartSection, SurfacingPhase,
 };
+pub use motion::DEFAULT_DIVE_RATE;
 pub use motion::{
     CurrentKind, CurrentSection, LandKind, LandSection, VehicleModelKind, DEFAULT_MAX_ACCEL,
     DEFAULT_MAX_SPEED, DEFAULT_MAX_TURN_RATE,

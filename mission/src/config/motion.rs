@@ -32,6 +32,9 @@ impl VehicleModelKind {
     }
 }
 
+/// Default `vehicles.dive_rate` of a diving glider, m/s (real gliders: 0.1–0.2 m/s).
+pub const DEFAULT_DIVE_RATE: f64 = 0.1;
+
 /// Default `vehicles.max_speed` of a glider, m/s (real gliders: 0.2–0.4 m/s through water).
 pub const DEFAULT_MAX_SPEED: f64 = 0.3;
 /// Default `vehicles.max_accel` of a glider, m/s²: from rest to 0.3 m/s in 30 s.

@@ -282,6 +282,16 @@ pub struct VehiclesSection {
     /// reckoning with the water velocity alone.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub current_estimate: bool,
+    /// Glider, 3-D: z at the bottom of a sawtooth dive (length unit, ≠ 0; positive on a
+    /// depth axis pointing down); absent = no dive profile (z is the law's, as before).
+    /// The glider's z then follows the profile (readings along the dive), its GPS fix
+    /// is at the top of each dive.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dive_depth: Option<f64>,
+    /// Glider with `dive_depth`: vertical speed through the water, length unit/s, > 0 and
+    /// < the largest speed; absent = [`super::motion::DEFAULT_DIVE_RATE`] (0.1 m/s).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dive_rate: Option<f64>,
 }
 
 impl Default for VehiclesSection {
@@ -297,6 +307,8 @@ impl Default for VehiclesSection {
             max_turn_rate: None,
             fix_period: None,
             current_estimate: false,
+            dive_depth: None,
+            dive_rate: None,
         }
     }
 }

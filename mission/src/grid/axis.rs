@@ -1,7 +1,7 @@
 //! One axis of a rectilinear grid: its nodes (ascending), where each node's slope comes from,
 //! and the interpolation stencil of a position ([`Stencil`]).
 
-use vbap_math::gridmath::{hermite, quadratic_slope};
+use vbap_math::gridmath::{quadratic_slope, HERMITE_COEFFS};
 
 /// Fewest nodes an interpolated axis may have (the four-node stencil of the cubic).
 pub const MIN_NODES: usize = 4;
@@ -21,6 +21,20 @@ pub struct Stencil {
     pub d2: [f64; 4],
 }
 
+/// The interpolant on one cell as polynomials in the cell's coordinate s ∈ [0, 1]: the weight
+/// of stencil node `start + m` is Σₖ `c[m][k]` sᵏ (precomputed at load, so that a reading
+/// evaluates four cubics instead of rebuilding the Hermite basis and spreading the node
+/// slopes into it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct CellPoly {
+    /// First node of the stencil.
+    start: usize,
+    /// `c[m][k]`: coefficient of sᵏ in the weight of node `start + m`.
+    c: [[f64; 4]; 4],
+    /// 1 / cell width.
+    inv_h: f64,
+}
+
 /// An axis: ascending nodes (length unit or seconds) and the slope rule of each node.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Axis {
@@ -30,6 +44,8 @@ pub struct Axis {
     slopes: Vec<(usize, [f64; 3])>,
     /// (first node, 1 / spacing) when the nodes are evenly spaced (direct cell lookup).
     uniform: Option<(f64, f64)>,
+    /// The weight polynomials of each cell (n − 1 cells; 136 bytes each).
+    cells: Vec<CellPoly>,
 }
 
 impl Axis {
@@ -49,10 +65,32 @@ impl Axis {
             .iter()
             .enumerate()
             .all(|(j, x)| (x - (nodes[0] + j as f64 * step)).abs() <= 1e-9 * span.abs());
-        Axis {
+        let mut axis = Axis {
             uniform: even.then_some((nodes[0], 1.0 / step)),
             nodes,
             slopes,
+            cells: Vec::new(),
+        };
+        axis.cells = (0..n - 1).map(|i| axis.cell_poly(i)).collect();
+        axis
+    }
+
+    /// The weight polynomials of cell i: each power of s of the basis, spread into nodes.
+    fn cell_poly(&self, i: usize) -> CellPoly {
+        let h = self.nodes[i + 1] - self.nodes[i];
+        let start = i.saturating_sub(1).min(self.nodes.len() - MIN_NODES);
+        let mut c = [[0.0; 4]; 4];
+        for k in 0..4 {
+            let b = HERMITE_COEFFS.map(|p| p[k]);
+            let w = self.spread(i, start, [b[0], b[1] * h, b[2], b[3] * h]);
+            for m in 0..4 {
+                c[m][k] = w[m];
+            }
+        }
+        CellPoly {
+            start,
+            c,
+            inv_h: 1.0 / h,
         }
     }
 
@@ -86,7 +124,8 @@ impl Axis {
     pub fn cell(&self, x: f64) -> usize {
         let n = self.nodes.len();
         let i = match self.uniform {
-            Some((x0, inv_dx)) => ((x - x0) * inv_dx).floor().max(0.0) as usize,
+            // `as usize` truncates: floor for the non-negative (NaN: 0).
+            Some((x0, inv_dx)) => ((x - x0) * inv_dx).max(0.0) as usize,
             None => self.nodes.partition_point(|v| *v <= x).saturating_sub(1),
         };
         i.min(n - 2)
@@ -102,15 +141,13 @@ impl Axis {
         }
     }
 
-    /// Cell i of `x`, its width h, the position s ∈ [0, 1] in it, the stencil's first node,
-    /// and whether `x` lies within the axis.
-    fn locate(&self, x: f64) -> (usize, f64, f64, usize, bool) {
+    /// The cell of `x`, the position s ∈ [0, 1] in it, and whether `x` lies within the axis.
+    fn locate(&self, x: f64) -> (&CellPoly, f64, bool) {
         let (lo, hi) = self.range();
         let i = self.cell(x);
-        let h = self.nodes[i + 1] - self.nodes[i];
-        let s = ((x.clamp(lo, hi) - self.nodes[i]) / h).clamp(0.0, 1.0);
-        let start = i.saturating_sub(1).min(self.nodes.len() - MIN_NODES);
-        (i, h, s, start, x >= lo && x <= hi)
+        let cell = &self.cells[i];
+        let s = ((x.clamp(lo, hi) - self.nodes[i]) * cell.inv_h).clamp(0.0, 1.0);
+        (cell, s, x >= lo && x <= hi)
     }
 
     /// Node weights of the basis `b` = (end values' weights b₀, b₂; end slopes' weights b₁,
@@ -129,37 +166,34 @@ impl Axis {
     }
 
     /// The value weights of `x` only (the hot path of a reading): (first node, weights).
+    #[inline]
     pub fn weights(&self, x: f64) -> (usize, [f64; 4]) {
-        let (i, h, s, start, _) = self.locate(x);
-        let (b, _, _) = hermite(s);
+        let (cell, s, _) = self.locate(x);
         (
-            start,
-            self.spread(i, start, [b[0], b[1] * h, b[2], b[3] * h]),
+            cell.start,
+            cell.c.map(|c| ((c[3] * s + c[2]) * s + c[1]) * s + c[0]),
         )
     }
 
     /// The stencil of `x` (clamped into the axis: outside, the edge value, zero derivatives).
     pub fn stencil(&self, x: f64) -> Stencil {
-        let (i, h, s, start, inside) = self.locate(x);
-        let (b, db, d2b) = hermite(s);
-        let (ih, ih2) = (1.0 / h, 1.0 / (h * h));
-        let w = self.spread(i, start, [b[0], b[1] * h, b[2], b[3] * h]);
+        let (cell, s, inside) = self.locate(x);
+        let w = cell.c.map(|c| ((c[3] * s + c[2]) * s + c[1]) * s + c[0]);
         if !inside {
             return Stencil {
-                start,
+                start: cell.start,
                 w,
                 ..Stencil::default()
             };
         }
+        let ih = cell.inv_h;
         Stencil {
-            start,
+            start: cell.start,
             w,
-            d1: self.spread(i, start, [db[0] * ih, db[1], db[2] * ih, db[3]]),
-            d2: self.spread(
-                i,
-                start,
-                [d2b[0] * ih2, d2b[1] * ih, d2b[2] * ih2, d2b[3] * ih],
-            ),
+            d1: cell
+                .c
+                .map(|c| ((3.0 * c[3] * s + 2.0 * c[2]) * s + c[1]) * ih),
+            d2: cell.c.map(|c| (6.0 * c[3] * s + 2.0 * c[2]) * ih * ih),
         }
     }
 }
@@ -197,6 +231,37 @@ mod tests {
             assert!((v(&st.w) - f(x)).abs() < 1e-12, "value at {x}");
             assert!((v(&st.d1) - (1.4 * x - 1.3)).abs() < 1e-10, "slope at {x}");
             assert!((v(&st.d2) - 1.4).abs() < 1e-9, "curvature at {x}");
+        }
+    }
+
+    /// The stencil from the cell polynomials equals the Hermite basis spread at the reading
+    /// (how it was computed before the polynomials were precomputed) within 1e-12.
+    #[test]
+    fn cell_polynomials_equal_the_basis_spread_at_the_reading() {
+        use vbap_math::gridmath::hermite;
+        let axis = Axis::new(vec![-3.0, -1.0, 0.0, 0.5, 1.7, 2.0, 3.5, 7.0]);
+        for k in 0..=500 {
+            let x = -3.0 + 10.0 * f64::from(k) / 500.0;
+            let i = axis.cell(x);
+            let h = axis.nodes[i + 1] - axis.nodes[i];
+            let s = ((x - axis.nodes[i]) / h).clamp(0.0, 1.0);
+            let start = i.saturating_sub(1).min(axis.len() - MIN_NODES);
+            let (b, db, d2b) = hermite(s);
+            let w = axis.spread(i, start, [b[0], b[1] * h, b[2], b[3] * h]);
+            let d1 = axis.spread(i, start, [db[0] / h, db[1], db[2] / h, db[3]]);
+            let d2 = axis.spread(
+                i,
+                start,
+                [d2b[0] / h / h, d2b[1] / h, d2b[2] / h / h, d2b[3] / h],
+            );
+            let st = axis.stencil(x);
+            assert_eq!(st.start, start);
+            for m in 0..4 {
+                assert!((st.w[m] - w[m]).abs() <= 1e-12, "w at {x}");
+                assert!((st.d1[m] - d1[m]).abs() <= 1e-12, "d1 at {x}");
+                assert!((st.d2[m] - d2[m]).abs() <= 1e-12, "d2 at {x}");
+                assert_eq!(axis.weights(x).1[m], st.w[m]);
+            }
         }
     }
 

@@ -227,9 +227,38 @@ pub fn load(spec: &GridSpec) -> Result<GridField, GridError> {
         best: Vec::new(),
         extrema: [0, 0],
     };
+    canonical(&mut g);
     super::land::mark_and_fill(&mut g, spec.land_above)?;
     super::optimum::prepare(&mut g);
     Ok(g)
+}
+
+/// Reorders the values, if need be, so that x varies fastest, then y, z and time, every axis
+/// ascending (node (jx, jy, jz, jt) at jx + nx (jy + ny (jz + nz jt))): the four nodes of an
+/// interpolation stencil along x are then adjacent in memory, read as one slice.
+fn canonical(g: &mut GridField) {
+    let (nx, ny) = (g.x.len(), g.y.len());
+    let nz = g.z.as_ref().map_or(1, |z| z.len());
+    let want = Layout {
+        first: [0; 4],
+        step: [1, nx as isize, (nx * ny) as isize, (nx * ny * nz) as isize],
+    };
+    let n = nx * ny * nz * g.times.len();
+    if g.layout == want && g.data.len() == n {
+        return;
+    }
+    let mut data = Vec::with_capacity(n);
+    for jt in 0..g.times.len() {
+        for jz in 0..nz {
+            for jy in 0..ny {
+                let row = g.node_index(0, jy, jz, jt) as isize;
+                let step = g.layout.step[0];
+                data.extend((0..nx as isize).map(|jx| g.data[(row + jx * step) as usize]));
+            }
+        }
+    }
+    g.data = data;
+    g.layout = want;
 }
 
 fn row_major(shape: &[usize]) -> Vec<usize> {

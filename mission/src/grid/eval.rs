@@ -25,9 +25,22 @@ const FLAT: Stencil = Stencil {
 };
 
 impl GridField {
-    /// Offset of time slice `k`.
-    fn slice(&self, k: usize) -> isize {
-        self.layout.first[3] + k as isize * self.layout.step[3]
+    /// Offset of time slice `k` (the layout is canonical: see `build.rs`).
+    fn slice(&self, k: usize) -> usize {
+        k * self.layout.step[3] as usize
+    }
+
+    /// The four x-adjacent values from offset `o` (one bounds check).
+    #[inline]
+    fn row(&self, o: usize) -> &[f64; 4] {
+        self.data[o..o + 4].try_into().expect("four values")
+    }
+
+    /// Offset of the first node of the stencil's x-row `k`, z-level `c` in slice `base`.
+    #[inline]
+    fn row_offset(&self, start: [usize; 3], k: usize, c: usize, base: usize) -> usize {
+        let step = &self.layout.step;
+        base + (start[2] + c) * step[2] as usize + (start[1] + k) * step[1] as usize + start[0]
     }
 
     /// The stencils of `p` along x, y and z (z: one node in 2-D) and the number of z nodes.
@@ -40,20 +53,15 @@ impl GridField {
     }
 
     /// Value only (the hot path of a sensor reading): value weights only.
-    fn value_at(&self, w: &[(usize, [f64; 4]); 3], nz: usize, base: isize) -> f64 {
-        let l = &self.layout;
+    fn value_at(&self, w: &[(usize, [f64; 4]); 3], nz: usize, base: usize) -> f64 {
+        let start = [w[0].0, w[1].0, w[2].0];
+        let wx = &w[0].1;
         let mut v = 0.0;
         for c in 0..nz {
-            let oz = base + l.first[2] + (w[2].0 + c) as isize * l.step[2];
             let mut a = 0.0;
-            for (b, wy) in w[1].1.iter().enumerate() {
-                let oy = oz + l.first[1] + (w[1].0 + b) as isize * l.step[1];
-                let ox = oy + l.first[0] + w[0].0 as isize * l.step[0];
-                let mut r = 0.0;
-                for (m, wx) in w[0].1.iter().enumerate() {
-                    r += wx * self.data[(ox + m as isize * l.step[0]) as usize];
-                }
-                a += wy * r;
+            for (k, wy) in w[1].1.iter().enumerate() {
+                let r = self.row(self.row_offset(start, k, c, base));
+                a += wy * (wx[0] * r[0] + wx[1] * r[1] + wx[2] * r[2] + wx[3] * r[3]);
             }
             v += w[2].1[c] * a;
         }
@@ -61,24 +69,18 @@ impl GridField {
     }
 
     /// Value, gradient and Hessian of one slice.
-    fn jet_at(&self, st: &[Stencil; 3], nz: usize, base: isize) -> Jet {
-        let l = &self.layout;
+    fn jet_at(&self, st: &[Stencil; 3], nz: usize, base: usize) -> Jet {
         let (sx, sy, sz) = (&st[0], &st[1], &st[2]);
+        let start = [sx.start, sy.start, sz.start];
+        let dot =
+            |w: &[f64; 4], r: &[f64; 4]| w[0] * r[0] + w[1] * r[1] + w[2] * r[2] + w[3] * r[3];
         let mut j = Jet::default();
         for c in 0..nz {
-            let oz = base + l.first[2] + (sz.start + c) as isize * l.step[2];
             // A..F: sums over y of the x-row sums (see the module documentation).
             let [mut a, mut b, mut cc, mut d, mut e, mut f] = [0.0; 6];
             for k in 0..4 {
-                let oy = oz + l.first[1] + (sy.start + k) as isize * l.step[1];
-                let ox = oy + l.first[0] + sx.start as isize * l.step[0];
-                let (mut r0, mut r1, mut r2) = (0.0, 0.0, 0.0);
-                for m in 0..4 {
-                    let v = self.data[(ox + m as isize * l.step[0]) as usize];
-                    r0 += sx.w[m] * v;
-                    r1 += sx.d1[m] * v;
-                    r2 += sx.d2[m] * v;
-                }
+                let r = self.row(self.row_offset(start, k, c, base));
+                let (r0, r1, r2) = (dot(&sx.w, r), dot(&sx.d1, r), dot(&sx.d2, r));
                 a += sy.w[k] * r0;
                 b += sy.w[k] * r1;
                 cc += sy.d1[k] * r0;

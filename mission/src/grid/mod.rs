@@ -49,48 +49,11 @@ impl GridError {
     }
 }
 
-/// The grid a mission loaded (in its `[field]` section; not a key). Takes no part in
-/// equality (the keys do).
-#[derive(Clone, Default)]
-pub struct GridSlot(pub Option<std::sync::Arc<GridField>>);
+/// The grid a mission loaded (in its `[field]` section; not a key).
+pub type GridSlot = crate::loaded::Loaded<std::sync::Arc<GridField>>;
 
-impl PartialEq for GridSlot {
-    fn eq(&self, _: &Self) -> bool {
-        true
-    }
-}
-
-impl std::fmt::Debug for GridSlot {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match &self.0 {
-            Some(g) => write!(f, "GridSlot({} {:?})", g.file, g.variable),
-            None => write!(f, "GridSlot(none)"),
-        }
-    }
-}
-
-/// The u and v grids of a `current.kind = "grid"` (not keys). Takes no part in equality.
-#[derive(Clone, Default)]
-pub struct CurrentGridSlot(pub Option<[std::sync::Arc<GridField>; 2]>);
-
-impl PartialEq for CurrentGridSlot {
-    fn eq(&self, _: &Self) -> bool {
-        true
-    }
-}
-
-impl std::fmt::Debug for CurrentGridSlot {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match &self.0 {
-            Some([u, v]) => write!(
-                f,
-                "CurrentGridSlot({} {:?} {:?})",
-                u.file, u.variable, v.variable
-            ),
-            None => write!(f, "CurrentGridSlot(none)"),
-        }
-    }
-}
+/// The u and v grids of a `current.kind = "grid"` (not keys).
+pub type CurrentGridSlot = crate::loaded::Loaded<[std::sync::Arc<GridField>; 2]>;
 
 /// What to read and how (the `[field]` keys of `kind = "grid"`, resolved).
 #[derive(Clone, Debug, Default)]

@@ -34,6 +34,7 @@ impl Mission {
         links::restart(&c, &self.restart)?;
         control::check(&c, &self.control)?;
         motion::model(&c, &self.vehicles)?;
+        motion::dive(&c, &self.vehicles, dim)?;
         motion::current(&c, &self.current, dim)?;
         motion::land(&c, &self.land, dim, &self.vehicles.start)?;
         self.check_stability(&c)?;

@@ -32,6 +32,60 @@ pub(super) fn model(c: &Check, v: &VehiclesSection) -> Checked {
     Ok(())
 }
 
+/// Checks the dive keys of `[vehicles]`: a glider in a 3-D mission without `fix_period`
+/// (the fix is at the top of each dive), a rate below the largest speed.
+pub(super) fn dive(c: &Check, v: &VehiclesSection, dim: usize) -> Checked {
+    if let Some(r) = v.dive_rate {
+        c.positive("vehicles.dive_rate", r)?;
+        c.ensure(
+            v.dive_depth.is_some(),
+            "vehicles.dive_rate",
+            num(r),
+            "only used with vehicles.dive_depth; remove it or set the depth",
+        )?;
+    }
+    let Some(d) = v.dive_depth else {
+        return Ok(());
+    };
+    let key = "vehicles.dive_depth";
+    c.ensure(
+        d.is_finite() && d != 0.0,
+        key,
+        num(d),
+        "must be finite and not 0",
+    )?;
+    c.ensure(
+        !v.model.is_ideal(),
+        key,
+        num(d),
+        "only used by vehicles.model = \"glider\"; remove it or set the model",
+    )?;
+    c.ensure(
+        dim == 3,
+        key,
+        num(d),
+        "a dive needs a 3-D mission (mission.dim = 3)",
+    )?;
+    c.ensure(
+        v.fix_period.is_none(),
+        key,
+        num(d),
+        "a diving glider gets its fix at the top of each dive: remove vehicles.fix_period",
+    )?;
+    let rate = v
+        .dive_rate
+        .unwrap_or(super::super::motion::DEFAULT_DIVE_RATE);
+    let max = v
+        .max_speed
+        .unwrap_or(super::super::motion::DEFAULT_MAX_SPEED);
+    c.ensure(
+        rate < max,
+        "vehicles.dive_rate",
+        num(rate),
+        "must be below vehicles.max_speed (the speed through the water includes the dive)",
+    )
+}
+
 /// Checks `[current]` for a mission of dimension `dim`.
 pub(super) fn current(c: &Check, cur: &CurrentSection, dim: usize) -> Checked {
     let k = cur.kind;
