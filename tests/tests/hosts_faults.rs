@@ -116,13 +116,17 @@ fn the_shores_bridge_restarted_alone_lets_the_remote_vehicles_rejoin() {
     let tmp = TempDir::new("hostsbridge");
     let net = Net::new();
     let name = unique_name("hostsbridge");
-    let file = write(&tmp, "m.toml", &rejoin_mission(&name, 400.0, ""));
+    // Paced (2× real time), so the mission outlasts the bridge's restart (in lockstep the
+    // shore's own two vehicles ran it to its end first).
+    let text =
+        rejoin_mission(&name, 60.0, "").replace("tolerance = 1.0", "tolerance = 1.0\npace = 2.0");
+    let file = write(&tmp, "m.toml", &text);
     let hosts = write(&tmp, "hosts.toml", &net.hosts_file_with(SHORE_VEHICLES));
     let mut shore = start_host(&net, &tmp, &file, &hosts, "shore");
     let mut a = start_host(&net, &tmp, &file, &hosts, "glider_a");
     let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
     let out = tmp.join("shore");
-    wait_for_ticks(&out, 50);
+    wait_for_ticks(&out, 40);
     let needle = format!("--host shore --mission {}", out.display());
     let bridge = processes_mentioning(&needle);
     assert_eq!(bridge.len(), 1, "the shore's bridge: {bridge:?}");
