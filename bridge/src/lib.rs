@@ -22,6 +22,7 @@
 //! `Priority::RealTime`, exits at `Priority::InteractiveHigh`.
 
 pub mod keys;
+pub mod ping;
 pub mod run;
 pub mod wire;
 

@@ -12,6 +12,8 @@
 mod inbound;
 mod outbound;
 
+pub(crate) use outbound::publisher;
+
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::Duration;

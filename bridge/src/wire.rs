@@ -8,60 +8,28 @@
 //! layout has another size or is refused by name only if the version differs: run one
 //! build of vbap on every host).
 //!
-//! The payloads are read and written through [`Raw`] types: byte arrays with the name,
-//! size and alignment of the real payload, so iceoryx2 opens the real services with them
-//! and the bridge copies bytes without decoding (and without `unsafe`).
+//! The payloads are read and written through their raw twins (`vbap_ipc::versioned`):
+//! byte arrays with the name, size and alignment of the real payload, declared with it
+//! from one literal, so iceoryx2 opens the real services with them and the bridge copies
+//! bytes without decoding (and without `unsafe`).
 
 use iceoryx2::prelude::ZeroCopySend;
-use vbap_ipc::msg::agent_to_coordinator::VehicleState;
-use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
-use vbap_ipc::msg::supervisor_to_coordinator::ProcessExit;
+pub use vbap_ipc::msg::agent_to_coordinator::RawVehicleState as RawState;
+pub use vbap_ipc::msg::coordinator_to_agent::RawBodyCommand as RawBody;
+pub use vbap_ipc::msg::supervisor_to_coordinator::RawProcessExit as RawExit;
+pub use vbap_ipc::versioned::RawBytes;
 
 /// Magic and wire version of every frame.
 pub const MAGIC: &[u8; 6] = b"VBAPW1";
 
-/// A payload carried as bytes: its versioned type name and its size.
-pub trait Raw: Copy + std::fmt::Debug + ZeroCopySend + 'static {
+/// A payload carried as bytes under its versioned type name ([`RawBytes::TYPE_NAME`],
+/// the payload's own).
+pub trait Raw: RawBytes + ZeroCopySend {
     /// The iceoryx2 type name of the payload (as in `vbap_ipc::msg`).
-    const NAME: &'static str;
-    /// The payload's bytes.
-    fn bytes(&self) -> &[u8];
-    /// A payload of bytes `b` (exactly the payload's size: checked by [`decode`]).
-    fn from_bytes(b: &[u8]) -> Self;
+    const NAME: &'static str = <Self as vbap_ipc::versioned::Versioned>::TYPE_NAME;
 }
 
-macro_rules! raw {
-    ($raw:ident, $real:ty, $name:literal) => {
-        #[doc = concat!("The bytes of a `", stringify!($real), "` (`", $name, "`).")]
-        #[derive(Clone, Copy, Debug, ZeroCopySend)]
-        #[repr(C)]
-        #[repr(align(8))]
-        #[type_name($name)]
-        pub struct $raw {
-            /// The payload, exactly as in shared memory.
-            pub bytes: [u8; std::mem::size_of::<$real>()],
-        }
-
-        impl Raw for $raw {
-            const NAME: &'static str = $name;
-            fn bytes(&self) -> &[u8] {
-                &self.bytes
-            }
-            fn from_bytes(b: &[u8]) -> Self {
-                let mut bytes = [0u8; std::mem::size_of::<$real>()];
-                bytes.copy_from_slice(b);
-                Self { bytes }
-            }
-        }
-
-        const _: () = assert!(std::mem::align_of::<$real>() == 8);
-        const _: () = assert!(std::mem::size_of::<$raw>() == std::mem::size_of::<$real>());
-    };
-}
-
-raw!(RawState, VehicleState, "vbap.VehicleState.v5");
-raw!(RawBody, BodyCommand, "vbap.BodyCommand.v6");
-raw!(RawExit, ProcessExit, "vbap.ProcessExit.v1");
+impl<T: RawBytes + ZeroCopySend> Raw for T {}
 
 /// The frame of payload `p`.
 pub fn encode<T: Raw>(p: &T) -> Vec<u8> {
@@ -130,6 +98,7 @@ pub fn u64_at(bytes: &[u8], offset: usize) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use vbap_ipc::msg::agent_to_coordinator::VehicleState;
     use vbap_ipc::msg::Header;
     use vbap_ipc::topics::{Domain, Limits};
 

@@ -9,6 +9,8 @@
 //! - [`telemetry`]: the one tracing set-up of every process.
 //! - [`process`]: a process's life: start-up, ending with the supervisor, exit codes.
 
+#[macro_use]
+pub mod versioned;
 pub mod msg;
 pub mod msglog;
 pub mod ports;

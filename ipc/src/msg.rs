@@ -117,12 +117,13 @@ pub fn from_potential(p: &PairPotential) -> [f64; 3] {
 pub mod agent_to_coordinator {
     use super::*;
 
+    versioned! {
+    "vbap.VehicleState.v5", RawVehicleState;
     /// A vehicle's state at tick `header.tick` (service `<mission>/vehicle/<id>/state`).
     /// Its sensor reading is taken where and when this state says, by the field server,
     /// batched for the whole tick (see [`super::coordinator_to_field`]).
     #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.VehicleState.v5")]
     pub struct VehicleState {
         pub header: Header,
         /// OS process id of the agent (the coordinator SIGKILLs it for a scheduled kill).
@@ -145,6 +146,7 @@ pub mod agent_to_coordinator {
         pub water_velocity: [f64; 3],
         /// The current at `position`, length unit/s (zero in still water). Since v5.
         pub current: [f64; 3],
+    }
     }
 
     impl VehicleState {
@@ -223,12 +225,13 @@ pub mod coordinator_to_agent {
         pub const ADMITTED: u32 = 2;
     }
 
+    versioned! {
+    "vbap.BodyCommand.v6", RawBodyCommand;
     /// The virtual body for the step from tick `header.tick` to the next, with the swarm
     /// snapshot every agent needs for the inter-vehicle potential (service `<mission>/body`).
     /// Agents read it in place (zero copy).
     #[derive(Debug, Clone, Copy, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.BodyCommand.v6")]
     pub struct BodyCommand {
         pub header: Header,
         /// Virtual body parameter s.
@@ -268,6 +271,7 @@ pub mod coordinator_to_agent {
         /// Segments of the committed path: velocity dr/dt (length unit/s, 3 numbers),
         /// scale rate dk/dt (1/s), ṡ (1/s).
         pub plan: [[f64; 5]; MAX_PLAN],
+    }
     }
 
     impl BodyCommand {
@@ -470,12 +474,13 @@ pub mod field_to_coordinator {
 pub mod supervisor_to_coordinator {
     use super::*;
 
+    versioned! {
+    "vbap.ProcessExit.v1", RawProcessExit;
     /// A supervised process ended (service `<mission>/supervisor/exits`): the supervisor
     /// reaped it, so this is certain knowledge, not a guess from silence. Published at once,
     /// before any restart of that process.
     #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
     #[repr(C)]
-    #[type_name("vbap.ProcessExit.v1")]
     pub struct ProcessExit {
         pub header: Header,
         /// [`ProcessExit::AGENT`], [`ProcessExit::COORDINATOR`], [`ProcessExit::FIELD_SERVER`] or
@@ -490,6 +495,7 @@ pub mod supervisor_to_coordinator {
         /// Wall-clock time the supervisor reaped it, ns since the Unix epoch (the time of
         /// death within the supervisor's wake-up latency).
         pub died_ns: u64,
+    }
     }
 
     impl ProcessExit {

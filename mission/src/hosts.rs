@@ -10,9 +10,16 @@
 //! vehicles = [0, 1]
 //! ```
 //!
-//! Rules: the coordinator and the field server are on one host (the *shore*: the sensor
-//! requests do not cross hosts); every vehicle `0..N` is on exactly one host; a host name
-//! holds letters, digits and `_`; endpoints are `tcp/<address>:<port>`.
+//! Rules (a placement that cannot work is refused, naming the key):
+//! - the coordinator and the field server are on one host, the *shore*: the coordinator
+//!   asks the field server for every vehicle's reading once per tick (one batch request,
+//!   one reply, inside the tick's critical path); the vehicles never ask it themselves, so
+//!   nothing of sensing crosses hosts, and the bridge does not forward those services;
+//! - every vehicle `0..N` is on exactly one host, and every host runs something;
+//! - a host name holds letters, digits and `_`;
+//! - endpoints are `tcp/<address>:<port>` with a port other than 0, each host its own; the
+//!   shore's is one the glider hosts can reach (not the unspecified `0.0.0.0` / `[::]`:
+//!   they connect to it).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -120,6 +127,7 @@ impl Hosts {
         if let Some(v) = owner.iter().position(Option::is_none) {
             return Err(err("hosts".into(), format!("vehicle {v} is on no host")));
         }
+        check_placement(&file.hosts, &shore).map_err(|(key, reason)| err(key, reason))?;
         Ok(Self {
             hosts: file.hosts,
             shore,
@@ -148,12 +156,47 @@ impl Hosts {
     }
 }
 
+/// What else cannot work: a host that runs nothing, two hosts on one endpoint, a shore
+/// endpoint the glider hosts cannot connect to. Errors: (key, reason).
+fn check_placement(hosts: &BTreeMap<String, Host>, shore: &str) -> Result<(), (String, String)> {
+    let mut seen: BTreeMap<&str, &str> = BTreeMap::new();
+    for (name, h) in hosts {
+        if h.processes.is_empty() && h.vehicles.is_empty() {
+            return Err((
+                format!("hosts.{name}"),
+                "runs nothing (no processes, no vehicles): the shore would wait for it for ever"
+                    .into(),
+            ));
+        }
+        if let Some(other) = seen.insert(h.endpoint.as_str(), name.as_str()) {
+            return Err((
+                format!("hosts.{name}.endpoint = {:?}", h.endpoint),
+                format!("also host {other:?}'s endpoint: each host listens on its own"),
+            ));
+        }
+    }
+    let endpoint = &hosts[shore].endpoint;
+    let address = endpoint
+        .strip_prefix("tcp/")
+        .and_then(|a| a.rsplit_once(':'))
+        .map_or("", |(a, _)| a);
+    if matches!(address, "0.0.0.0" | "[::]") {
+        return Err((
+            format!("hosts.{shore}.endpoint = {endpoint:?}"),
+            "the shore's endpoint must be an address the glider hosts can connect to, not the unspecified address".into(),
+        ));
+    }
+    Ok(())
+}
+
 fn check_endpoint(endpoint: &str) -> Result<(), String> {
     let Some(addr) = endpoint.strip_prefix("tcp/") else {
         return Err("must be tcp/<address>:<port> (the bridge speaks TCP only)".into());
     };
     match addr.rsplit_once(':') {
-        Some((host, port)) if !host.is_empty() && port.parse::<u16>().is_ok() => Ok(()),
+        Some((host, port)) if !host.is_empty() && port.parse::<u16>().is_ok_and(|p| p > 0) => {
+            Ok(())
+        }
         _ => Err("must be tcp/<address>:<port>".into()),
     }
 }
@@ -205,5 +248,33 @@ vehicles = [2]
         );
         let e = Hosts::parse(&split, "hosts.toml", 3).unwrap_err();
         assert!(e.contains("must run on the coordinator's host"), "{e}");
+    }
+
+    #[test]
+    fn placements_that_cannot_work_name_the_key() {
+        let idle = format!("{GOOD}[hosts.spare]\nendpoint = \"tcp/10.88.0.9:7447\"\n");
+        let e = Hosts::parse(&idle, "hosts.toml", 3).unwrap_err();
+        assert!(e.contains("hosts.toml: hosts.spare: runs nothing"), "{e}");
+        let same = GOOD.replace("10.88.0.3", "10.88.0.2");
+        let e = Hosts::parse(&same, "hosts.toml", 3).unwrap_err();
+        assert!(
+            e.contains("hosts.glider_b.endpoint") && e.contains("glider_a"),
+            "{e}"
+        );
+        let any = GOOD.replace("10.88.0.1", "0.0.0.0");
+        let e = Hosts::parse(&any, "hosts.toml", 3).unwrap_err();
+        assert!(
+            e.contains("hosts.shore.endpoint") && e.contains("connect"),
+            "{e}"
+        );
+        let port0 = GOOD.replace("10.88.0.2:7447", "10.88.0.2:0");
+        let e = Hosts::parse(&port0, "hosts.toml", 3).unwrap_err();
+        assert!(e.contains("hosts.glider_a.endpoint"), "{e}");
+        let no_field = GOOD.replace("\"coordinator\", \"field_server\"", "\"coordinator\"");
+        let e = Hosts::parse(&no_field, "hosts.toml", 3).unwrap_err();
+        assert!(e.contains("hosts: the \"field_server\" must run"), "{e}");
+        // Vehicles on the shore work (their states stay in its iceoryx2 domain).
+        let mixed = GOOD.replace("\"field_server\"]\n", "\"field_server\"]\nvehicles = [3]\n");
+        assert!(Hosts::parse(&mixed, "hosts.toml", 4).is_ok());
     }
 }

@@ -14,6 +14,7 @@ use vbap_ipc::msglog::{self, MsgRecord, MSG_SUFFIX};
 pub mod columns;
 pub mod grid;
 pub mod mission;
+pub mod netns;
 /// The workspace root.
 pub fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

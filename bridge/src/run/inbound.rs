@@ -33,7 +33,7 @@ use zenoh::Wait;
 
 use super::{liveliness_event, Counts, In, Place, Stop, POLL};
 use crate::keys::Keys;
-use crate::wire::{self, Raw, RawBody, RawExit, RawState};
+use crate::wire::{self, RawBody, RawBytes, RawExit, RawState};
 
 /// The Zenoh subscribers of this host (kept alive by the caller): their callbacks send to
 /// `tx`.
@@ -86,6 +86,11 @@ struct Shore {
     proxies: BTreeMap<u32, Node<ipc::Service>>,
     /// The pid of each remote vehicle's process, from its last state.
     pids: BTreeMap<u32, u32>,
+    /// This bridge started while the coordinator already ran (it is a restarted bridge:
+    /// the coordinator lost the remote vehicles when the old one's proxy nodes died).
+    restarted: bool,
+    /// The remote vehicles whose first state through this bridge has been forwarded.
+    heard: std::collections::BTreeSet<u32>,
 }
 
 /// A glider host's inbound ports.
@@ -108,6 +113,7 @@ pub(crate) fn run(
     let node = domain.node("vbap_bridge_in")?;
     // The coordinator is up once the body service has its publisher.
     let body_service = domain.body_service_as::<RawBody>(&node, limits)?;
+    let coordinator_up = body_service.dynamic_config().number_of_publishers() > 0;
     let mut shore = None;
     let mut glider = None;
     if place.is_shore() {
@@ -132,7 +138,12 @@ pub(crate) fn run(
             exits,
             proxies: BTreeMap::new(),
             pids: BTreeMap::new(),
+            restarted: coordinator_up,
+            heard: Default::default(),
         });
+        if coordinator_up {
+            info!("the coordinator already runs: a restarted bridge (remote vehicles rejoin)");
+        }
     } else {
         let mut wakes = Vec::new();
         for id in place.local_vehicles() {
@@ -226,10 +237,10 @@ impl Shore {
     ) -> Result<bool> {
         let last = Keys::last(key);
         if key.contains("/state/") {
-            let Some((id, sender)) = last
+            let Some(id) = last
                 .parse::<u32>()
                 .ok()
-                .and_then(|id| Some((id, self.states.get(&id)?)))
+                .filter(|id| self.states.contains_key(id))
             else {
                 counts.refuse(key, &"no remote vehicle of this id");
                 return Ok(false);
@@ -250,11 +261,19 @@ impl Shore {
                 );
                 return Ok(false);
             }
-            self.pids.insert(
-                id,
-                wire::u32_at(raw.bytes(), std::mem::offset_of!(VehicleState, pid)),
-            );
-            sender.send(raw)?;
+            let pid = wire::u32_at(raw.bytes(), std::mem::offset_of!(VehicleState, pid));
+            self.pids.insert(id, pid);
+            if self.restarted && self.heard.insert(id) {
+                // The coordinator lost this vehicle with the old bridge's proxy node (it
+                // saw a dead node) and takes its process's states as last words: report
+                // it unreachable, so its next state is a join request and it rejoins.
+                self.exits.send(unreachable(id, pid))?;
+                info!(
+                    vehicle = id,
+                    pid, "first state through a restarted bridge: rejoins"
+                );
+            }
+            self.states[&id].send(raw)?;
         } else {
             let raw = match wire::decode::<RawExit>(bytes) {
                 Ok(r) => r,

@@ -40,7 +40,7 @@ pub(crate) struct Spec {
 const IDLE: Duration = Duration::from_millis(100);
 
 /// A Zenoh publisher of our streams: reliable, blocking, express (see the crate doc).
-fn publisher(
+pub(crate) fn publisher(
     session: &zenoh::Session,
     key: String,
     priority: Priority,

@@ -31,7 +31,9 @@
 
 mod fanout;
 mod floors;
+mod hosts;
 mod measure;
+mod netns;
 mod overhead;
 mod render;
 mod report;
@@ -69,6 +71,10 @@ pub struct BenchArgs {
     /// the runs that failed, ran late, rejected states or lost vehicles.
     #[arg(long)]
     pub work_dir: Option<PathBuf>,
+    /// Instead: the cost of a mission spread over 3 hosts (network namespaces: root)
+    /// against raw Zenoh over the same links (cli/src/bench/hosts.rs).
+    #[arg(long)]
+    pub hosts: bool,
     /// Helper role of a peer process (internal).
     #[arg(long, hide = true, value_enum)]
     pub role: Option<floors::Role>,
@@ -185,6 +191,13 @@ pub fn main(args: &BenchArgs) -> Result<i32> {
     }
     check_out(args)?;
     let (work, keep) = work_dir(args)?;
+    if args.hosts {
+        let code = hosts::bench(args, &work)?;
+        if !keep {
+            let _ = std::fs::remove_dir_all(&work);
+        }
+        return Ok(code);
+    }
     let stop = StopFlag::new(Domain::new(&unique_name("s"))?)?;
     let result = measure::bench(args, &work, &stop);
     stop.close();

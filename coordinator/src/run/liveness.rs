@@ -164,6 +164,11 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             // The process we know for this vehicle (or, never heard of, one that died since
             // we started); a report of an older process is old news.
             let ours = peer.pid == e.pid || (peer.pid == 0 && e.died_ns >= self.live.since_ns);
+            if ours && e.role == ProcessExit::UNREACHABLE && e.pid != 0 {
+                // Across hosts: even a vehicle already lost (its proxy node found dead when
+                // the shore's bridge died) may live on: its next word is a join request.
+                self.inbox.peers[v as usize].pid = 0;
+            }
             if !self.fleet.is_alive(v) || !ours {
                 continue;
             }

@@ -1,0 +1,56 @@
+//! `vbap_zenoh_ping --hosts FILE --host NAME --vehicles N (--pong | --samples K)`: the raw Zenoh
+//! ping-pong of `vbap bench --hosts` (the floor of a cross-host hop, `vbap_bridge::ping`).
+//! The pinging side prints its round-trip times, µs, one a line.
+
+use std::path::PathBuf;
+
+use clap::Parser;
+
+/// A raw Zenoh ping-pong between two hosts of a hosts file, with the bridge's settings.
+#[derive(Parser, Debug)]
+#[command(version, about)]
+struct Args {
+    /// The hosts file.
+    #[arg(long)]
+    hosts: PathBuf,
+    /// This host's name in the hosts file.
+    #[arg(long)]
+    host: String,
+    /// The fleet size the hosts file places.
+    #[arg(long)]
+    vehicles: usize,
+    /// Answer pings (else: send them).
+    #[arg(long)]
+    pong: bool,
+    /// Measured round trips.
+    #[arg(long, default_value_t = 1000)]
+    samples: usize,
+    /// Unmeasured round trips first.
+    #[arg(long, default_value_t = 100)]
+    warm: usize,
+}
+
+fn main() {
+    let args = Args::parse();
+    let hosts = match vbap_mission::hosts::Hosts::load(&args.hosts, args.vehicles)
+        .and_then(|h| h.host(&args.host).map(|_| ()).map(|()| h))
+    {
+        Ok(h) => h,
+        Err(e) => {
+            eprintln!("vbap_zenoh_ping: {e}");
+            std::process::exit(vbap_ipc::process::EXIT_INVALID);
+        }
+    };
+    let result = if args.pong {
+        vbap_bridge::ping::pong(&hosts, &args.host)
+    } else {
+        vbap_bridge::ping::ping(&hosts, &args.host, args.warm, args.samples).map(|rtt| {
+            let lines: Vec<String> = rtt.iter().map(|v| format!("{v:.1}")).collect();
+            println!("{}", lines.join("\n"));
+        })
+    };
+    if let Err(e) = result {
+        eprintln!("vbap_zenoh_ping: {e:#}");
+        std::process::exit(1);
+    }
+}

@@ -1,0 +1,200 @@
+//! Faults of the shore across hosts (network namespaces, root: see `tests::netns`): the
+//! shore host lost to the network (gliders hold, resume when it returns), the shore's
+//! bridge killed alone (the remote vehicles rejoin through the restarted one), and a
+//! placement that cannot work (exit 2, the key named).
+
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use tests::netns::*;
+use tests::*;
+
+/// The six vehicles of `rejoin_mission`: 0, 1 on glider_a, 2, 3 on glider_b, 4, 5 on the
+/// shore beside the coordinator (it has vehicles of its own while the others are away).
+const SHORE_VEHICLES: &str = "vehicles = [4, 5]";
+
+/// The events of kind `kind` in the shore's events.jsonl, of the glider hosts' vehicles.
+fn events(out: &std::path::Path, kind: &str) -> Vec<serde_json::Value> {
+    read(&out.join("events.jsonl"))
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|e| e["kind"] == kind && e["vehicle"].as_u64().is_some_and(|v| v < 4))
+        .collect()
+}
+
+/// Ticks of vehicle `v` in vehicles.csv (the coordinator's record of its states).
+fn ticks_of(out: &std::path::Path, v: u64) -> Vec<u64> {
+    let mut r = csv::Reader::from_path(out.join("vehicles.csv")).expect("vehicles.csv");
+    let h = r.headers().unwrap().clone();
+    let col = |name: &str| h.iter().position(|c| c == name).expect(name);
+    let (tick, id) = (col("k"), col("id"));
+    r.records()
+        .flatten()
+        .filter(|rec| rec[id].parse::<u64>().ok() == Some(v))
+        .filter_map(|rec| rec[tick].parse().ok())
+        .collect()
+}
+
+fn wait_all(children: Vec<(&str, &mut ChildGuard)>) {
+    for (h, child) in children {
+        let status = child.wait();
+        assert!(status.success(), "host {h}: {status:?}");
+    }
+}
+
+#[test]
+fn the_shore_lost_to_the_network_makes_gliders_hold_and_they_resume_when_it_returns() {
+    let tmp = TempDir::new("hostslost");
+    let net = Net::new();
+    let name = unique_name("hostslost");
+    // Paced (2× real time): a glider hears nothing and holds station, as when the
+    // coordinator dies.
+    let text =
+        rejoin_mission(&name, 40.0, "").replace("tolerance = 1.0", "tolerance = 1.0\npace = 2.0");
+    let file = write(&tmp, "m.toml", &text);
+    let hosts = write(&tmp, "hosts.toml", &net.hosts_file_with(SHORE_VEHICLES));
+    let mut shore = start_host(&net, &tmp, &file, &hosts, "shore");
+    let mut a = start_host(&net, &tmp, &file, &hosts, "glider_a");
+    let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
+    let out = tmp.join("shore");
+    wait_for_ticks(&out, 40);
+    net.link("shore", false);
+    let cut = Instant::now();
+    // The glider hosts' vehicles are lost on the shore (its links' lease, 1 s) ...
+    wait_until(
+        || events(&out, "lost").len() >= 4,
+        Duration::from_secs(30),
+        "the glider hosts' vehicles lost on the shore",
+    );
+    // ... and hold station on their hosts (their own logs).
+    let holding = |h: &str, v: u32| {
+        read(&tmp.join(h).join(format!("logs/vehicle_agent_{v}.jsonl")))
+            .contains("coordinator silent: holding station")
+    };
+    wait_until(
+        || holding("glider_a", 0) && holding("glider_b", 3),
+        Duration::from_secs(30),
+        "the gliders holding station",
+    );
+    // Away for at least 4 s (past the lease on both sides), then back.
+    while cut.elapsed() < Duration::from_secs(4) {
+        std::thread::park_timeout(Duration::from_millis(100));
+    }
+    net.link("shore", true);
+    wait_until(
+        || events(&out, "rejoin").len() >= 4,
+        Duration::from_secs(60),
+        "the glider hosts' vehicles rejoined",
+    );
+    wait_all(vec![
+        ("shore", &mut shore),
+        ("glider_a", &mut a),
+        ("glider_b", &mut b),
+    ]);
+    for e in events(&out, "lost") {
+        assert_eq!(e["detail"]["cause"], "host unreachable", "{e}");
+    }
+    // The truth of the run: every vehicle's states reach the coordinator again after the
+    // outage, up to the mission's end (vehicles.csv), and the shore's own never stopped.
+    let last = ticks_of(&out, 4).into_iter().max().unwrap();
+    for v in 0..6 {
+        let ticks = ticks_of(&out, v);
+        assert!(
+            ticks.iter().any(|&t| t + 20 >= last),
+            "vehicle {v} recorded near the end (last tick {last}): {:?}",
+            ticks.last()
+        );
+    }
+    let s = summary(&out);
+    assert_eq!(s["mode"], "multi-process");
+    assert!(s["vehicles_lost"].as_u64().unwrap() >= 4, "{s}");
+    assert_clean(net, &tmp);
+}
+
+#[test]
+fn the_shores_bridge_restarted_alone_lets_the_remote_vehicles_rejoin() {
+    let tmp = TempDir::new("hostsbridge");
+    let net = Net::new();
+    let name = unique_name("hostsbridge");
+    // Paced (2× real time), so the mission outlasts the bridge's restart (in lockstep the
+    // shore's own two vehicles ran it to its end first).
+    let text =
+        rejoin_mission(&name, 60.0, "").replace("tolerance = 1.0", "tolerance = 1.0\npace = 2.0");
+    let file = write(&tmp, "m.toml", &text);
+    let hosts = write(&tmp, "hosts.toml", &net.hosts_file_with(SHORE_VEHICLES));
+    let mut shore = start_host(&net, &tmp, &file, &hosts, "shore");
+    let mut a = start_host(&net, &tmp, &file, &hosts, "glider_a");
+    let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
+    let out = tmp.join("shore");
+    wait_for_ticks(&out, 40);
+    let needle = format!("--host shore --mission {}", out.display());
+    let bridge = processes_mentioning(&needle);
+    assert_eq!(bridge.len(), 1, "the shore's bridge: {bridge:?}");
+    let _ = Command::new("kill")
+        .args(["-KILL", &bridge[0].to_string()])
+        .status();
+    // Its proxy nodes die with it: the coordinator loses the remote vehicles ...
+    wait_until(
+        || events(&out, "lost").len() >= 4,
+        Duration::from_secs(60),
+        "the remote vehicles lost",
+    );
+    // ... and the shore's supervisor restarts the bridge: they rejoin through it.
+    wait_until(
+        || events(&out, "rejoin").len() >= 4,
+        Duration::from_secs(90),
+        "the remote vehicles back",
+    );
+    wait_all(vec![
+        ("shore", &mut shore),
+        ("glider_a", &mut a),
+        ("glider_b", &mut b),
+    ]);
+    let log = read(&out.join("logs/vbap_bridge.jsonl"));
+    assert!(log.contains("a restarted bridge"), "{log}");
+    assert_eq!(summary(&out)["mode"], "multi-process");
+    assert_clean(net, &tmp);
+}
+
+#[test]
+fn a_placement_that_cannot_work_exits_2_naming_the_key() {
+    let tmp = TempDir::new("hostsbad");
+    let name = unique_name("hostsbad");
+    let file = write(&tmp, "m.toml", &hosts_mission(&name, 1.0));
+    let bad = [
+        (
+            "[hosts.shore]\nendpoint = \"tcp/10.1.0.1:7447\"\nprocesses = [\"coordinator\"]\n\
+             [hosts.g]\nendpoint = \"tcp/10.1.0.2:7447\"\nprocesses = [\"field_server\"]\nvehicles = [0, 1, 2, 3]\n",
+            "hosts: the \"field_server\" must run on the coordinator's host",
+        ),
+        (
+            "[hosts.shore]\nendpoint = \"tcp/0.0.0.0:7447\"\nprocesses = [\"coordinator\", \"field_server\"]\n\
+             [hosts.g]\nendpoint = \"tcp/10.1.0.2:7447\"\nvehicles = [0, 1, 2, 3]\n",
+            "hosts.shore.endpoint",
+        ),
+        (
+            "[hosts.shore]\nendpoint = \"tcp/10.1.0.1:7447\"\nprocesses = [\"coordinator\", \"field_server\"]\n\
+             [hosts.g]\nendpoint = \"tcp/10.1.0.2:7447\"\nvehicles = [0, 1, 2]\n",
+            "vehicle 3 is on no host",
+        ),
+    ];
+    for (i, (text, want)) in bad.iter().enumerate() {
+        let hosts = write(&tmp, &format!("h{i}.toml"), text);
+        let out = vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--hosts")
+            .arg(&hosts)
+            .arg("--host")
+            .arg("shore")
+            .arg("--out")
+            .arg(tmp.join(&format!("run{i}")))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains(want), "{want:?} in {err}");
+        assert!(err.contains(&format!("h{i}.toml")), "the file named: {err}");
+    }
+    assert_nothing_left(&name, &tmp);
+}
