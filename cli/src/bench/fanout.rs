@@ -1,12 +1,13 @@
 //! The fan-out of one command to N agents: our zero-copy path against UDP unicast.
 //!
-//! The command carries the swarm snapshot: a [`BodyCommand`] is about 20 KB whatever the
-//! fleet. One fan-out sends it to N receiver processes (`vbap bench --role fanout-iox` /
+//! The command carries the swarm snapshot: a [`BodyCommand`] of N vehicles is written
+//! entries-in-use only ([`command_bytes`]: ~40 KB at N = 256). One fan-out sends it to N receiver processes (`vbap bench --role fanout-iox` /
 //! `fanout-udp`, one process each) and each receiver reads what an agent needs of it: the
 //! header and its own snapshot entry.
 //!
 //! - *iceoryx2 (our path)*: the coordinator copies the command once into shared memory
-//!   (`send_copy` on the body service, as `coordinator::run` publishes it) and notifies each
+//!   (`vbap_ipc::prefix::publish` on the body service, as `coordinator::run` publishes it:
+//!   the entries in use only) and notifies each
 //!   agent on its own wake service; every agent reads the one copy in place. Ports through
 //!   the system's own builders (`Domain::body_service`, `vehicle_wake`, `body_receiver`).
 //! - *UDP unicast*: the same number of bytes sent to each receiver's socket on 127.0.0.1
@@ -28,7 +29,7 @@ use anyhow::{anyhow, Context, Result};
 use nix::time::{clock_gettime, ClockId};
 use serde::Serialize;
 use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
-use vbap_ipc::msg::{wall_ns, Header};
+use vbap_ipc::msg::{wall_ns, Header, MAX_VEHICLES};
 use vbap_ipc::ports;
 use vbap_ipc::topics::{Domain, Limits};
 use vbap_ipc::wait::{Event, Wake};
@@ -37,8 +38,13 @@ use vbap_mission::rundir::Percentiles;
 use super::floors::{in_private_domain, say_ready, wait_events, Helper};
 use super::StopFlag;
 
-/// Bytes of one command.
-pub const BYTES: usize = std::mem::size_of::<BodyCommand>();
+/// Bytes of a command of `n` vehicles as the coordinator writes it (the snapshot's entries
+/// in use; the other arrays whole), and as UDP sends it.
+pub fn command_bytes(n: usize) -> usize {
+    std::mem::size_of::<BodyCommand>()
+        - (MAX_VEHICLES - n.min(MAX_VEHICLES))
+            * std::mem::size_of::<vbap_ipc::msg::coordinator_to_agent::SnapshotEntry>()
+}
 /// Flag of the last message: the receiver reports and exits.
 const STOP: u32 = 1 << 31;
 
@@ -138,7 +144,7 @@ pub fn fanout(
     let udp = udp_fanout(work, n, warmup, rounds, interval, stop)?;
     Ok(Fanout {
         receivers: n,
-        bytes: BYTES,
+        bytes: command_bytes(n),
         interval_ms: interval.as_secs_f64() * 1e3,
         iceoryx2,
         udp,
@@ -253,7 +259,7 @@ fn iox_fanout(
             let c0 = cpu_ns(ClockId::CLOCK_THREAD_CPUTIME_ID);
             command.header = Header::new(Header::COORDINATOR, r, 0.0, r + 1);
             command.header.sent_ns = wall_ns();
-            body.send_copy(*command)
+            vbap_ipc::prefix::publish(&body, &*command)
                 .map_err(|e| anyhow!("publishing the command: {e:?}"))?;
             let c1 = cpu_ns(ClockId::CLOCK_THREAD_CPUTIME_ID);
             for a in &agents {
@@ -266,7 +272,7 @@ fn iox_fanout(
             std::thread::sleep(interval); // the pace of the fan-outs (see the module doc)
         }
         command.header = Header::new(Header::COORDINATOR, u64::MAX, 0.0, u64::MAX).with_flags(STOP);
-        body.send_copy(*command)
+        vbap_ipc::prefix::publish(&body, &*command)
             .map_err(|e| anyhow!("publishing the last command: {e:?}"))?;
         for a in &agents {
             let _ = a.notify();
@@ -334,7 +340,7 @@ fn udp_fanout(
         stop.check()?;
     }
     let socket = UdpSocket::bind("127.0.0.1:0").context("binding a UDP socket on 127.0.0.1")?;
-    let mut buf = vec![0u8; BYTES];
+    let mut buf = vec![0u8; command_bytes(n)];
     let mut sender_ns = 0;
     for r in 0..(warmup + rounds) as u64 {
         stop.check()?;
@@ -357,20 +363,21 @@ fn udp_fanout(
     collect(helpers, (sender_ns, sender_ns), rounds)
 }
 
-/// Helper role: one receiver of the UDP fan-out.
-pub fn udp_receiver(id: usize, warmup: u64, rounds: usize) -> Result<i32> {
+/// Helper role: one receiver of the UDP fan-out (of `n` receivers).
+pub fn udp_receiver(id: usize, n: usize, warmup: u64, rounds: usize) -> Result<i32> {
+    let bytes = command_bytes(n);
     let socket = UdpSocket::bind("127.0.0.1:0").context("binding a UDP socket on 127.0.0.1")?;
     let mut tally = Tally::new(warmup, rounds);
     say_ready(&socket.local_addr()?.port().to_string());
-    let mut buf = vec![0u8; BYTES];
+    let mut buf = vec![0u8; bytes];
     // Where this receiver's own snapshot entry would be: read it, as the agent does.
     let entry = (std::mem::offset_of!(BodyCommand, snapshot)
         + id * std::mem::size_of::<vbap_ipc::msg::coordinator_to_agent::SnapshotEntry>())
-    .min(BYTES - 8);
+    .min(bytes - 8);
     loop {
         let got = socket.recv(&mut buf).context("receiving a UDP command")?;
         let recv_ns = wall_ns();
-        if got != BYTES {
+        if got != bytes {
             continue;
         }
         let u64_at = |at: usize| u64::from_le_bytes(buf[at..at + 8].try_into().expect("8 bytes"));

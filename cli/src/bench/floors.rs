@@ -760,6 +760,7 @@ pub fn helper(role: Role, args: &BenchArgs) -> Result<i32> {
         }
         Role::FanoutUdp => super::fanout::udp_receiver(
             args.id.unwrap_or(0),
+            args.agents.unwrap_or(0),
             args.warmup.unwrap_or(0),
             args.rounds.unwrap_or(0),
         ),

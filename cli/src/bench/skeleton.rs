@@ -8,9 +8,9 @@
 //! `vehicle_wake`, `coordinator_wake`, `field_wake`), so the skeleton follows any change of
 //! the system's topology or service settings. One tick:
 //!
-//! 1. the coordinator publishes a [`BodyCommand`] (the real type and size, copied once into
-//!    shared memory as `coordinator::run` does) and wakes every agent on its own wake
-//!    service;
+//! 1. the coordinator publishes a [`BodyCommand`] (the real type, written once into shared
+//!    memory entries-in-use only, `vbap_ipc::prefix`, as `coordinator::run` does) and wakes
+//!    every agent on its own wake service;
 //! 2. each agent reads the command in place (its header and its own snapshot entry) and
 //!    publishes a [`VehicleState`] of the next tick, waking the coordinator with its
 //!    vehicle event;
@@ -82,8 +82,7 @@ impl Coordinator {
     /// Publishes `body` (one copy into shared memory) and wakes every agent.
     fn fan_out(&self, body: &mut BodyCommand) -> Result<()> {
         body.header.sent_ns = wall_ns();
-        self.body
-            .send_copy(*body)
+        vbap_ipc::prefix::publish(&self.body, &*body)
             .map_err(|e| anyhow!("publishing the body: {e:?}"))?;
         for a in &self.agents {
             a.notify().map_err(|e| anyhow!("waking an agent: {e:?}"))?;
@@ -212,9 +211,7 @@ fn sense(
     }
     batch.n = latest.len() as u32;
     batch.header = Header::new(Header::COORDINATOR, tick, tick as f64 * DT, tick);
-    let pending = c
-        .client
-        .send_copy(*batch)
+    let pending = vbap_ipc::prefix::request(&c.client, &*batch)
         .map_err(|e| anyhow!("sending the sensor reads: {e:?}"))?;
     c.field
         .notify()
@@ -305,7 +302,7 @@ pub fn field(domain: &Domain, n: usize) -> Result<i32> {
             }
             reply.header = Header::new(Header::FIELD_SERVER, request.header.tick, 0.0, 0);
             reply.request_seq = request.header.seq;
-            let _ = request.send_copy(*reply);
+            let _ = vbap_ipc::prefix::respond(&request, &*reply);
             let _ = coordinator.notify();
         }
         while let Some(b) = body
