@@ -91,8 +91,11 @@ fn the_shore_lost_to_the_network_makes_gliders_hold_and_they_resume_when_it_retu
         ("glider_a", &mut a),
         ("glider_b", &mut b),
     ]);
+    // Found by the bridge's liveliness ("host unreachable") or, when the coordinator's own
+    // scan sees the vehicle's proxy node go first, as "process gone": either is this loss.
     for e in events(&out, "lost") {
-        assert_eq!(e["detail"]["cause"], "host unreachable", "{e}");
+        let cause = e["detail"]["cause"].as_str().unwrap_or_default();
+        assert!(["host unreachable", "process gone"].contains(&cause), "{e}");
     }
     // The truth of the run: every vehicle's states reach the coordinator again after the
     // outage, up to the mission's end (vehicles.csv), and the shore's own never stopped.
