@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context, Result};
 use nix::sys::signal::Signal;
 use tokio::io::{AsyncBufReadExt, BufReader};
-use tokio::process::{Child, Command};
-use tokio::sync::mpsc;
+use tokio::process::{Child, ChildStdout, Command};
+use tokio::sync::{mpsc, oneshot};
 use tracing::{info, warn};
 use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
 use vbap_ipc::msg::supervisor_to_coordinator::ProcessExit;
@@ -336,11 +336,10 @@ async fn spawn(exe: &Executable, name: &str, args: &[String], dir: &RunDir) -> R
 /// A child's standard output, read line by line.
 type StdoutLines = tokio::io::Lines<BufReader<tokio::process::ChildStdout>>;
 
-/// Waits until `child` prints `ready`; returns the rest of its output (None when the child
-/// had no output to read).
-async fn await_ready(name: &str, child: &mut Child) -> Result<StdoutLines> {
-    let stdout = child.stdout.take().context("child stdout")?;
-    let mut lines = BufReader::new(stdout).lines();
+/// Waits until the process whose output is `stdout` prints `ready`; returns the rest of its
+/// output.
+async fn await_ready(name: &str, stdout: Option<ChildStdout>) -> Result<StdoutLines> {
+    let mut lines = BufReader::new(stdout.context("child stdout")?).lines();
     let line = tokio::time::timeout(READY_TIMEOUT, lines.next_line())
         .await
         .with_context(|| format!("{name} did not get ready within {READY_TIMEOUT:?}"))?
@@ -437,17 +436,13 @@ impl<'a> ProcessSet<'a> {
         let mut launched = Vec::new();
         for slot in 0..self.procs.len() {
             if agent(self.procs[slot].role) {
-                launched.push((slot, self.launch(slot).await?));
+                launched.push(self.launch(slot).await?);
             }
         }
         let mut first_error = None;
-        for (slot, (name, mut child)) in launched {
-            match await_ready(&name, &mut child).await {
-                Ok(lines) => self.watch(slot, child, Some(lines)),
-                Err(e) => {
-                    first_error.get_or_insert(e);
-                    self.watch(slot, child, None);
-                }
+        for ready in launched {
+            if let Err(e) = ready.await.context("a watcher ended")? {
+                first_error.get_or_insert(e);
             }
         }
         match first_error {
@@ -475,46 +470,45 @@ impl<'a> ProcessSet<'a> {
 
     /// Starts the process of `slot` (first start or restart) and waits until it is ready.
     async fn start(&mut self, slot: usize) -> Result<()> {
-        let (name, mut child) = self.launch(slot).await?;
-        let ready = await_ready(&name, &mut child).await;
-        match ready {
-            Ok(lines) => {
-                self.watch(slot, child, Some(lines));
-                Ok(())
-            }
-            Err(e) => {
-                self.watch(slot, child, None);
-                Err(e)
-            }
-        }
+        self.launch(slot).await?.await.context("a watcher ended")?
     }
 
-    /// Spawns the process of `slot` without waiting for it to be ready.
-    async fn launch(&mut self, slot: usize) -> Result<(String, Child)> {
+    /// Spawns the process of `slot` and hands it to its watcher at once; the answer says
+    /// whether it got ready. Watched from its spawn, a process is reaped and reported even
+    /// when its start is abandoned (Ctrl-C while the set starts), so stopping the set
+    /// never waits for a process nobody watches.
+    async fn launch(&mut self, slot: usize) -> Result<oneshot::Receiver<Result<()>>> {
         let role = self.procs[slot].role;
         let (exe, args) = self.args(role, self.procs[slot].generation > 0);
-        let name = role.name();
-        let child = spawn(exe, &name, &args, self.dir).await?;
+        let child = spawn(exe, &role.name(), &args, self.dir).await?;
         self.procs[slot].pid = child.id();
         self.procs[slot].generation += 1;
-        Ok((name, child))
+        Ok(self.watch(slot, child))
     }
 
-    /// Reports the end of `child` (the process of `slot`) on the exit channel. A
-    /// coordinator's output (`lines`, after `ready`) is read until it ends, for the summary
-    /// it hands over; any other child's is closed.
-    fn watch(&self, slot: usize, mut child: Child, lines: Option<StdoutLines>) {
+    /// Watches `child` (the process of `slot`): tells whether it printed `ready`, reads a
+    /// coordinator's further output until it ends (for the summary it hands over; any other
+    /// child's output is closed), and reports the child's end on the exit channel.
+    fn watch(&self, slot: usize, mut child: Child) -> oneshot::Receiver<Result<()>> {
         let generation = self.procs[slot].generation;
         let role = self.procs[slot].role;
         let exits = self.exits.clone();
         let notices = self.notices.clone();
         let handed = self.handed.clone();
         let stopping = self.stopping.clone();
-        let lines = lines.filter(|_| role == Role::Coordinator);
+        let (ready_tx, ready_rx) = oneshot::channel();
         tokio::spawn(async move {
-            if let Some(lines) = lines {
-                if let Some(summary) = read_handover(lines).await {
-                    *handed.lock().unwrap_or_else(|e| e.into_inner()) = Some(summary);
+            match await_ready(&role.name(), child.stdout.take()).await {
+                Ok(lines) => {
+                    let _ = ready_tx.send(Ok(()));
+                    if role == Role::Coordinator {
+                        if let Some(summary) = read_handover(lines).await {
+                            *handed.lock().unwrap_or_else(|e| e.into_inner()) = Some(summary);
+                        }
+                    }
+                }
+                Err(e) => {
+                    let _ = ready_tx.send(Err(e));
                 }
             }
             let pid = child.id();
@@ -534,6 +528,7 @@ impl<'a> ProcessSet<'a> {
                 status,
             });
         });
+        ready_rx
     }
 
     /// Sends `sig` to every running process.

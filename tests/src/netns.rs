@@ -180,31 +180,11 @@ pub fn assert_clean(net: Net, tmp: &TempDir) {
     }
 }
 
+/// The shared Gaussian-hill test mission ([`crate::mission::GaussianHill`]), `duration` s.
 pub fn hosts_mission(name: &str, duration: f64) -> String {
-    format!(
-        r#"
-[mission]
-name = "{name}"
-seed = 7
-duration = {duration}
-dt = 0.05
-goal = "max"
-dim = 2
-tolerance = 1.0
-
-[field]
-kind = "gaussian"
-center = [6.0, 3.0]
-amplitude = 10.0
-width = 6.0
-noise_std = 0.1
-
-[vehicles]
-count = 4
-start = [0.0, 0.0]
-start_spread = 0.3
-"#
-    )
+    crate::mission::GaussianHill::new(name)
+        .duration(duration)
+        .toml()
 }
 
 pub fn write(tmp: &TempDir, file: &str, text: &str) -> PathBuf {

@@ -311,3 +311,43 @@ fn message_records_have_their_own_switch_not_the_log_level() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("VBAP_MSG_RECORDS"));
     assert!(!tmp.join("bad").exists());
 }
+
+#[test]
+fn ctrl_c_while_the_agents_start_stops_every_process_and_leaves_nothing() {
+    let tmp = TempDir::new("intstart");
+    let name = unique_name("intstart");
+    let text = GaussianHill::new(&name)
+        .duration(300.0)
+        .pace("1.0")
+        .count(48)
+        .toml();
+    let file = write_mission(&tmp, "m.toml", &text);
+    let out = tmp.join("run");
+    let mut run = spawn_run(&file, &out);
+    // Agent 0 is launched: the other agents are being launched or awaited (48 of them take
+    // a while), which is when an interrupted start used to drop the children it had not
+    // yet handed to a watcher, and the supervisor then waited for them for ever.
+    let mission_path = out.join("mission.toml").display().to_string();
+    wait_until(
+        || processes_mentioning(&format!("{mission_path} --id 0 --")).len() == 1,
+        Duration::from_secs(60),
+        "agent 0 to be launched",
+    );
+    run.signal("INT");
+    let child = run.0.as_mut().expect("vbap run");
+    wait_until(
+        || child.try_wait().expect("polling vbap run").is_some(),
+        Duration::from_secs(60),
+        "vbap run to end on SIGINT while its agents start",
+    );
+    wait_until(
+        || processes_mentioning(&mission_path).is_empty(),
+        Duration::from_secs(30),
+        "every process of the run to end",
+    );
+    wait_until(
+        || leftover_files(&name).is_empty(),
+        Duration::from_secs(10),
+        "the domain's files to be removed",
+    );
+}
