@@ -3,6 +3,7 @@
 //! bridge killed alone (the remote vehicles rejoin through the restarted one), and a
 //! placement that cannot work (exit 2, the key named).
 
+use std::path::PathBuf;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -42,22 +43,52 @@ fn wait_all(children: Vec<(&str, &mut ChildGuard)>) {
     }
 }
 
+/// The three hosts of a paced (2× real time) rejoin mission of `duration` s, 40 ticks in.
+struct Paced {
+    tmp: TempDir,
+    net: Net,
+    shore: ChildGuard,
+    a: ChildGuard,
+    b: ChildGuard,
+    /// The shore's run directory.
+    out: PathBuf,
+}
+
+impl Paced {
+    fn start(tag: &str, duration: f64) -> Self {
+        let tmp = TempDir::new(tag);
+        let net = Net::new();
+        let text = rejoin_mission(&unique_name(tag), duration, "")
+            .replace("tolerance = 1.0", "tolerance = 1.0\npace = 2.0");
+        let file = write(&tmp, "m.toml", &text);
+        let hosts = write(&tmp, "hosts.toml", &net.hosts_file_with(SHORE_VEHICLES));
+        let shore = start_host(&net, &tmp, &file, &hosts, "shore");
+        let a = start_host(&net, &tmp, &file, &hosts, "glider_a");
+        let b = start_host(&net, &tmp, &file, &hosts, "glider_b");
+        let out = tmp.join("shore");
+        wait_for_ticks(&out, 40);
+        Self {
+            tmp,
+            net,
+            shore,
+            a,
+            b,
+            out,
+        }
+    }
+}
+
 #[test]
 fn the_shore_lost_to_the_network_makes_gliders_hold_and_they_resume_when_it_returns() {
-    let tmp = TempDir::new("hostslost");
-    let net = Net::new();
-    let name = unique_name("hostslost");
-    // Paced (2× real time): a glider hears nothing and holds station, as when the
-    // coordinator dies.
-    let text =
-        rejoin_mission(&name, 40.0, "").replace("tolerance = 1.0", "tolerance = 1.0\npace = 2.0");
-    let file = write(&tmp, "m.toml", &text);
-    let hosts = write(&tmp, "hosts.toml", &net.hosts_file_with(SHORE_VEHICLES));
-    let mut shore = start_host(&net, &tmp, &file, &hosts, "shore");
-    let mut a = start_host(&net, &tmp, &file, &hosts, "glider_a");
-    let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
-    let out = tmp.join("shore");
-    wait_for_ticks(&out, 40);
+    // Paced: a glider hears nothing and holds station, as when the coordinator dies.
+    let Paced {
+        tmp,
+        net,
+        mut shore,
+        mut a,
+        mut b,
+        out,
+    } = Paced::start("hostslost", 40.0);
     net.link("shore", false);
     let cut = Instant::now();
     // The glider hosts' vehicles are lost on the shore (its links' lease, 1 s) ...
@@ -116,20 +147,16 @@ fn the_shore_lost_to_the_network_makes_gliders_hold_and_they_resume_when_it_retu
 
 #[test]
 fn the_shores_bridge_restarted_alone_lets_the_remote_vehicles_rejoin() {
-    let tmp = TempDir::new("hostsbridge");
-    let net = Net::new();
-    let name = unique_name("hostsbridge");
-    // Paced (2× real time), so the mission outlasts the bridge's restart (in lockstep the
-    // shore's own two vehicles ran it to its end first).
-    let text =
-        rejoin_mission(&name, 60.0, "").replace("tolerance = 1.0", "tolerance = 1.0\npace = 2.0");
-    let file = write(&tmp, "m.toml", &text);
-    let hosts = write(&tmp, "hosts.toml", &net.hosts_file_with(SHORE_VEHICLES));
-    let mut shore = start_host(&net, &tmp, &file, &hosts, "shore");
-    let mut a = start_host(&net, &tmp, &file, &hosts, "glider_a");
-    let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
-    let out = tmp.join("shore");
-    wait_for_ticks(&out, 40);
+    // Paced, so the mission outlasts the bridge's restart (in lockstep the shore's own two
+    // vehicles ran it to its end first).
+    let Paced {
+        tmp,
+        net,
+        mut shore,
+        mut a,
+        mut b,
+        out,
+    } = Paced::start("hostsbridge", 60.0);
     let needle = format!("--host shore --mission {}", out.display());
     let bridge = processes_mentioning(&needle);
     assert_eq!(bridge.len(), 1, "the shore's bridge: {bridge:?}");
