@@ -12,6 +12,7 @@
 //! - [`rundir`]: the run directory a mission writes (CSV, JSON lines, summary).
 
 pub mod config;
+pub mod csv_line;
 pub mod current;
 pub mod faults;
 pub mod field;

@@ -236,29 +236,15 @@ pub struct InputRow<'a> {
     pub measurement: f64,
 }
 
-/// An `f64` written in the shortest form that reads back to the same number: plain decimals
-/// (`{}`) for 1e-4 ≤ |x| < 1e16 and zero, the exponent form (`{:e}`, e.g. `1e-25`) outside,
-/// where plain decimals would run to hundreds of digits (`{}` writes 1e-300 in full). Every
-/// CSV writer of a run uses it, in `vbap sim` and `vbap run` alike.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Num(pub f64);
-
-impl std::fmt::Display for Num {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let a = self.0.abs();
-        if self.0 != 0.0 && a.is_finite() && !(1e-4..1e16).contains(&a) {
-            write!(f, "{:e}", self.0)
-        } else {
-            write!(f, "{}", self.0)
-        }
-    }
-}
+use crate::csv_line::Line;
+pub use crate::csv_line::Num;
 
 /// Appends rows to `vehicles.csv`, `body.csv` and `planner_inputs.csv`.
 pub struct TrackWriter {
     vehicles: AppendFile,
     body: AppendFile,
     inputs: AppendFile,
+    line: Line,
 }
 
 impl TrackWriter {
@@ -274,82 +260,51 @@ impl TrackWriter {
             vehicles: open_append(&dir.vehicles(), &header)?,
             body: open_append(&dir.body(), BODY_HEADER)?,
             inputs: open_append(&dir.planner_inputs(), INPUTS_HEADER)?,
+            line: Line::default(),
         })
     }
     /// Appends one planner input row.
     pub fn input(&mut self, r: &InputRow<'_>) -> io::Result<()> {
-        writeln!(
-            self.inputs,
-            "{},{},{},{},{},{},{},{},{},{},{}",
-            r.k,
-            r.role,
-            r.id,
-            r.tick,
-            Num(r.position.x),
-            Num(r.position.y),
-            Num(r.position.z),
-            Num(r.velocity.x),
-            Num(r.velocity.y),
-            Num(r.velocity.z),
-            Num(r.measurement)
-        )
+        self.line
+            .int(r.k)
+            .text(r.role)
+            .int(r.id)
+            .int(r.tick)
+            .vec3(&r.position)
+            .vec3(&r.velocity)
+            .num(r.measurement)
+            .finish(&mut self.inputs)
     }
     /// Appends one vehicle row.
     pub fn vehicle(&mut self, r: &VehicleRow) -> io::Result<()> {
-        write!(
-            self.vehicles,
-            "{},{},{},{},{},{},{},{},{},{}",
-            Num(r.t),
-            r.k,
-            r.id,
-            Num(r.position.x),
-            Num(r.position.y),
-            Num(r.position.z),
-            Num(r.velocity.x),
-            Num(r.velocity.y),
-            Num(r.velocity.z),
-            Num(r.measurement)
-        )?;
+        let line = self
+            .line
+            .num(r.t)
+            .int(r.k)
+            .int(r.id)
+            .vec3(&r.position)
+            .vec3(&r.velocity)
+            .num(r.measurement);
         if let Some((b, w, c)) = &r.motion {
-            write!(
-                self.vehicles,
-                ",{},{},{},{},{},{},{},{},{}",
-                Num(b.x),
-                Num(b.y),
-                Num(b.z),
-                Num(w.x),
-                Num(w.y),
-                Num(w.z),
-                Num(c.x),
-                Num(c.y),
-                Num(c.z)
-            )?;
+            line.vec3(b).vec3(w).vec3(c);
         }
-        writeln!(self.vehicles)
+        line.finish(&mut self.vehicles)
     }
     /// Appends one body row.
     pub fn body(&mut self, r: &BodyRow) -> io::Result<()> {
-        writeln!(
-            self.body,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            Num(r.t),
-            r.k,
-            Num(r.s),
-            Num(r.sdot),
-            Num(r.r.x),
-            Num(r.r.y),
-            Num(r.r.z),
-            Num(r.scale),
-            Num(r.grad.x),
-            Num(r.grad.y),
-            Num(r.grad.z),
-            Num(r.v),
-            r.n_vehicles,
-            Num(r.p_trace),
-            Num(r.true_grad.x),
-            Num(r.true_grad.y),
-            Num(r.true_grad.z)
-        )
+        self.line
+            .num(r.t)
+            .int(r.k)
+            .num(r.s)
+            .num(r.sdot)
+            .vec3(&r.r)
+            .num(r.scale)
+            .vec3(&r.grad)
+            .num(r.v)
+            .int(r.n_vehicles)
+            .num(r.p_trace)
+            .vec3(&r.true_grad)
+            .finish(&mut self.body)
     }
     /// Flushes both files.
     pub fn flush(&mut self) -> io::Result<()> {
@@ -390,15 +345,11 @@ pub struct TruthRow {
     pub sdot_over_v0: f64,
 }
 
-/// `Display` of a value, empty for none.
-fn opt(v: Option<f64>) -> String {
-    v.map_or(String::new(), |x| Num(x).to_string())
-}
-
 /// Appends rows to `formation.csv` and `truth.csv`.
 pub struct TruthWriter {
     formation: AppendFile,
     truth: AppendFile,
+    line: Line,
 }
 
 impl TruthWriter {
@@ -407,38 +358,35 @@ impl TruthWriter {
         Ok(Self {
             formation: open_append(&dir.formation(), FORMATION_HEADER)?,
             truth: open_append(&dir.truth(), TRUTH_HEADER)?,
+            line: Line::default(),
         })
     }
     /// Appends one `formation.csv` row.
     pub fn formation(&mut self, r: &FormationRow<'_>) -> io::Result<()> {
-        writeln!(
-            self.formation,
-            "{},{},{},{},{},{},{},{}",
-            Num(r.t),
-            r.k,
-            r.id,
-            r.contact,
-            opt(r.info_age_s),
-            opt(r.slot_error),
-            opt(r.nearest_ratio),
-            u8::from(r.in_formation)
-        )
+        self.line
+            .num(r.t)
+            .int(r.k)
+            .int(r.id)
+            .text(r.contact)
+            .opt(r.info_age_s)
+            .opt(r.slot_error)
+            .opt(r.nearest_ratio)
+            .int(u8::from(r.in_formation))
+            .finish(&mut self.formation)
     }
     /// Appends one `truth.csv` row.
     pub fn truth(&mut self, r: &TruthRow) -> io::Result<()> {
-        writeln!(
-            self.truth,
-            "{},{},{},{},{},{},{},{},{}",
-            Num(r.t),
-            r.k,
-            Num(r.v_true_over_vu),
-            Num(r.v_seen_over_vu),
-            opt(r.min_pair_ratio),
-            opt(r.max_slot_error),
-            r.n_alive,
-            r.n_in_formation,
-            Num(r.sdot_over_v0)
-        )
+        self.line
+            .num(r.t)
+            .int(r.k)
+            .num(r.v_true_over_vu)
+            .num(r.v_seen_over_vu)
+            .opt(r.min_pair_ratio)
+            .opt(r.max_slot_error)
+            .int(r.n_alive)
+            .int(r.n_in_formation)
+            .num(r.sdot_over_v0)
+            .finish(&mut self.truth)
     }
     /// Flushes both files.
     pub fn flush(&mut self) -> io::Result<()> {
