@@ -81,21 +81,21 @@ pub fn fit_slots(
     dim: usize,
 ) -> SlotFit {
     let centre = body.r;
-    let q: Vec<Vec3> = positions.iter().map(|x| x - centre).collect();
+    let q = Centred::new(positions, centre);
     let base: Vec<Vec3> = design.slots.iter().map(|p| body.scale * p).collect();
     let own = *body.rotation.matrix();
     if base.is_empty() {
         return SlotFit {
-            errors: vec![f64::INFINITY; q.len()],
-            slot: vec![None; q.len()],
+            errors: vec![f64::INFINITY; q.x.len()],
+            slot: vec![None; q.x.len()],
             rotation: own,
         };
     }
     let trim = 0.5 * spacing(design, body);
     let mut rotation = own;
-    if is_central(design) && !q.is_empty() {
+    if is_central(design) && !q.x.is_empty() {
         let mut best = (robust_cost(&q, &rotate(&own, &base), trim), own);
-        for r in candidates(&q, &base, dim) {
+        for r in candidates(&q.x, &base, dim) {
             let c = robust_cost(&q, &rotate(&r, &base), trim);
             if c < best.0 {
                 best = (c, r);
@@ -109,22 +109,23 @@ pub fn fit_slots(
             if last.as_ref() == Some(&slot) {
                 break;
             }
-            rotation = refit(&q, &base, &slot, &rotation, trim, dim);
+            rotation = refit(&q.x, &base, &slot, &rotation, trim, dim);
             last = Some(slot);
         }
     }
     let slots = rotate(&rotation, &base);
-    let slot = assign(&q, &slots);
-    let near = nearest_all(&q, &slots);
-    let errors = q
-        .iter()
-        .zip(&slot)
-        .enumerate()
-        .map(|(i, (x, s))| match s {
-            Some(j) => (x - slots[*j]).norm(),
-            None => near[i].1.sqrt(),
-        })
-        .collect();
+    let circle = circle_order(&slots);
+    let near = nearest_all(&q, &slots, circle.as_deref());
+    let slot = assign_from(&q, &slots, &near, circle.as_deref());
+    let errors =
+        q.x.iter()
+            .zip(&slot)
+            .enumerate()
+            .map(|(i, (x, s))| match s {
+                Some(j) => (x - slots[*j]).norm(),
+                None => near[i].1.sqrt(),
+            })
+            .collect();
     SlotFit {
         errors,
         slot,
@@ -238,21 +239,43 @@ fn nearest(x: &Vec3, slots: &[Vec3]) -> (usize, f64) {
     best
 }
 
+/// Vehicle positions relative to the body centre, with their angles about it in the plane
+/// z = 0 (None off that plane or at the centre), taken once per fit: every assignment
+/// pass bisects by them ([`nearest_all`], [`nearest_free`]).
+struct Centred {
+    x: Vec<Vec3>,
+    angle: Vec<Option<f64>>,
+}
+
+impl Centred {
+    fn new(positions: &[Vec3], centre: Vec3) -> Self {
+        let x: Vec<Vec3> = positions.iter().map(|p| p - centre).collect();
+        let angle = x.iter().map(angle_in_plane).collect();
+        Self { x, angle }
+    }
+}
+
+/// The angle of `x` about the origin, rad, when it lies in the plane z = 0 off the origin.
+fn angle_in_plane(x: &Vec3) -> Option<f64> {
+    (x.z == 0.0 && (x.x != 0.0 || x.y != 0.0)).then(|| x.y.atan2(x.x))
+}
+
 /// (index, squared distance) of the slot nearest to every vehicle. When the slots lie on
-/// one circle about the centre in the plane z = 0 (2-D central designs), the nearest slot
-/// of a vehicle in that plane is the one nearest in angle (`|x − p|² = |x|² + ρ² −
-/// 2|x|ρ cos Δφ`), found by bisection in `O(log m)`; otherwise by a scan in `O(m)`.
-fn nearest_all(q: &[Vec3], slots: &[Vec3]) -> Vec<(usize, f64)> {
-    let Some(angles) = circle_order(slots) else {
-        return q.iter().map(|x| nearest(x, slots)).collect();
+/// one circle about the centre in the plane z = 0 (2-D central designs; `circle` is then
+/// their [`circle_order`]), the nearest slot of a vehicle in that plane is the one nearest
+/// in angle (`|x − p|² = |x|² + ρ² − 2|x|ρ cos Δφ`), found by bisection in `O(log m)`;
+/// otherwise by a scan in `O(m)`.
+fn nearest_all(q: &Centred, slots: &[Vec3], circle: Option<&[(f64, usize)]>) -> Vec<(usize, f64)> {
+    let Some(angles) = circle else {
+        return q.x.iter().map(|x| nearest(x, slots)).collect();
     };
     let m = angles.len();
-    q.iter()
-        .map(|x| {
-            if x.z != 0.0 || (x.x == 0.0 && x.y == 0.0) {
+    q.x.iter()
+        .zip(&q.angle)
+        .map(|(x, phi)| {
+            let Some(phi) = *phi else {
                 return nearest(x, slots);
-            }
-            let phi = x.y.atan2(x.x);
+            };
             let at = angles.partition_point(|(a, _)| *a < phi);
             let mut best = (0, f64::INFINITY);
             for c in [at + m - 1, at] {
@@ -288,10 +311,12 @@ fn circle_order(slots: &[Vec3]) -> Option<Vec<(f64, usize)>> {
     Some(angles)
 }
 
-/// The free slot nearest to `x`: on a circle, the first free one on either side in angle
-/// (`O(k)`, `k` the slots passed over); otherwise a scan.
+/// The free slot nearest to `x` (whose [`angle_in_plane`] is `angle`): on a circle, the
+/// first free one on either side in angle (`O(k)`, `k` the slots passed over); otherwise a
+/// scan.
 fn nearest_free(
     x: &Vec3,
+    angle: Option<f64>,
     slots: &[Vec3],
     used: &[bool],
     circle: Option<&[(f64, usize)]>,
@@ -304,10 +329,10 @@ fn nearest_free(
         }
     };
     let mut best: Option<(usize, f64)> = None;
-    match circle {
-        Some(angles) if x.z == 0.0 && (x.x != 0.0 || x.y != 0.0) => {
+    match circle.zip(angle) {
+        Some((angles, phi)) => {
             let m = angles.len();
-            let at = angles.partition_point(|(a, _)| *a < x.y.atan2(x.x));
+            let at = angles.partition_point(|(a, _)| *a < phi);
             if let Some(j) = (0..m).map(|s| angles[(at + s) % m].1).find(|&j| !used[j]) {
                 best = pick(best, j);
             }
@@ -327,16 +352,28 @@ fn nearest_free(
     best.map(|(j, _)| j)
 }
 
-fn robust_cost(q: &[Vec3], slots: &[Vec3], trim: f64) -> f64 {
-    nearest_all(q, slots)
+fn robust_cost(q: &Centred, slots: &[Vec3], trim: f64) -> f64 {
+    nearest_all(q, slots, circle_order(slots).as_deref())
         .into_iter()
         .map(|(_, d)| d.min(trim * trim))
         .sum()
 }
 
 /// Vehicle → slot: nearest slots when distinct, else greedy by distance.
-fn assign(q: &[Vec3], slots: &[Vec3]) -> Vec<Option<usize>> {
-    let near_d = nearest_all(q, slots);
+fn assign(q: &Centred, slots: &[Vec3]) -> Vec<Option<usize>> {
+    let circle = circle_order(slots);
+    let near = nearest_all(q, slots, circle.as_deref());
+    assign_from(q, slots, &near, circle.as_deref())
+}
+
+/// [`assign`] given every vehicle's nearest slot `near_d` (from [`nearest_all`]) and the
+/// slots' [`circle_order`].
+fn assign_from(
+    q: &Centred,
+    slots: &[Vec3],
+    near_d: &[(usize, f64)],
+    circle: Option<&[(f64, usize)]>,
+) -> Vec<Option<usize>> {
     let near: Vec<usize> = near_d.iter().map(|(j, _)| *j).collect();
     let mut taken = vec![false; slots.len()];
     let distinct = near
@@ -352,11 +389,10 @@ fn assign(q: &[Vec3], slots: &[Vec3]) -> Vec<Option<usize>> {
         .map(|(i, (_, d))| (*d, i))
         .collect();
     order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    let circle = circle_order(slots);
-    let mut slot = vec![None; q.len()];
+    let mut slot = vec![None; q.x.len()];
     let mut used = vec![false; slots.len()];
     for (_, i) in order.into_iter().take(slots.len()) {
-        if let Some(j) = nearest_free(&q[i], slots, &used, circle.as_deref()) {
+        if let Some(j) = nearest_free(&q.x[i], q.angle[i], slots, &used, circle) {
             slot[i] = Some(j);
             used[j] = true;
         }
@@ -635,18 +671,20 @@ mod tests {
                 )
             })
             .collect();
-        let fast = nearest_all(&q, &slots);
+        let centred = Centred::new(&q, Vec3::zeros());
+        let circle = circle_order(&slots);
+        let fast = nearest_all(&centred, &slots, circle.as_deref());
         for (x, (j, d)) in q.iter().zip(&fast) {
             let (k, e) = nearest(x, &slots);
             assert_eq!(*d, e, "{x:?}");
             assert!(*j == k || (x - slots[*j]).norm_squared() == e);
         }
         // The nearest free slot by angle equals the scan's.
-        let circle = circle_order(&slots);
         let mut used = vec![false; slots.len()];
         for (i, x) in q.iter().enumerate() {
-            let by_angle = nearest_free(x, &slots, &used, circle.as_deref());
-            let by_scan = nearest_free(x, &slots, &used, None);
+            let angle = angle_in_plane(x);
+            let by_angle = nearest_free(x, angle, &slots, &used, circle.as_deref());
+            let by_scan = nearest_free(x, angle, &slots, &used, None);
             let dist = |j: Option<usize>| j.map(|j| (x - slots[j]).norm_squared());
             assert_eq!(dist(by_angle), dist(by_scan), "{x:?}");
             if i % 60 == 0 {
