@@ -136,6 +136,14 @@ impl Domain {
             .defaults
             .request_response
             .server_expired_connection_buffer = Self::EXPIRED_CONNECTIONS;
+        // iceoryx2 keeps a file per service, per node and per port of a node (`*.service`,
+        // `*.service_tag`, `*.port_tag`, node details) under its root folder, /tmp/iceoryx2 by
+        // default: a disk file system here. Creating a file on an ext4 without a journal scans
+        // every inode deleted in the last ~30 s (`recently_deleted`), and a fleet creates and
+        // removes thousands: start-up grew as N² (the coordinator took 3 s to open its ports
+        // at N = 128, 0.17 s on tmpfs; BENCHMARKS.md, start-up). These files live as long as
+        // the processes that own them, so a memory file system is the right home.
+        config.global.set_root_path(&Self::root_path());
         let prefix = domain_prefix(mission);
         config.global.prefix = FileName::new(prefix.as_bytes()).map_err(|e| TopicError::Name {
             name: prefix.clone(),
@@ -149,6 +157,16 @@ impl Domain {
 
     /// Expired connections each port keeps (iceoryx2's `*_expired_connection_buffer`).
     pub const EXPIRED_CONNECTIONS: usize = 4;
+
+    /// iceoryx2's root folder for every domain of vbap: [`Domain::ROOT`], on tmpfs.
+    fn root_path() -> iceoryx2::prelude::Path {
+        iceoryx2::prelude::Path::new(Self::ROOT.as_bytes())
+            .expect("Domain::ROOT is an absolute path iceoryx2 accepts")
+    }
+
+    /// iceoryx2's root folder (its `nodes/` and `services/` files): on tmpfs beside the
+    /// shared memory, not iceoryx2's default /tmp/iceoryx2 (see [`Domain::new`]).
+    pub const ROOT: &'static str = "/dev/shm/iceoryx2/";
 
     /// The iceoryx2 configuration of this domain.
     pub fn config(&self) -> &Config {
@@ -170,12 +188,16 @@ impl Domain {
     }
 
     /// [`Domain::node`] for a vehicle agent: it does not scan the domain for dead nodes when
-    /// it is created or dropped (the supervisor and the coordinator clean up after
-    /// deaths), so N agents start in O(N), not O(N²).
+    /// it is created or dropped, nor the nodes of a shared service when it opens one (the
+    /// supervisor cleans up after a death before it restarts the process, and the
+    /// coordinator when it notices one), so N agents start in O(N), not O(N²): each open of
+    /// `<m>/body` or `<m>/coordinator/wake` read the files of every node registered there
+    /// (4 per node; ~340 opens per agent at N = 64).
     pub fn agent_node(&self, name: &str) -> Result<Node<ipc::Service>, TopicError> {
         let mut config = self.config.clone();
         config.global.node.cleanup_dead_nodes_on_creation = false;
         config.global.node.cleanup_dead_nodes_on_destruction = false;
+        config.global.service.cleanup_dead_nodes_on_open = false;
         self.node_with_config(name, &config)
     }
 
@@ -217,7 +239,9 @@ impl Domain {
             })
     }
 
-    /// The folders iceoryx2 keeps this domain's files in: /dev/shm and its root folder.
+    /// The folders iceoryx2 keeps this domain's files in: /dev/shm (shared memory and, under
+    /// [`Domain::ROOT`], its root folder) and /tmp/iceoryx2 (the root folder of earlier
+    /// versions, so their leftovers are still found and removed).
     pub const FILE_ROOTS: [&'static str; 2] = ["/dev/shm", "/tmp/iceoryx2"];
 
     /// Files of this domain still present under [`Domain::FILE_ROOTS`] (exactly those whose

@@ -439,20 +439,29 @@ fn dense_order(slots: Vec<Vec3>) -> Vec<Vec3> {
     }
     let d0 = closest_pair(&slots).2;
     let adjacent = |i: usize, j: usize| (slots[i] - slots[j]).norm() <= d0 * (1.0 + 1e-6);
-    let mut order = vec![0usize];
+    // score[c]: neighbours of slot c already taken, kept up to date as slots are taken, so
+    // the order costs O(n²) (recounting against the whole prefix cost O(n³): seconds per
+    // process at N = 1024, every process computes the design).
+    let mut score = vec![0usize; n];
+    let mut order = Vec::with_capacity(n);
     let mut taken = vec![false; n];
-    taken[0] = true;
-    while order.len() < n {
+    let mut next = 0usize;
+    loop {
+        taken[next] = true;
+        order.push(next);
+        if order.len() == n {
+            break;
+        }
         let mut best: Option<(usize, usize)> = None;
         for c in (0..n).filter(|&c| !taken[c]) {
-            let score = order.iter().filter(|&&o| adjacent(o, c)).count();
-            if best.is_none_or(|(_, s)| score > s) {
-                best = Some((c, score));
+            if adjacent(next, c) {
+                score[c] += 1;
+            }
+            if best.is_none_or(|(_, s)| score[c] > s) {
+                best = Some((c, score[c]));
             }
         }
-        let (c, _) = best.expect("an untaken slot remains");
-        taken[c] = true;
-        order.push(c);
+        next = best.expect("an untaken slot remains").0;
     }
     order.into_iter().map(|i| slots[i]).collect()
 }
@@ -573,6 +582,55 @@ mod tests {
     use crate::rng::{keyed, Stream};
     use approx::assert_relative_eq;
     use rand::Rng;
+
+    /// The greedy order as first written, recounting each candidate against the whole
+    /// prefix (O(n³)): [`dense_order`] must pick exactly the same slots.
+    fn dense_order_recounted(slots: &[Vec3]) -> Vec<Vec3> {
+        let n = slots.len();
+        let d0 = closest_pair(slots).2;
+        let adjacent = |i: usize, j: usize| (slots[i] - slots[j]).norm() <= d0 * (1.0 + 1e-6);
+        let mut order = vec![0usize];
+        let mut taken = vec![false; n];
+        taken[0] = true;
+        while order.len() < n {
+            let mut best: Option<(usize, usize)> = None;
+            for c in (0..n).filter(|&c| !taken[c]) {
+                let score = order.iter().filter(|&&o| adjacent(o, c)).count();
+                if best.is_none_or(|(_, s)| score > s) {
+                    best = Some((c, score));
+                }
+            }
+            let (c, _) = best.unwrap();
+            taken[c] = true;
+            order.push(c);
+        }
+        order.into_iter().map(|i| slots[i]).collect()
+    }
+
+    #[test]
+    fn dense_order_is_the_recounted_greedy_order() {
+        let mut shapes = vec![
+            platonic(8),
+            platonic(20),
+            sphere_points(9),
+            sphere_points(40),
+        ];
+        shapes.extend([3, 5, 16, 33].map(polygon));
+        // A grid listed out of order: many ties, so the lowest-index rule decides.
+        shapes.push(
+            (0..30)
+                .map(|i| (i * 7) % 30)
+                .map(|i| Vec3::new((i % 6) as f64, (i / 6) as f64, 0.0))
+                .collect(),
+        );
+        let mut reordered = 0;
+        for slots in shapes {
+            let fast = dense_order(slots.clone());
+            assert_eq!(fast, dense_order_recounted(&slots), "{} slots", slots.len());
+            reordered += usize::from(fast != slots);
+        }
+        assert!(reordered >= 2, "the shapes exercise the reordering");
+    }
 
     /// Slots perturbed by up to `amp` per coordinate (z kept 0 in 2-D), keyed RNG.
     fn perturbed(design: &FormationDesign, amp: f64, seed: u64) -> Vec<Vec3> {

@@ -81,10 +81,11 @@ pub fn lyapunov_terms(
     }
     let mut potential = 0.0;
     let mut dv_ds = 0.0;
+    let plateau = inter.plateau();
     for (i, x) in positions.iter().enumerate() {
         for y in &positions[i + 1..] {
             let d = (x - y).norm();
-            potential += inter.value(d);
+            potential += inter.value_or_plateau(d, plateau);
             if d > 0.0 && d < inter.d1 {
                 dv_ds += inter.d_value_d_scale(d) / k * rates.dk_ds;
             }

@@ -148,6 +148,20 @@ impl PairPotential {
         self.raw_value(a) + w * (fa * i00 + w * dfa * i10)
     }
 
+    /// [`PairPotential::value`] given its [`PairPotential::plateau`] (computed once by a
+    /// caller summing many pairs): the plateau itself at or beyond the cut-off `d1`, the
+    /// same bits as `value(dist)` there (`t` of the taper is exactly 1 for every
+    /// `dist ≥ d1 ≥ a`), without its square roots and divisions. Sums over all pairs (II.2)
+    /// so cost a distance and a compare for each pair beyond the cut-off.
+    #[inline]
+    pub fn value_or_plateau(&self, dist: f64, plateau: f64) -> f64 {
+        if dist >= self.d1 && self.taper_start() <= self.d1 {
+            plateau
+        } else {
+            self.value(dist)
+        }
+    }
+
     /// Height of the plateau `V(d1)`, energy per unit mass: what a pair at or beyond the
     /// cut-off contributes to (II.2). Proportional to `alpha`; invariant under
     /// [`PairPotential::scaled`].
@@ -189,9 +203,10 @@ pub fn potential_energy(
     leader: &PairPotential,
 ) -> f64 {
     let mut e = 0.0;
+    let plateau = inter.plateau();
     for (i, x) in positions.iter().enumerate() {
         for y in &positions[i + 1..] {
-            e += inter.value((x - y).norm());
+            e += inter.value_or_plateau((x - y).norm(), plateau);
         }
         for b in leaders {
             e += leader.value((x - b).norm());
@@ -204,6 +219,26 @@ pub fn potential_energy(
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn value_or_plateau_is_value_bit_for_bit() {
+        for p in [
+            PairPotential::new(60.0, 0.87, 1.3).unwrap(),
+            PairPotential::new(1.0, 1.0, 1.5).unwrap(),
+            PairPotential::new(3.0, 2.0, 8.0).unwrap().scaled(0.73),
+        ] {
+            let plateau = p.plateau();
+            let mut dists = samples(&p);
+            dists.extend([p.d1, p.d1 * (1.0 + f64::EPSILON), 1e9, f64::INFINITY]);
+            for d in dists {
+                assert_eq!(
+                    p.value_or_plateau(d, plateau).to_bits(),
+                    p.value(d).to_bits(),
+                    "{p:?} at {d}"
+                );
+            }
+        }
+    }
 
     fn samples(p: &PairPotential) -> Vec<f64> {
         (1..400)

@@ -242,32 +242,31 @@ impl Guidance {
         use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
         use vbap_ipc::msg::to_vec3;
         let spacing = self.inter.d0;
-        let others = snapshot
+        // One pass over the snapshot into vectors sized once (five filtered collects grew
+        // each vector by reallocation: a quarter of an agent's tick at N = 1024).
+        let n = snapshot.len();
+        self.neighbours = Vec::with_capacity(n);
+        self.neighbour_sigmas = Vec::with_capacity(n);
+        self.neighbour_slots = Vec::with_capacity(n);
+        self.neighbour_velocities = Vec::with_capacity(n);
+        self.neighbour_ages = Vec::with_capacity(n);
+        for e in snapshot
             .iter()
-            .filter(|e| e.id != id && e.alive != SnapshotEntry::LOST);
-        self.neighbours = others.clone().map(|e| to_vec3(&e.position)).collect();
-        self.neighbour_sigmas = others
-            .clone()
-            .map(|e| {
-                if e.rejoining != 0 {
-                    homing_weight((to_vec3(&e.position) - to_vec3(&e.target)).norm(), spacing)
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        self.neighbour_slots = others
-            .clone()
-            .map(|e| {
-                if e.rejoining != 0 {
-                    to_vec3(&e.target)
-                } else {
-                    to_vec3(&e.position)
-                }
-            })
-            .collect();
-        self.neighbour_velocities = others.clone().map(|e| to_vec3(&e.velocity)).collect();
-        self.neighbour_ages = others.map(|e| e.age).collect();
+            .filter(|e| e.id != id && e.alive != SnapshotEntry::LOST)
+        {
+            let position = to_vec3(&e.position);
+            let (sigma, slot) = if e.rejoining != 0 {
+                let target = to_vec3(&e.target);
+                (homing_weight((position - target).norm(), spacing), target)
+            } else {
+                (0.0, position)
+            };
+            self.neighbours.push(position);
+            self.neighbour_sigmas.push(sigma);
+            self.neighbour_slots.push(slot);
+            self.neighbour_velocities.push(to_vec3(&e.velocity));
+            self.neighbour_ages.push(e.age);
+        }
         let own = snapshot
             .iter()
             .find(|e| e.id == id && e.alive != SnapshotEntry::LOST);

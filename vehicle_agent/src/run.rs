@@ -112,6 +112,7 @@ pub fn run_with(
             // The records so far reach the file before every wait (at least once a tick):
             // a SIGKILL loses at most those of the tick under way.
             pilot.msgs.flush();
+            pilot.out.announce()?;
             match waiter.wait(timeout, |_| {})? {
                 Wake::Stop => {
                     info!(vehicle = id, tick = pilot.k, "stopped by signal");
@@ -336,7 +337,14 @@ impl<'m> Pilot<'m> {
         if k + 1 < self.ticks && k < limit && self.vehicle.ready_to_step(&self.model, k, self.dt) {
             self.vehicle.step(k, self.dt);
             self.k += 1;
-            self.out.publish(&self.vehicle, self.k, 0, self.read())?;
+            if self.k <= self.read() + 1 {
+                // The state of the tick the coordinator gathers now (or next).
+                self.out.publish(&self.vehicle, self.k, 0, self.read())?;
+            } else {
+                // Ahead of the coordinator: it is woken once, before we next wait.
+                self.out
+                    .publish_ahead(&self.vehicle, self.k, 0, self.read())?;
+            }
             self.reported_read = self.read();
             return Ok(true);
         }

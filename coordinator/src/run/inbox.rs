@@ -212,6 +212,22 @@ impl Inbox {
         self.states.entry(id).or_default().insert(h.tick, s);
     }
 
+    /// Lockstep, command `k` just published: whether vehicle `v`'s agent must be woken for
+    /// it. Not when it runs ahead (its state of tick k + 2 or later is in: it needs no
+    /// command to step for now) and at most `Limits::BODY_BUFFER` − 2 commands are unread
+    /// (it is woken for the next one at the latest, before [`Inbox::behind`] could hold).
+    /// Results do not change (an agent steps on what its commands say, whenever it reads
+    /// them); a submerged glider is woken every few ticks instead of every tick.
+    pub fn needs_wake(&self, v: u32, k: u64) -> bool {
+        let ahead = self
+            .states
+            .get(&v)
+            .and_then(|m| m.keys().next_back())
+            .is_some_and(|&t| t >= k + 2);
+        let unread = (k + 1).saturating_sub(self.peers[v as usize].commands_read);
+        !ahead || unread + 2 > Limits::BODY_BUFFER as u64
+    }
+
     /// True when publishing command `k` could overflow the command buffer of vehicle `v`'s
     /// agent, which ran ahead and reads late (lockstep flow control).
     pub fn behind(&self, v: u32, k: u64) -> bool {

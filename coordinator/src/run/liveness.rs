@@ -50,6 +50,10 @@ pub(super) struct Liveness {
     pub since: Instant,
     /// The same, wall clock, ns since the Unix epoch.
     pub since_ns: u64,
+    /// When this coordinator published its first command: before it, agents that have
+    /// reported wait for it in silence however long the set takes to start (seconds at
+    /// N = 1024 on a busy machine), and silence counts from it at the earliest.
+    pub commanded: Option<Instant>,
     /// True when this coordinator resumed from a checkpoint (every vehicle alive in it has
     /// had a process: one whose node is gone is dead).
     pub resumed: bool,
@@ -67,6 +71,7 @@ impl Liveness {
             scan_cost: Duration::ZERO,
             since: Instant::now(),
             since_ns: wall_ns(),
+            commanded: None,
             resumed: false,
         }
     }
@@ -95,6 +100,18 @@ impl Liveness {
     /// How long `peer` has been silent (since this process started, when never heard).
     fn silence(&self, peer: &Peer) -> Duration {
         peer.last_recv.unwrap_or(self.since).elapsed()
+    }
+
+    /// [`Liveness::silence`] not counting the time before the first command (zero until
+    /// then): what [`SILENCE_LIMIT`] is held against.
+    fn silence_since_commanded(&self, peer: &Peer) -> Duration {
+        let Some(commanded) = self.commanded else {
+            return Duration::ZERO;
+        };
+        peer.last_recv
+            .unwrap_or(self.since)
+            .max(commanded)
+            .elapsed()
     }
 }
 
@@ -237,7 +254,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
                 self.lose(v, Loss::found(cause, "scan", peer.pid, ms))?;
                 any_dead = true;
             } else if self.paced.is_some() && node == Some(&true) {
-                let quiet = self.live.silence(&peer);
+                let quiet = self.live.silence_since_commanded(&peer);
                 if quiet >= SILENCE_LIMIT {
                     self.inbox.peers[v as usize].pid = 0; // its next word is a join request
                     let ms = Some(quiet.as_secs_f64() * 1e3);

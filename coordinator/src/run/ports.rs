@@ -152,8 +152,15 @@ impl Ports {
 
     /// Wakes every agent (best effort: an agent that is gone has no listener).
     pub fn wake_agents(&self) {
-        for notifier in &self.notifiers {
-            let _ = notifier.notify();
+        self.wake_agents_where(|_| true);
+    }
+
+    /// Wakes the agents of the vehicles `wake` says (best effort, as [`Ports::wake_agents`]).
+    pub fn wake_agents_where(&self, wake: impl Fn(u32) -> bool) {
+        for (id, notifier) in self.notifiers.iter().enumerate() {
+            if wake(id as u32) {
+                let _ = notifier.notify();
+            }
         }
     }
 }

@@ -51,11 +51,21 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
     }
 
     /// Publishes the command `record` (zero copy into the subscribers' shared memory) and
-    /// wakes every agent.
+    /// wakes the agents: every one in a paced run; in lockstep those that may need it now
+    /// ([`super::inbox::Inbox::needs_wake`]: not an agent running ahead with room left in
+    /// its command buffer).
     pub(super) fn publish(&mut self, record: &BodyRecord) -> Result<()> {
         record.fill(&mut self.body);
         self.ports.publish(&mut self.body)?;
-        self.ports.wake_agents();
+        self.live
+            .commanded
+            .get_or_insert_with(std::time::Instant::now);
+        if self.paced.is_some() {
+            self.ports.wake_agents();
+        } else {
+            let (inbox, k) = (&self.inbox, record.tick);
+            self.ports.wake_agents_where(|v| inbox.needs_wake(v, k));
+        }
         Ok(())
     }
 

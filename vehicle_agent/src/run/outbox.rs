@@ -22,6 +22,8 @@ pub(super) struct Outbox {
     seq: u64,
     /// The states published lately: a restarted coordinator asks for them again.
     recent: VecDeque<VehicleState>,
+    /// A state was published without waking the coordinator ([`Outbox::publish_ahead`]).
+    unannounced: bool,
 }
 
 impl Outbox {
@@ -33,13 +35,47 @@ impl Outbox {
             dt,
             seq: 0,
             recent: VecDeque::new(),
+            unannounced: false,
         }
     }
 
-    fn send(&self, state: VehicleState) -> Result<()> {
+    fn send(&mut self, state: VehicleState) -> Result<()> {
+        self.unannounced = false;
         self.sender
             .send(state)
             .map_err(|e| anyhow::anyhow!("publishing the state: {e}"))
+    }
+
+    /// [`Outbox::publish`] of a state the coordinator will not need before this agent next
+    /// waits (a lockstep agent running ahead): published without waking the coordinator,
+    /// which [`Outbox::announce`] then does once for the whole run-ahead. The coordinator
+    /// drains every state of a vehicle on its wake-up, so nothing is missed; a submerged
+    /// glider costs one wake-up per run-ahead instead of one per tick.
+    pub(super) fn publish_ahead(
+        &mut self,
+        vehicle: &Vehicle,
+        k: u64,
+        flags: u32,
+        read: u64,
+    ) -> Result<()> {
+        let state = self.state(vehicle, k, flags, read);
+        self.sender
+            .publish(state)
+            .map_err(|e| anyhow::anyhow!("publishing the state: {e}"))?;
+        self.unannounced = true;
+        self.keep(state);
+        Ok(())
+    }
+
+    /// Wakes the coordinator if a state went out without ([`Outbox::publish_ahead`]); call
+    /// before every wait.
+    pub(super) fn announce(&mut self) -> Result<()> {
+        if std::mem::take(&mut self.unannounced) {
+            self.sender
+                .notify()
+                .map_err(|e| anyhow::anyhow!("waking the coordinator: {e}"))?;
+        }
+        Ok(())
     }
 
     /// Publishes `vehicle`'s state (true and reported) at tick `k` with `flags`, having read `read` commands
@@ -51,10 +87,18 @@ impl Outbox {
         flags: u32,
         read: u64,
     ) -> Result<()> {
+        let state = self.state(vehicle, k, flags, read);
+        self.send(state)?;
+        self.keep(state);
+        Ok(())
+    }
+
+    /// The next state message: `vehicle`'s state at tick `k`, numbered.
+    fn state(&mut self, vehicle: &Vehicle, k: u64, flags: u32, read: u64) -> VehicleState {
         self.seq += 1;
         let agent = &vehicle.agent;
         let told = vehicle.reported();
-        let state = VehicleState {
+        VehicleState {
             header: Header::new(self.id, k, k as f64 * self.dt, self.seq).with_flags(flags),
             pid: self.pid,
             _pad: 0,
@@ -64,13 +108,15 @@ impl Outbox {
             believed: from_vec3(&told.position),
             water_velocity: from_vec3(&told.water),
             current: from_vec3(&told.current),
-        };
-        self.send(state)?;
+        }
+    }
+
+    /// Keeps `state` among the recent states.
+    fn keep(&mut self, state: VehicleState) {
         self.recent.push_back(state);
         while self.recent.len() > Limits::LOOKAHEAD_TICKS as usize + 2 {
             self.recent.pop_front();
         }
-        Ok(())
     }
 
     /// Sends the recent states of ticks after `after` again (to a restarted coordinator),
