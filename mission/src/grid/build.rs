@@ -221,7 +221,7 @@ pub fn load(spec: &GridSpec) -> Result<GridField, GridError> {
         z: built[2].take(),
         times,
         origin,
-        data: var.data,
+        data: super::values::Values::F64(var.data),
         layout,
         land: Vec::new(),
         best: Vec::new(),
@@ -230,6 +230,7 @@ pub fn load(spec: &GridSpec) -> Result<GridField, GridError> {
     canonical(&mut g);
     super::land::mark_and_fill(&mut g, spec.land_above)?;
     super::optimum::prepare(&mut g);
+    g.data.compact();
     Ok(g)
 }
 
@@ -253,11 +254,11 @@ fn canonical(g: &mut GridField) {
             for jy in 0..ny {
                 let row = g.node_index(0, jy, jz, jt) as isize;
                 let step = g.layout.step[0];
-                data.extend((0..nx as isize).map(|jx| g.data[(row + jx * step) as usize]));
+                data.extend((0..nx as isize).map(|jx| g.data.get((row + jx * step) as usize)));
             }
         }
     }
-    g.data = data;
+    g.data = super::values::Values::F64(data);
     g.layout = want;
 }
 

@@ -396,6 +396,11 @@ fn the_synthetic_ocean_has_land_an_optimum_and_is_deterministic() {
     let o = g.origin.unwrap();
     assert!((o[0] - ocean::CENTRE[0]).abs() < 1e-9 && (o[1] - ocean::CENTRE[1]).abs() < 1e-9);
     assert!(g.has_land());
+    assert_eq!(
+        g.value_precision(),
+        "f32",
+        "floats with land filled by floats"
+    );
     // The island (centre (0, −9 km), radius 2 km) and the coast to the north.
     assert!(g.is_land(&Vec3::new(0.0, -9000.0, 0.0)));
     assert!(g.is_land(&Vec3::new(0.0, 21000.0, 0.0)));
