@@ -19,8 +19,33 @@ fn read_any(spec: &GridSpec) -> Result<RawVar, GridError> {
     match ext.as_str() {
         "npy" => read::npy(&spec.file),
         "npz" => read::npz(&spec.file, spec.variable.as_deref(), &spec.names),
+        _ if is_hdf5(&spec.file) => netcdf4(spec),
         _ => read::netcdf(&spec.file, spec.variable.as_deref()),
     }
+}
+
+/// Whether the file starts with the HDF5 signature (a NetCDF-4 file).
+fn is_hdf5(path: &std::path::Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 8];
+    std::fs::File::open(path).is_ok_and(|mut f| f.read_exact(&mut magic).is_ok())
+        && magic == *b"\x89HDF\r\n\x1a\n"
+}
+
+#[cfg(feature = "netcdf4")]
+fn netcdf4(spec: &GridSpec) -> Result<RawVar, GridError> {
+    super::nc4::netcdf4(&spec.file, spec.variable.as_deref())
+}
+
+#[cfg(not(feature = "netcdf4"))]
+fn netcdf4(spec: &GridSpec) -> Result<RawVar, GridError> {
+    Err(GridError::new(
+        &spec.file,
+        spec.variable.as_deref().unwrap_or("-"),
+        "a NetCDF-4 (HDF5) file, and this vbap was built without the `netcdf4` feature: \
+         build with `cargo build --release --workspace --bins --features vbap-mission/netcdf4`, or convert the file with \
+         `nccopy -k classic`",
+    ))
 }
 
 /// One axis's values in file order, in mission units (projection aside), and whether they

@@ -16,6 +16,8 @@ mod build;
 pub mod cf;
 mod eval;
 mod land;
+#[cfg(feature = "netcdf4")]
+mod nc4;
 pub mod ocean;
 mod optimum;
 pub mod read;

@@ -484,3 +484,19 @@ fn the_shipped_ocean_file_is_what_the_generator_writes() {
         "deploy/missions/ocean.nc differs from `vbap ocean --out deploy/missions/ocean.nc --size 160,150 --seed 1`: regenerate it"
     );
 }
+
+/// A NetCDF-4 (HDF5) file: read with the `netcdf4` feature, refused naming the file and the
+/// feature without it; a damaged one is refused either way, naming the file.
+#[test]
+fn an_hdf5_file_is_read_with_the_feature_and_refused_without() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("h.nc");
+    std::fs::write(&path, b"\x89HDF\r\n\x1a\nnot really hdf5").unwrap();
+    let e = GridField::load(&spec(&path, 2)).unwrap_err();
+    assert_eq!(e.file, path.display().to_string());
+    if cfg!(feature = "netcdf4") {
+        assert!(e.what.contains("not a readable NetCDF-4 file"), "{e}");
+    } else {
+        assert!(e.what.contains("without the `netcdf4` feature"), "{e}");
+    }
+}
