@@ -51,9 +51,7 @@ pub struct Fleet {
     /// Uplink counters.
     pub counts: UplinkCounts,
     /// A horizontal formation of diving gliders (`Mission::diving`): what the coordinator
-    /// hears is seen in the formation's plane (z and ż dropped). Absent from checkpoints of
-    /// the other missions.
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    /// hears is seen in the formation's plane (z and ż dropped).
     horizontal: bool,
 }
 
