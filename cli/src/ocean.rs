@@ -1,4 +1,5 @@
-//! `vbap ocean`: writes the synthetic ocean example (a CF NetCDF classic file on a lon/lat
+//! `vbap ocean`: writes the synthetic ocean example (a CF NetCDF classic file, or NetCDF-4
+//! with `--netcdf4` in a build with the `netcdf4` feature, on a lon/lat
 //! grid: sea temperature with a front and eddies, u/v currents, a coast and an island as
 //! land) that `deploy/missions/ocean_grid.toml` uses. The ocean itself is
 //! `vbap_mission::grid::ocean`.
@@ -22,6 +23,9 @@ pub struct OceanArgs {
     /// Seed of the eddies' positions (each within ±1 km of its place).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Write NetCDF-4 (HDF5) instead of classic (a build with the `netcdf4` feature).
+    #[arg(long)]
+    pub netcdf4: bool,
 }
 
 /// (nx, ny) from "NX,NY", or why not.
@@ -42,7 +46,18 @@ pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
 /// Runs `vbap ocean`.
 pub fn main(args: &OceanArgs) -> anyhow::Result<i32> {
     let (nx, ny) = parse_size(&args.size).map_err(InvalidInput)?;
-    ocean::write_ocean(&args.out, nx, ny, args.seed)
+    if args.netcdf4 && !ocean::NETCDF4 {
+        return Err(InvalidInput(
+            "--netcdf4: this vbap was built without the `netcdf4` feature (cargo build --release --workspace --bins --features vbap-mission/netcdf4)".into(),
+        )
+        .into());
+    }
+    let write = if args.netcdf4 {
+        ocean::write_ocean_netcdf4
+    } else {
+        ocean::write_ocean
+    };
+    write(&args.out, nx, ny, args.seed)
         .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", args.out.display()))?;
     println!(
         "{}: synthetic ocean {nx} x {ny} (seed {}), lon {:?} lat {:?}; variables temperature, u, v, land_mask",

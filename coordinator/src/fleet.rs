@@ -50,6 +50,9 @@ pub struct Fleet {
     body_track: BTreeMap<u64, Vec3>,
     /// Uplink counters.
     pub counts: UplinkCounts,
+    /// A horizontal formation of diving gliders (`Mission::diving`): what the coordinator
+    /// hears is seen in the formation's plane (z and ż dropped).
+    horizontal: bool,
 }
 
 impl Fleet {
@@ -62,7 +65,7 @@ impl Fleet {
     pub fn new(mission: &Mission, ids: &[u32]) -> Self {
         let planned = vbap_math::formation::design_regular(
             mission.vehicles.count,
-            mission.mission.dim,
+            mission.formation_dim(),
             mission.formation.radius,
             mission.formation.alpha,
             mission.formation.alpha,
@@ -100,6 +103,20 @@ impl Fleet {
             heard: BTreeSet::new(),
             body_track: BTreeMap::new(),
             counts: UplinkCounts::default(),
+            horizontal: mission.diving(),
+        }
+    }
+
+    /// `q` as the coordinator sees it: in the formation's plane for diving gliders.
+    fn seen(&self, q: Report) -> Report {
+        if !self.horizontal {
+            return q;
+        }
+        let flat = |v: Vec3| Vec3::new(v.x, v.y, 0.0);
+        Report {
+            position: flat(q.position),
+            velocity: flat(q.velocity),
+            ..q
         }
     }
 
@@ -228,12 +245,12 @@ impl Fleet {
         let t = k as f64 * dt;
         let mut fates = Vec::with_capacity(truth.len());
         for q in truth {
-            self.last_truth.insert(q.id, *q);
-            let sent = told.iter().find(|s| s.id == q.id).map_or(*q, |s| Report {
+            self.last_truth.insert(q.id, self.seen(*q));
+            let sent = self.seen(told.iter().find(|s| s.id == q.id).map_or(*q, |s| Report {
                 position: s.position,
                 velocity: s.water,
                 ..*q
-            });
+            }));
             let state = self.links.entry(q.id).or_default();
             let fate = self.model.fate(state, q.id, Direction::Uplink, q.tick, t);
             match fate {

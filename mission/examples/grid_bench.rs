@@ -1,9 +1,11 @@
 //! Bench of gridded fields (no timing assertions: it prints what it measured and the ratios
 //! against the goals of issue 14).
 //!
-//! - sampling a 1000 × 1000 grid (bicubic) against an analytic reading (a sum of Gaussians);
-//!   goal ≤ 3×; the same on a 250 × 250 grid whose values stay in cache (the arithmetic of a
-//!   reading without the memory traffic);
+//! - sampling a 1000 × 1000 grid (bicubic) against an analytic reading (a sum of Gaussians)
+//!   at the same points, goal ≤ 3×: along vehicle tracks at a mission's pace (0.01 grid cell
+//!   per reading), along fast tracks (one cell per reading) and at scattered points (a new
+//!   part of the grid at every reading); the same on a 250 × 250 grid whose values stay in
+//!   cache (the arithmetic of a reading without the memory traffic);
 //! - loading a ~100 MB NetCDF classic file (5000 × 5000 f32); goal ≤ 2 s.
 //!
 //! `cargo run --release -p vbap-mission --example grid_bench [-- --quick]`
@@ -99,25 +101,22 @@ fn main() {
             Vec3::new(-45.0 + 90.0 * a, -45.0 + 90.0 * b, 0.0)
         })
         .collect();
-    // Readings as a fleet takes them: four vehicles, each moving a little between readings
-    // (a slow walk over the whole grid), so consecutive readings share cache lines.
-    let track: Vec<Vec3> = (0..200_000u64)
-        .map(|i| {
-            let s = i as f64 * 4.5e-4;
-            let k = (i % 4) as f64;
-            Vec3::new(45.0 * (s + k).sin(), 45.0 * (0.7 * s + 2.0 * k).cos(), 0.0)
-        })
-        .collect();
+    // Readings as a fleet takes them: four vehicles, each moving `cells` grid cells (of the
+    // 1000 × 1000 grid) between its readings, round-robin. A mission's gliders move 0.01 cell
+    // per reading (ocean_grid.toml: ≤ 0.3 m/s × dt 10 s on a ≈ 300 m grid); one cell per
+    // reading is a fast vehicle on a fine grid (every reading in a new cell).
+    let mission_track = track(0.01);
+    let fast_track = track(1.0);
     // 1000 × 1000: the goal (8 MB of values, beyond the caches); 250 × 250 (0.5 MB): the same
     // walk with every value in cache, i.e. the arithmetic of a reading alone.
     for n in [1000, 250] {
         let file = dir.join(format!("grid{n}.nc"));
         write_grid(&file, n, &f);
         let (g, t_load) = load(&file);
-        readings(n, &g, &f, &track, &points);
+        readings(n, &g, &f, [&mission_track, &fast_track], &points);
         if n == 1000 {
             println!("1000 x 1000 grid: load {t_load:.3} s");
-            probe(&g, &track);
+            probe(&g, &mission_track);
         }
     }
 
@@ -134,27 +133,80 @@ fn main() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Reading costs of the n × n grid `g` against the analytic `f`, with their ratios.
-fn readings(n: usize, g: &GridField, f: &Field, track: &[Vec3], points: &[Vec3]) {
-    let analytic_t = per_call(track, |p| f.value(p, 0.0));
-    let grid_t = per_call(track, |p| g.value(p, 0.0));
-    let analytic = per_call(points, |p| f.value(p, 0.0));
-    let grid = per_call(points, |p| g.value(p, 0.0));
-    let analytic_h = per_call(points, |p| f.gradient(p, 0.0).x + f.hessian(p, 0.0)[(0, 1)]);
-    let grid_h = per_call(points, |p| g.gradient(p, 0.0).x + g.hessian(p, 0.0)[(0, 1)]);
+/// Four vehicles, 50 000 readings each (interleaved), each moving `cells` cells of the
+/// 1000 × 1000 grid (0.1 length unit) per reading along a slow Lissajous curve inside the grid.
+fn track(cells: f64) -> Vec<Vec3> {
+    // Arc length per unit of s is at most 45 · √(1 + 0.7²) ≈ 55.
+    let ds = cells * 0.1 / 55.0;
+    (0..200_000u64)
+        .map(|i| {
+            let k = (i % 4) as f64;
+            let s = (i / 4) as f64 * ds + 1.5 * k;
+            Vec3::new(45.0 * s.sin(), 45.0 * (0.7 * s + 2.0 * k).cos(), 0.0)
+        })
+        .collect()
+}
+
+/// Reading costs of the n × n grid `g` against the analytic `f` at the same points (along the
+/// two `tracks`, at scattered points), with their ratios.
+fn readings(n: usize, g: &GridField, f: &Field, tracks: [&[Vec3]; 2], points: &[Vec3]) {
     let goal = if n == 1000 { " (goal <= 3)" } else { "" };
     println!(
-        "{n} x {n}: reading along vehicle tracks: analytic {:.1} ns, grid {:.1} ns, ratio {:.2}{goal}",
-        analytic_t * 1e9,
-        grid_t * 1e9,
-        grid_t / analytic_t
+        "{n} x {n}: values stored as {} ({:.1} MB)",
+        g.value_precision(),
+        g.value_bytes() as f64 / 1e6
+    );
+    let cases = [
+        ("along tracks, 0.01 cell/reading (mission)", tracks[0]),
+        ("along tracks, 1 cell/reading (fast)", tracks[1]),
+        ("at scattered points", points),
+    ];
+    for (what, at) in cases {
+        let analytic = per_call(at, |p| f.value(p, 0.0));
+        let grid = per_call(at, |p| g.value(p, 0.0));
+        println!(
+            "{n} x {n}: reading {what}: analytic {:.1} ns, grid {:.1} ns, ratio {:.2}{goal}",
+            analytic * 1e9,
+            grid * 1e9,
+            grid / analytic
+        );
+    }
+    let wide = g.with_f64_values();
+    let at = tracks[0];
+    let (analytic, f32_t, f64_t, land_t) = (
+        per_call(at, |p| f.value(p, 0.0)),
+        per_call(at, |p| g.value(p, 0.0)),
+        per_call(at, |p| wide.value(p, 0.0)),
+        per_call(at, |p| {
+            if g.is_land(p) {
+                f64::NAN
+            } else {
+                g.value(p, 0.0)
+            }
+        }),
     );
     println!(
-        "{n} x {n}: reading at scattered points: analytic {:.1} ns, grid {:.1} ns, ratio {:.2}",
-        analytic * 1e9,
-        grid * 1e9,
-        grid / analytic
+        "{n} x {n}: mission tracks: f64 store {:.1} ns (ratio {:.2}), {} store {:.1} ns (ratio {:.2}), with the field server's land check {:.1} ns (ratio {:.2})",
+        f64_t * 1e9,
+        f64_t / analytic,
+        g.value_precision(),
+        f32_t * 1e9,
+        f32_t / analytic,
+        land_t * 1e9,
+        land_t / analytic
     );
+    let scattered = [
+        per_call(points, |p| g.value(p, 0.0)),
+        per_call(points, |p| wide.value(p, 0.0)),
+    ];
+    println!(
+        "{n} x {n}: scattered: {} store {:.1} ns, f64 store {:.1} ns",
+        g.value_precision(),
+        scattered[0] * 1e9,
+        scattered[1] * 1e9
+    );
+    let analytic_h = per_call(points, |p| f.gradient(p, 0.0).x + f.hessian(p, 0.0)[(0, 1)]);
+    let grid_h = per_call(points, |p| g.gradient(p, 0.0).x + g.hessian(p, 0.0)[(0, 1)]);
     println!(
         "{n} x {n}: gradient + Hessian at scattered points: analytic {:.1} ns, grid {:.1} ns, ratio {:.2}",
         analytic_h * 1e9,

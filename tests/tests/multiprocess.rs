@@ -165,6 +165,29 @@ fn lockstep_equals_in_process_diving_gliders() {
     );
 }
 
+/// The shipped dive3d.toml (gliders diving in a 3-D bowl, a current they estimate): the
+/// formation is horizontal, the run equals the simulator byte for byte, and it converges
+/// (the body within tolerance of the point above the optimum, every glider in its slot)
+/// while every glider follows the dive.
+#[test]
+fn lockstep_equals_in_process_dive3d_and_converges() {
+    let base = std::fs::read_to_string(workspace().join("deploy/missions/dive3d.toml"))
+        .expect("dive3d.toml");
+    let name = unique_name("eqd3");
+    let text = base.replacen("name = \"dive3d\"", &format!("name = \"{name}\""), 1);
+    let tmp = assert_run_equals_sim(&text);
+    let s = summary(&tmp.join("run"));
+    assert_eq!(s["verdict"], "converged", "{}", s["reasons"]);
+    let t = Table::read(&tmp.join("run").join("vehicles.csv"));
+    let deepest = t.rows().map(|r| r.num("z")).fold(0.0f64, f64::min);
+    assert!(deepest < -2.9, "the gliders never dived ({deepest})");
+    let body = Table::read(&tmp.join("run").join("body.csv"));
+    assert!(
+        body.rows().all(|r| r.num("rz") == 0.0),
+        "the body stays in the plane"
+    );
+}
+
 /// `vbap sim` and `vbap run` of the same mission write byte-identical tracks; returns the
 /// directory holding both runs (`sim/`, `run/`).
 fn assert_run_equals_sim(text: &str) -> TempDir {

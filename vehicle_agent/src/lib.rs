@@ -136,7 +136,7 @@ pub fn initial_design(
 ) -> Result<FormationDesign, vbap_math::formation::FormationError> {
     vbap_math::formation::design_regular(
         mission.vehicles.count,
-        mission.mission.dim,
+        mission.formation_dim(),
         mission.formation.radius,
         mission.formation.alpha,
         mission.formation.alpha,

@@ -185,7 +185,14 @@ impl Moving {
     ) -> Vec3 {
         let kin = self.kin.clone();
         let land = kin.land.as_deref();
-        let mut u = law.control(&self.belief, &self.water, inputs);
+        let mut u = if kin.dive.is_some() {
+            // A diving glider flies a horizontal formation (`Mission::formation_dim`): the
+            // law sees it in the formation's plane, where the leaders and the neighbours are.
+            let flat = |v: &Vec3| Vec3::new(v.x, v.y, 0.0);
+            law.control(&flat(&self.belief), &flat(&self.water), inputs)
+        } else {
+            law.control(&self.belief, &self.water, inputs)
+        };
         if let Some(l) = land {
             u += repulsion(l.clearance(&self.belief), &kin.avoidance);
         }

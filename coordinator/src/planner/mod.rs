@@ -110,7 +110,7 @@ impl PlannerParams {
     /// The planner's view of a mission (no ground truth in here).
     pub fn from_mission(m: &Mission) -> Self {
         Self {
-            dim: m.mission.dim,
+            dim: m.formation_dim(),
             goal: m.mission.goal,
             radius: m.formation.radius,
             alpha: m.formation.alpha,

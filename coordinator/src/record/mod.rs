@@ -269,7 +269,7 @@ impl Recorder {
             .stats
             .max_v_over_vu
             .max(command.terms.v / self.mission.body.v_u);
-        if let Some(opt) = self.field.optimum(t, self.mission.mission.goal) {
+        if let Some(opt) = self.optimum(t) {
             if (b.r - opt).norm() <= self.mission.mission.tolerance {
                 if !self.stats.ever_inside {
                     self.stats.ever_inside = true;
@@ -305,10 +305,23 @@ impl Recorder {
         fleet: &Fleet,
     ) -> io::Result<()> {
         let t = k as f64 * self.mission.mission.dt;
-        let distance = self
-            .field
-            .optimum(t, self.mission.mission.goal)
-            .map(|o| (command.body.r - o).norm());
+        let distance = self.optimum(t).map(|o| (command.body.r - o).norm());
+        // Diving gliders fly a horizontal formation: judged in its plane.
+        let flat: Vec<Report>;
+        let truth = if self.mission.diving() {
+            let f = |v: Vec3| Vec3::new(v.x, v.y, 0.0);
+            flat = truth
+                .iter()
+                .map(|q| Report {
+                    position: f(q.position),
+                    velocity: f(q.velocity),
+                    ..*q
+                })
+                .collect();
+            &flat
+        } else {
+            truth
+        };
         let out = truth::tick(
             &mut self.stats.truth,
             &self.mission,
@@ -327,6 +340,17 @@ impl Recorder {
             self.events.push(e)?;
         }
         Ok(())
+    }
+
+    /// The field's optimum at `t` that the body is judged against: for diving gliders (a
+    /// horizontal formation, `Mission::diving`) the point of the surface above it.
+    pub(crate) fn optimum(&self, t: f64) -> Option<Vec3> {
+        let o = self.field.optimum(t, self.mission.mission.goal)?;
+        Some(if self.mission.diving() {
+            Vec3::new(o.x, o.y, 0.0)
+        } else {
+            o
+        })
     }
 
     /// The run directory.

@@ -15,7 +15,7 @@ impl Recorder {
         let m = &self.mission;
         let t = self.stats.last_t;
         let r = self.stats.last_r;
-        let optimum = self.field.optimum(t, m.mission.goal);
+        let optimum = self.optimum(t);
         let distance = optimum.map(|o| (r - o).norm());
         let (verdict, reasons) = truth::verdict(
             &self.stats.truth,
@@ -42,9 +42,13 @@ impl Recorder {
         };
         let final_grad_norm = self.field.gradient(&r, t).norm();
         let bound = planner.filter().and_then(|f| {
-            let eps =
-                theorem_5_1_bound(m.estimator.confidence, &f.covariance(), m.mission.dim, 0.0)
-                    .ok()?;
+            let eps = theorem_5_1_bound(
+                m.estimator.confidence,
+                &f.covariance(),
+                m.formation_dim(),
+                0.0,
+            )
+            .ok()?;
             Some(eps + m.estimator.delta_m.unwrap_or_else(|| default_delta_m(eps)))
         });
         Summary {

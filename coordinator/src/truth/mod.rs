@@ -112,7 +112,7 @@ impl TruthStats {
         let dt = mission.mission.dt;
         let d0 = vbap_math::formation::design_regular(
             mission.vehicles.count,
-            mission.mission.dim,
+            mission.formation_dim(),
             mission.formation.radius,
             mission.formation.alpha,
             mission.formation.alpha,
@@ -184,7 +184,7 @@ pub fn tick(
         command,
         design,
         fleet,
-        dim: mission.mission.dim,
+        dim: mission.formation_dim(),
     };
     let (rows, tally) = slots::vehicles(stats, &scene, &mut events);
     let at = At { k, t };

@@ -202,14 +202,34 @@ impl Mission {
         (self.mission.duration / self.mission.dt).round() as u64
     }
 
-    /// `vehicles.start` as a position (z = 0 in 2-D).
+    /// The dimension of the formation, the virtual body and the gradient estimate: the
+    /// mission's, except for diving gliders (`vehicles.dive_depth` in 3-D), whose formation
+    /// is horizontal (2): z follows the dive profile, which (II.1) cannot move, and the
+    /// readings of one tick are all at the dive's depth, so the z column of Lemma 5.1's C
+    /// is constant and only the horizontal gradient is observable (beyond the paper, whose
+    /// vehicles move freely in z).
+    pub fn formation_dim(&self) -> usize {
+        if self.diving() {
+            2
+        } else {
+            self.mission.dim
+        }
+    }
+
+    /// True when the vehicles fly a sawtooth dive (`vehicles.dive_depth`, a 3-D mission): a
+    /// horizontal formation over a 3-D field ([`Mission::formation_dim`]).
+    pub fn diving(&self) -> bool {
+        self.vehicles.dive_depth.is_some() && self.mission.dim == 3
+    }
+
+    /// `vehicles.start` as a position (z = 0 in 2-D and for a horizontal formation).
     pub fn start_vec(&self) -> Vec3 {
         let mut out = Vec3::zeros();
         for (i, x) in self
             .vehicles
             .start
             .iter()
-            .take(self.mission.dim.min(3))
+            .take(self.formation_dim().min(3))
             .enumerate()
         {
             out[i] = *x;
@@ -218,9 +238,9 @@ impl Mission {
     }
 
     /// H of (V.6): `formation.hessian_guess`, or the identity; only the dim×dim block is
-    /// non-zero (in 2-D the z row and column are zero).
+    /// non-zero (in 2-D, and for a horizontal formation, the z row and column are zero).
     pub fn hessian_guess_mat(&self) -> Mat3 {
-        let dim = self.mission.dim.min(3);
+        let dim = self.formation_dim().min(3);
         let mut out = Mat3::zeros();
         match &self.formation.hessian_guess {
             Some(h) => {

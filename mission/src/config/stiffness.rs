@@ -32,7 +32,7 @@ impl Mission {
     pub fn stiffness(&self) -> Option<Stiffness> {
         let design = vbap_math::formation::design_regular(
             self.vehicles.count,
-            self.mission.dim,
+            self.formation_dim(),
             self.formation.radius,
             self.formation.alpha,
             self.formation.alpha,

@@ -19,8 +19,33 @@ fn read_any(spec: &GridSpec) -> Result<RawVar, GridError> {
     match ext.as_str() {
         "npy" => read::npy(&spec.file),
         "npz" => read::npz(&spec.file, spec.variable.as_deref(), &spec.names),
+        _ if is_hdf5(&spec.file) => netcdf4(spec),
         _ => read::netcdf(&spec.file, spec.variable.as_deref()),
     }
+}
+
+/// Whether the file starts with the HDF5 signature (a NetCDF-4 file).
+fn is_hdf5(path: &std::path::Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 8];
+    std::fs::File::open(path).is_ok_and(|mut f| f.read_exact(&mut magic).is_ok())
+        && magic == *b"\x89HDF\r\n\x1a\n"
+}
+
+#[cfg(feature = "netcdf4")]
+fn netcdf4(spec: &GridSpec) -> Result<RawVar, GridError> {
+    super::nc4::netcdf4(&spec.file, spec.variable.as_deref())
+}
+
+#[cfg(not(feature = "netcdf4"))]
+fn netcdf4(spec: &GridSpec) -> Result<RawVar, GridError> {
+    Err(GridError::new(
+        &spec.file,
+        spec.variable.as_deref().unwrap_or("-"),
+        "a NetCDF-4 (HDF5) file, and this vbap was built without the `netcdf4` feature: \
+         build with `cargo build --release --workspace --bins --features vbap-mission/netcdf4`, or convert the file with \
+         `nccopy -k classic`",
+    ))
 }
 
 /// One axis's values in file order, in mission units (projection aside), and whether they
@@ -221,7 +246,7 @@ pub fn load(spec: &GridSpec) -> Result<GridField, GridError> {
         z: built[2].take(),
         times,
         origin,
-        data: var.data,
+        data: super::values::Values::F64(var.data),
         layout,
         land: Vec::new(),
         best: Vec::new(),
@@ -230,6 +255,7 @@ pub fn load(spec: &GridSpec) -> Result<GridField, GridError> {
     canonical(&mut g);
     super::land::mark_and_fill(&mut g, spec.land_above)?;
     super::optimum::prepare(&mut g);
+    g.data.compact();
     Ok(g)
 }
 
@@ -253,11 +279,11 @@ fn canonical(g: &mut GridField) {
             for jy in 0..ny {
                 let row = g.node_index(0, jy, jz, jt) as isize;
                 let step = g.layout.step[0];
-                data.extend((0..nx as isize).map(|jx| g.data[(row + jx * step) as usize]));
+                data.extend((0..nx as isize).map(|jx| g.data.get((row + jx * step) as usize)));
             }
         }
     }
-    g.data = data;
+    g.data = super::values::Values::F64(data);
     g.layout = want;
 }
 

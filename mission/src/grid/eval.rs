@@ -2,6 +2,7 @@
 //! time between the two nearest time slices).
 
 use super::axis::{linear, Stencil};
+use super::values::{Rows, Values};
 use super::GridField;
 use crate::config::Goal;
 use crate::field::ScalarField;
@@ -30,12 +31,6 @@ impl GridField {
         k * self.layout.step[3] as usize
     }
 
-    /// The four x-adjacent values from offset `o` (one bounds check).
-    #[inline]
-    fn row(&self, o: usize) -> &[f64; 4] {
-        self.data[o..o + 4].try_into().expect("four values")
-    }
-
     /// Offset of the first node of the stencil's x-row `k`, z-level `c` in slice `base`.
     #[inline]
     fn row_offset(&self, start: [usize; 3], k: usize, c: usize, base: usize) -> usize {
@@ -53,23 +48,25 @@ impl GridField {
     }
 
     /// Value only (the hot path of a sensor reading): value weights only.
+    #[inline]
     fn value_at(&self, w: &[(usize, [f64; 4]); 3], nz: usize, base: usize) -> f64 {
-        let start = [w[0].0, w[1].0, w[2].0];
-        let wx = &w[0].1;
-        let mut v = 0.0;
-        for c in 0..nz {
-            let mut a = 0.0;
-            for (k, wy) in w[1].1.iter().enumerate() {
-                let r = self.row(self.row_offset(start, k, c, base));
-                a += wy * (wx[0] * r[0] + wx[1] * r[1] + wx[2] * r[2] + wx[3] * r[3]);
-            }
-            v += w[2].1[c] * a;
+        let o = self.row_offset([w[0].0, w[1].0, w[2].0], 0, 0, base);
+        let (sy, sz) = (self.layout.step[1] as usize, self.layout.step[2] as usize);
+        match &self.data {
+            Values::F64(d) => value_in(d.as_slice(), w, nz, o, [sy, sz]),
+            Values::F32(d) => value_in(d.as_slice(), w, nz, o, [sy, sz]),
         }
-        v
     }
 
     /// Value, gradient and Hessian of one slice.
     fn jet_at(&self, st: &[Stencil; 3], nz: usize, base: usize) -> Jet {
+        match &self.data {
+            Values::F64(d) => self.jet_in(d.as_slice(), st, nz, base),
+            Values::F32(d) => self.jet_in(d.as_slice(), st, nz, base),
+        }
+    }
+
+    fn jet_in<R: Rows + ?Sized>(&self, data: &R, st: &[Stencil; 3], nz: usize, base: usize) -> Jet {
         let (sx, sy, sz) = (&st[0], &st[1], &st[2]);
         let start = [sx.start, sy.start, sz.start];
         let dot =
@@ -79,7 +76,7 @@ impl GridField {
             // A..F: sums over y of the x-row sums (see the module documentation).
             let [mut a, mut b, mut cc, mut d, mut e, mut f] = [0.0; 6];
             for k in 0..4 {
-                let r = self.row(self.row_offset(start, k, c, base));
+                let r = &data.row(self.row_offset(start, k, c, base));
                 let (r0, r1, r2) = (dot(&sx.w, r), dot(&sx.d1, r), dot(&sx.d2, r));
                 a += sy.w[k] * r0;
                 b += sy.w[k] * r1;
@@ -157,6 +154,36 @@ impl GridField {
         let (z0, z1) = self.z.as_ref().map_or((0.0, 0.0), |z| z.range());
         (Vec3::new(x0, y0, z0), Vec3::new(x1, y1, z1))
     }
+}
+
+/// Σ_c w_z[c] Σ_k w_y[k] (w_x · row(c, k)) from the offset `o` of the first node, `step` =
+/// the y and z strides: the value weights of [`GridField::value`]. In 2-D (`nz` = 1, w_z = 1)
+/// the z sum is skipped, which gives the same bits (1 · a = a).
+#[inline(always)]
+fn value_in<R: Rows + ?Sized>(
+    data: &R,
+    w: &[(usize, [f64; 4]); 3],
+    nz: usize,
+    o: usize,
+    step: [usize; 2],
+) -> f64 {
+    let (wx, wy) = (&w[0].1, &w[1].1);
+    let plane = |o: usize| {
+        let mut a = 0.0;
+        for (k, wk) in wy.iter().enumerate() {
+            let r = data.row(o + k * step[0]);
+            a += wk * (wx[0] * r[0] + wx[1] * r[1] + wx[2] * r[2] + wx[3] * r[3]);
+        }
+        a
+    };
+    if nz == 1 {
+        return 0.0 + plane(o);
+    }
+    let mut v = 0.0;
+    for c in 0..nz {
+        v += w[2].1[c] * plane(o + c * step[1]);
+    }
+    v
 }
 
 impl ScalarField for GridField {

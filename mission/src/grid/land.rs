@@ -4,7 +4,8 @@
 //! A node is land where the variable is missing (`_FillValue`, `missing_value`, NaN) or
 //! above `field.land_above`, at the level nearest the surface (|z| smallest) of the first
 //! time step. Missing values are then filled from the water around them (three passes of
-//! averaging the filled 8-neighbours, then the mean of the slice), so that the bicubic
+//! averaging the filled 8-neighbours, then the mean of the slice; rounded to f32 when the
+//! file's values are all floats, so the grid is held as f32), so that the bicubic
 //! stencil of a point in the water next to the coast reads no hole; a reading on land is
 //! refused by the field server, never read as these fill values. A position is land when its
 //! nearest node is, and outside the grid.
@@ -60,7 +61,7 @@ pub(super) fn mark_and_fill(g: &mut GridField, land_above: Option<f64>) -> Resul
     g.land = vec![false; nx * ny];
     for jy in 0..ny {
         for jx in 0..nx {
-            let v = g.data[g.node_index(jx, jy, top, 0)];
+            let v = g.data.get(g.node_index(jx, jy, top, 0));
             g.land[jy * nx + jx] = v.is_nan() || land_above.is_some_and(|a| v > a);
         }
     }
@@ -74,10 +75,16 @@ pub(super) fn mark_and_fill(g: &mut GridField, land_above: Option<f64>) -> Resul
     if !g.data.iter().any(|v| v.is_nan()) {
         return Ok(());
     }
-    let global = mean(g.data.iter().copied()).unwrap_or(0.0);
+    let global = mean(g.data.iter()).unwrap_or(0.0);
+    // Floats in the file: fills rounded to floats too, so the grid is held as f32.
+    let floats = g
+        .data
+        .iter()
+        .all(|v| v.is_nan() || f64::from(v as f32) == v);
+    let fill = Fill { global, floats };
     for jt in 0..g.times.len() {
         for jz in 0..nz {
-            fill_slice(g, jz, jt, global);
+            fill_slice(g, jz, jt, fill);
         }
     }
     Ok(())
@@ -91,12 +98,30 @@ fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
     (n > 0).then(|| s / n as f64)
 }
 
-fn fill_slice(g: &mut GridField, jz: usize, jt: usize, global: f64) {
+/// How holes are filled: `global` where a slice has no water; `floats`: round every filled
+/// value to the nearest f32 (the file's values are all floats).
+#[derive(Clone, Copy)]
+struct Fill {
+    global: f64,
+    floats: bool,
+}
+
+impl Fill {
+    fn round(self, v: f64) -> f64 {
+        if self.floats {
+            f64::from(v as f32)
+        } else {
+            v
+        }
+    }
+}
+
+fn fill_slice(g: &mut GridField, jz: usize, jt: usize, fill: Fill) {
     let (nx, ny) = (g.x.len(), g.y.len());
     let mut holes: Vec<(usize, usize)> = Vec::new();
     for jy in 0..ny {
         for jx in 0..nx {
-            if g.data[g.node_index(jx, jy, jz, jt)].is_nan() {
+            if g.data.get(g.node_index(jx, jy, jz, jt)).is_nan() {
                 holes.push((jx, jy));
             }
         }
@@ -117,28 +142,28 @@ fn fill_slice(g: &mut GridField, jz: usize, jt: usize, global: f64) {
                         && (x as usize) < nx
                         && (y as usize) < ny
                     {
-                        around.push(g.data[g.node_index(x as usize, y as usize, jz, jt)]);
+                        around.push(g.data.get(g.node_index(x as usize, y as usize, jz, jt)));
                     }
                 }
             }
             if let Some(m) = mean(around.into_iter()) {
-                updates.push((g.node_index(jx, jy, jz, jt), m));
+                updates.push((g.node_index(jx, jy, jz, jt), fill.round(m)));
             }
         }
         for (i, v) in &updates {
-            g.data[*i] = *v;
+            g.data.build_mut()[*i] = *v;
         }
-        holes.retain(|&(jx, jy)| g.data[g.node_index(jx, jy, jz, jt)].is_nan());
+        holes.retain(|&(jx, jy)| g.data.get(g.node_index(jx, jy, jz, jt)).is_nan());
     }
     let rest = mean(
         (0..ny)
             .flat_map(|jy| (0..nx).map(move |jx| (jx, jy)))
-            .map(|(jx, jy)| g.data[g.node_index(jx, jy, jz, jt)]),
+            .map(|(jx, jy)| g.data.get(g.node_index(jx, jy, jz, jt))),
     );
-    let rest = rest.unwrap_or(global);
+    let rest = fill.round(rest.unwrap_or(fill.global));
     for (jx, jy) in holes {
         let i = g.node_index(jx, jy, jz, jt);
-        g.data[i] = rest;
+        g.data.build_mut()[i] = rest;
     }
 }
 

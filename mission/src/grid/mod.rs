@@ -16,9 +16,12 @@ mod build;
 pub mod cf;
 mod eval;
 mod land;
+#[cfg(feature = "netcdf4")]
+mod nc4;
 pub mod ocean;
 mod optimum;
 pub mod read;
+mod values;
 pub mod write;
 
 use std::path::{Path, PathBuf};
@@ -104,7 +107,7 @@ pub struct GridField {
     /// [lon, lat] of the projection origin when geographic.
     pub origin: Option<[f64; 2]>,
     /// Values (land and missing filled from the water nearby, see `land.rs`).
-    pub(crate) data: Vec<f64>,
+    pub(crate) data: values::Values,
     pub(crate) layout: Layout,
     /// Land nodes of the horizontal grid, `[jy * nx + jx]` (ascending indices).
     pub(crate) land: Vec<bool>,
@@ -132,6 +135,27 @@ impl GridField {
             crate::config::Goal::Max => self.extrema[0],
             crate::config::Goal::Min => self.extrema[1],
         }
+    }
+
+    /// Bytes of node values held (f32 when the file's values are floats, see `values.rs`).
+    pub fn value_bytes(&self) -> usize {
+        self.data.bytes()
+    }
+
+    /// "f32" or "f64": how the node values are held.
+    pub fn value_precision(&self) -> &'static str {
+        match self.data {
+            values::Values::F32(_) => "f32",
+            values::Values::F64(_) => "f64",
+        }
+    }
+
+    /// The same grid with its values held as f64 (what an f32 store widens to): every
+    /// reading equal bit for bit; for benches and tests of the store.
+    pub fn with_f64_values(&self) -> GridField {
+        let mut g = self.clone();
+        g.data = values::Values::F64(self.data.iter().collect());
+        g
     }
 
     /// Grid nodes horizontally (nx, ny).

@@ -200,3 +200,25 @@ pub fn write_ocean(path: &Path, nx: usize, ny: usize, seed: u64) -> std::io::Res
         &format!("vbap synthetic ocean ({nx} x {ny}, seed {seed})"),
     )
 }
+
+/// Writes the synthetic ocean as NetCDF-4 (HDF5) to `path`; an error when built without the
+/// `netcdf4` feature ([`NETCDF4`] says which).
+pub fn write_ocean_netcdf4(path: &Path, nx: usize, ny: usize, seed: u64) -> std::io::Result<()> {
+    #[cfg(feature = "netcdf4")]
+    return super::write::write_netcdf4(
+        path,
+        &[("lat", ny), ("lon", nx)],
+        &variables(nx, ny, seed),
+        &format!("vbap synthetic ocean ({nx} x {ny}, seed {seed})"),
+    );
+    #[cfg(not(feature = "netcdf4"))]
+    {
+        let _ = (path, nx, ny, seed);
+        Err(std::io::Error::other(
+            "this vbap was built without the `netcdf4` feature (cargo build --release --workspace --bins --features vbap-mission/netcdf4)",
+        ))
+    }
+}
+
+/// Whether this build reads and writes NetCDF-4 (the `netcdf4` feature of vbap-mission).
+pub const NETCDF4: bool = cfg!(feature = "netcdf4");

@@ -118,7 +118,7 @@ pub(super) fn prepare(g: &mut GridField) {
                         if g.land_node(jx, jy) {
                             continue;
                         }
-                        let v = g.data[g.node_index(jx, jy, jz, jt)];
+                        let v = g.data.get(g.node_index(jx, jy, jz, jt));
                         if v > hi.0 {
                             hi = (v, [jx, jy, jz]);
                         }
@@ -148,7 +148,7 @@ fn count_extrema(g: &GridField) -> [usize; 2] {
             if g.land_node(jx, jy) {
                 continue;
             }
-            let v = g.data[g.node_index(jx, jy, top, 0)];
+            let v = g.data.get(g.node_index(jx, jy, top, 0));
             let (mut above, mut below) = (true, true);
             for (dx, dy) in [
                 (-1, -1),
@@ -161,7 +161,7 @@ fn count_extrema(g: &GridField) -> [usize; 2] {
                 (1, 1),
             ] {
                 let (x, y) = ((jx as isize + dx) as usize, (jy as isize + dy) as usize);
-                let w = g.data[g.node_index(x, y, top, 0)];
+                let w = g.data.get(g.node_index(x, y, top, 0));
                 above &= v > w;
                 below &= v < w;
             }

@@ -175,7 +175,7 @@ pub fn netcdf(path: &Path, variable: Option<&str>) -> Result<RawVar, GridError> 
 }
 
 /// The only name of `names`, or what is wrong.
-fn pick<'a>(names: impl Iterator<Item = &'a str>) -> Result<String, String> {
+pub(crate) fn pick<'a>(names: impl Iterator<Item = &'a str>) -> Result<String, String> {
     let all: Vec<&str> = names.collect();
     match all.as_slice() {
         [one] => Ok(one.to_string()),

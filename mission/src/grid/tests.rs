@@ -396,6 +396,11 @@ fn the_synthetic_ocean_has_land_an_optimum_and_is_deterministic() {
     let o = g.origin.unwrap();
     assert!((o[0] - ocean::CENTRE[0]).abs() < 1e-9 && (o[1] - ocean::CENTRE[1]).abs() < 1e-9);
     assert!(g.has_land());
+    assert_eq!(
+        g.value_precision(),
+        "f32",
+        "floats with land filled by floats"
+    );
     // The island (centre (0, −9 km), radius 2 km) and the coast to the north.
     assert!(g.is_land(&Vec3::new(0.0, -9000.0, 0.0)));
     assert!(g.is_land(&Vec3::new(0.0, 21000.0, 0.0)));
@@ -478,4 +483,20 @@ fn the_shipped_ocean_file_is_what_the_generator_writes() {
         std::fs::read(&made).unwrap() == want,
         "deploy/missions/ocean.nc differs from `vbap ocean --out deploy/missions/ocean.nc --size 160,150 --seed 1`: regenerate it"
     );
+}
+
+/// A NetCDF-4 (HDF5) file: read with the `netcdf4` feature, refused naming the file and the
+/// feature without it; a damaged one is refused either way, naming the file.
+#[test]
+fn an_hdf5_file_is_read_with_the_feature_and_refused_without() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("h.nc");
+    std::fs::write(&path, b"\x89HDF\r\n\x1a\nnot really hdf5").unwrap();
+    let e = GridField::load(&spec(&path, 2)).unwrap_err();
+    assert_eq!(e.file, path.display().to_string());
+    if cfg!(feature = "netcdf4") {
+        assert!(e.what.contains("not a readable NetCDF-4 file"), "{e}");
+    } else {
+        assert!(e.what.contains("without the `netcdf4` feature"), "{e}");
+    }
 }

@@ -109,3 +109,62 @@ pub fn write_netcdf(
     }
     w.close().map_err(invalid)
 }
+
+/// Writes the same file as [`write_netcdf`] in the NetCDF-4 (HDF5) format, through the pure
+/// Rust `netcdf-writer` (only with the `netcdf4` feature). A `_FillValue` is the variable's
+/// fill value (NetCDF-4 keeps it as a dataset property as well as an attribute).
+#[cfg(feature = "netcdf4")]
+pub fn write_netcdf4(
+    path: &Path,
+    dims: &[(&str, usize)],
+    vars: &[NcVar],
+    title: &str,
+) -> std::io::Result<()> {
+    use netcdf_writer::{NcAttrValue, NcFileBuilder, NcWriteFormat, NcWriteOptions};
+    let mut b = NcFileBuilder::new();
+    let mut ids = std::collections::HashMap::new();
+    for (name, n) in dims {
+        ids.insert(*name, b.add_dimension(*name, *n as u64).map_err(invalid)?);
+    }
+    for (k, t) in [("Conventions", "CF-1.8"), ("title", title)] {
+        b.add_attribute(k, NcAttrValue::Chars(t.into()))
+            .map_err(invalid)?;
+    }
+    for v in vars {
+        let d: Vec<_> = v.dims.iter().map(|n| ids[n.as_str()]).collect();
+        let id = match &v.data {
+            NcData::F32(_) => b.add_variable::<f32>(&v.name, &d),
+            NcData::F64(_) => b.add_variable::<f64>(&v.name, &d),
+            NcData::I8(_) => b.add_variable::<i8>(&v.name, &d),
+        }
+        .map_err(invalid)?;
+        for (k, a) in &v.attrs {
+            match (k.as_str(), a) {
+                ("_FillValue", NcAttr::F32(x)) => b.set_variable_fill_value(id, *x),
+                ("_FillValue", NcAttr::F64(x)) => b.set_variable_fill_value(id, *x),
+                (_, NcAttr::Text(t)) => {
+                    b.add_variable_attribute(id, k, NcAttrValue::Chars(t.clone()))
+                }
+                (_, NcAttr::F32(x)) => {
+                    b.add_variable_attribute(id, k, NcAttrValue::Floats(vec![*x]))
+                }
+                (_, NcAttr::F64(x)) => {
+                    b.add_variable_attribute(id, k, NcAttrValue::Doubles(vec![*x]))
+                }
+            }
+            .map_err(invalid)?;
+        }
+        match &v.data {
+            NcData::F32(x) => b.write_variable(id, x),
+            NcData::F64(x) => b.write_variable(id, x),
+            NcData::I8(x) => b.write_variable(id, x),
+        }
+        .map_err(invalid)?;
+    }
+    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let options = NcWriteOptions {
+        format: NcWriteFormat::Nc4,
+    };
+    b.write(file, options).map_err(invalid)?;
+    Ok(())
+}

@@ -1,0 +1,177 @@
+//! NetCDF-4 (HDF5) files, read in pure Rust by `netcdf-reader` (only with the `netcdf4`
+//! feature): the same [`RawVar`] as a classic file gives, so everything after the reading
+//! (axes, units, projection, land, interpolation) is shared. Variables of the root group.
+
+use std::path::Path;
+
+use netcdf_reader::{NcAttrValue, NcFile, NcType, NcVariable};
+
+use super::read::{pick, Coord, RawVar};
+use super::GridError;
+
+/// The first number of attribute `name` of `v`, whatever its type.
+fn number(v: &NcVariable, name: &str) -> Option<f64> {
+    v.attribute(name).and_then(|a| a.value.as_f64())
+}
+
+/// The text of attribute `name` of `v` (empty if absent or not text).
+fn text(v: &NcVariable, name: &str) -> String {
+    v.attribute(name)
+        .and_then(|a| match &a.value {
+            NcAttrValue::Chars(s) => Some(s.clone()),
+            other => other.as_string(),
+        })
+        .map(|s| s.trim_end_matches('\0').trim().to_string())
+        .unwrap_or_default()
+}
+
+/// Values of variable `v` as f64, `fill` values as NaN (compared in the file's own type, as
+/// for classic files: an f32 fill is compared as f32).
+fn values(file: &NcFile, v: &NcVariable, fill: &[f64]) -> Result<Vec<f64>, String> {
+    let data = file
+        .read_variable_as_f64(&v.name)
+        .map_err(|e| format!("cannot read ({e})"))?;
+    let as_f32 = v.dtype == NcType::Float;
+    let is_fill = |x: f64| {
+        if as_f32 {
+            fill.iter().any(|f| *f as f32 == x as f32)
+        } else {
+            fill.contains(&x)
+        }
+    };
+    Ok(data
+        .iter()
+        .map(|x| if is_fill(*x) { f64::NAN } else { *x })
+        .collect())
+}
+
+/// Reads `variable` (or, when `None`, the only variable of rank ≥ 2) of a NetCDF-4 file with
+/// its coordinate variables; CF packing (`scale_factor`, `add_offset`) is applied.
+pub fn netcdf4(path: &Path, variable: Option<&str>) -> Result<RawVar, GridError> {
+    let fail = |variable: &str, what: String| GridError::new(path, variable, what);
+    let file = NcFile::open(path).map_err(|e| {
+        fail(
+            variable.unwrap_or("-"),
+            format!("not a readable NetCDF-4 file ({e})"),
+        )
+    })?;
+    let vars = file
+        .variables()
+        .map_err(|e| fail("-", format!("cannot list the variables ({e})")))?;
+    let name = match variable {
+        Some(v) => v.to_string(),
+        None => pick(vars.iter().filter(|v| v.ndim() >= 2).map(|v| v.name()))
+            .map_err(|what| fail("-", format!("{what}: name field.variable")))?,
+    };
+    let var = vars.iter().find(|v| v.name == name).ok_or_else(|| {
+        let all: Vec<&str> = vars.iter().map(|v| v.name()).collect();
+        fail(
+            &name,
+            format!("missing variable (the file has {})", all.join(", ")),
+        )
+    })?;
+    let dims: Vec<String> = var.dimensions.iter().map(|d| d.name.clone()).collect();
+    let shape: Vec<usize> = var.dimensions.iter().map(|d| d.size as usize).collect();
+    let fill: Vec<f64> = ["_FillValue", "missing_value"]
+        .iter()
+        .filter_map(|a| number(var, a))
+        .collect();
+    let scale = number(var, "scale_factor").unwrap_or(1.0);
+    let offset = number(var, "add_offset").unwrap_or(0.0);
+    let mut data = values(&file, var, &fill).map_err(|e| fail(&name, e))?;
+    if scale != 1.0 || offset != 0.0 {
+        data.iter_mut().for_each(|x| *x = *x * scale + offset);
+    }
+    let mut coords = Vec::with_capacity(dims.len());
+    for d in &dims {
+        let Some(c) = vars.iter().find(|v| &v.name == d && v.ndim() == 1) else {
+            coords.push(None);
+            continue;
+        };
+        coords.push(Some(Coord {
+            name: d.clone(),
+            values: values(&file, c, &[])
+                .map_err(|e| fail(d, format!("cannot read the coordinate variable: {e}")))?,
+            units: text(c, "units"),
+            standard_name: text(c, "standard_name"),
+            axis: text(c, "axis").to_uppercase(),
+            positive: text(c, "positive").to_lowercase(),
+        }));
+    }
+    Ok(RawVar {
+        name,
+        dims,
+        shape,
+        data,
+        coords,
+        bare: false,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::grid::write::{write_netcdf, write_netcdf4, NcAttr, NcData, NcVar};
+    use crate::grid::{ocean, GridField, GridSpec};
+
+    fn load(path: &Path, variable: &str, dim: usize) -> GridField {
+        let spec = GridSpec {
+            file: path.to_path_buf(),
+            variable: Some(variable.into()),
+            dim,
+            ..GridSpec::default()
+        };
+        let mut g = GridField::load(&spec).unwrap();
+        g.file = String::new();
+        g
+    }
+
+    use std::path::Path;
+
+    /// A 3-D, time-varying f32 variable with a fill value and descending depth, written as
+    /// NetCDF classic and as NetCDF-4: the same grid.
+    #[test]
+    fn a_netcdf4_file_reads_equal_to_the_classic_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (nx, ny, nz, nt) = (6, 5, 4, 2);
+        let mut data: Vec<f32> = (0..nx * ny * nz * nt)
+            .map(|i| (i as f32 * 0.37).sin() * 3.0 + 10.0)
+            .collect();
+        data[3 * nx * ny + 7] = -999.0; // depth 0 (the last level in the file), t = 0
+        let axis =
+            |n: &str, v: Vec<f64>, u: &str| NcVar::new(n, &[n], NcData::F64(v), &[("units", u)]);
+        let mut temp = NcVar::new(
+            "temp",
+            &["time", "depth", "y", "x"],
+            NcData::F32(data),
+            &[("units", "degC")],
+        );
+        temp.attrs.push(("_FillValue".into(), NcAttr::F32(-999.0)));
+        let vars = [
+            axis("time", vec![0.0, 2.0], "hours since 2026-01-01"),
+            axis("depth", vec![60.0, 30.0, 10.0, 0.0], "m"),
+            axis("y", (0..ny).map(|j| j as f64 * 1.5).collect(), "km"),
+            axis("x", (0..nx).map(|j| j as f64 * 700.0).collect(), "m"),
+            temp,
+        ];
+        let dims = [("time", nt), ("depth", nz), ("y", ny), ("x", nx)];
+        let (classic, nc4) = (dir.path().join("c.nc"), dir.path().join("h.nc"));
+        write_netcdf(&classic, false, &dims, &vars, "t").unwrap();
+        write_netcdf4(&nc4, &dims, &vars, "t").unwrap();
+        assert_eq!(&std::fs::read(&nc4).unwrap()[..4], b"\x89HDF");
+        let (a, b) = (load(&classic, "temp", 3), load(&nc4, "temp", 3));
+        assert!(a.has_land(), "the fill value is land");
+        assert_eq!(a, b);
+    }
+
+    /// The synthetic ocean (geographic, land) in both formats: the same temperature grid.
+    #[test]
+    fn the_synthetic_ocean_as_netcdf4_reads_equal_to_the_classic_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (classic, nc4) = (dir.path().join("c.nc"), dir.path().join("o.nc"));
+        ocean::write_ocean(&classic, 40, 30, 3).unwrap();
+        ocean::write_ocean_netcdf4(&nc4, 40, 30, 3).unwrap();
+        for v in ["temperature", "u"] {
+            assert_eq!(load(&classic, v, 2), load(&nc4, v, 2), "{v}");
+        }
+    }
+}
