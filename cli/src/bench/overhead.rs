@@ -21,8 +21,8 @@ use super::fanout::{self, Fanout};
 use super::floors;
 use super::measure::paper_mission;
 use super::report::{Goal, Plan, Report};
-use super::system;
 use super::StopFlag;
+use super::{skeleton, system};
 
 /// Repetitions of the N = 4 hop against its floor.
 pub const HOP_REPEATS: usize = 5;
@@ -41,15 +41,31 @@ pub struct SkeletonRow {
     pub ratio: Option<f64>,
 }
 
-/// One repetition of the N = 4 hop against its floor.
+/// One repetition of the N = 4 hop against its floors.
 #[derive(Clone, Debug, Serialize)]
 pub struct HopPair {
     /// Warm raw iceoryx2 one-way p50, µs.
     pub floor_p50_us: f64,
+    /// The skeleton's state hop p50 at N = 4 (same topology and messages, no math), µs.
+    pub skeleton_p50_us: Option<f64>,
     /// The `vbap run` state hop p50, µs.
     pub hop_p50_us: Option<f64>,
     /// hop / floor.
     pub ratio: Option<f64>,
+}
+
+impl HopPair {
+    /// skeleton hop / raw floor: what the topology itself costs.
+    pub fn skeleton_ratio(&self) -> Option<f64> {
+        self.skeleton_p50_us.map(|s| s / self.floor_p50_us)
+    }
+
+    /// run hop / skeleton hop: what is ours.
+    pub fn over_skeleton(&self) -> Option<f64> {
+        self.hop_p50_us
+            .zip(self.skeleton_p50_us)
+            .map(|(h, s)| h / s)
+    }
 }
 
 /// The figures of this module.
@@ -73,16 +89,32 @@ impl Overhead {
 
     /// The median of the hop / floor ratios.
     pub fn hop_median(&self) -> Option<f64> {
-        let mut r: Vec<f64> = self.hop_repeats.iter().filter_map(|p| p.ratio).collect();
-        if r.is_empty() {
-            return None;
-        }
-        r.sort_by(f64::total_cmp);
-        Some(r[r.len() / 2])
+        median(self.hop_repeats.iter().filter_map(|p| p.ratio))
+    }
+
+    /// The median of the skeleton hop / floor ratios.
+    pub fn skeleton_hop_median(&self) -> Option<f64> {
+        median(self.hop_repeats.iter().filter_map(HopPair::skeleton_ratio))
+    }
+
+    /// The median of the run hop / skeleton hop ratios.
+    pub fn over_skeleton_median(&self) -> Option<f64> {
+        median(self.hop_repeats.iter().filter_map(HopPair::over_skeleton))
     }
 }
 
-/// The N = 4 hop against the warm raw iceoryx2 floor, [`HOP_REPEATS`] interleaved pairs.
+/// The median (upper for an even count) of `values`; None when there are none.
+fn median(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let mut r: Vec<f64> = values.collect();
+    if r.is_empty() {
+        return None;
+    }
+    r.sort_by(f64::total_cmp);
+    Some(r[r.len() / 2])
+}
+
+/// The N = 4 hop against the warm raw iceoryx2 floor and the skeleton's hop,
+/// [`HOP_REPEATS`] interleaved repetitions.
 pub fn hop_repeats(
     plan: &Plan,
     work: &Path,
@@ -93,7 +125,7 @@ pub fn hop_repeats(
     let mut out = Vec::with_capacity(HOP_REPEATS);
     for i in 0..HOP_REPEATS {
         eprintln!(
-            "vbap bench: hop repetition {} of {HOP_REPEATS}: warm raw iceoryx2 floor, then vbap run, N = 4",
+            "vbap bench: hop repetition {} of {HOP_REPEATS}: warm raw iceoryx2 floor, skeleton, vbap run, N = 4",
             i + 1
         );
         let floor = {
@@ -107,6 +139,8 @@ pub fn hop_repeats(
             )?
         };
         stop.check()?;
+        let skeleton = skeleton::skeleton_run(work, 4, ticks as usize, stop)?;
+        stop.check()?;
         let dt = 0.05;
         let mission = paper_mission(4, ticks as f64 * dt, dt, Pace::Lockstep)?;
         let run = system::run(&mission, work, stop, false)?;
@@ -116,11 +150,39 @@ pub fn hop_repeats(
         let hop = run.state_hop.as_ref().map(|h| h.transport_us.p50);
         out.push(HopPair {
             floor_p50_us: floor.one_way_us.p50,
+            skeleton_p50_us: Some(skeleton.hop_us.p50),
             hop_p50_us: hop,
             ratio: hop.map(|h| h / floor.one_way_us.p50),
         });
     }
     Ok(out)
+}
+
+/// `vbap bench --hop`: section 7 alone, printed with the load average before and after.
+pub fn hop_only(args: &super::BenchArgs, work: &Path, stop: &StopFlag) -> Result<i32> {
+    let plan = Plan::new(args.quick);
+    let load = || {
+        std::fs::read_to_string("/proc/loadavg")
+            .map(|l| l.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+            .unwrap_or_else(|_| "n/a".into())
+    };
+    let before = load();
+    let mut suspect = Vec::new();
+    let o = Overhead {
+        hop_repeats: hop_repeats(&plan, work, stop, &mut suspect)?,
+        ..Overhead::default()
+    };
+    let mut s = format!(
+        "vbap bench --hop{} — load average {before} before, {} after\n",
+        if args.quick { " --quick" } else { "" },
+        load()
+    );
+    render_hop(&o, &mut s);
+    for dir in &suspect {
+        let _ = writeln!(s, "   suspect run: {}", dir.display());
+    }
+    print!("{s}");
+    Ok(0)
 }
 
 /// The fan-out of one command to [`FANOUT_RECEIVERS`] processes, both transports.
@@ -163,21 +225,7 @@ pub fn render(r: &Report, s: &mut String) {
         );
     }
     let _ = writeln!(s);
-    let _ = writeln!(
-        s,
-        "7. state hop p50 (N = 4) / warm raw iceoryx2 p50, {HOP_REPEATS} interleaved repetitions"
-    );
-    for (i, p) in o.hop_repeats.iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "   {}: floor {:>6.1} µs, hop {:>6} µs, ratio {}",
-            i + 1,
-            p.floor_p50_us,
-            opt(p.hop_p50_us, 1),
-            opt(p.ratio, 2)
-        );
-    }
-    let _ = writeln!(s, "   median ratio: {}", opt(o.hop_median(), 2));
+    render_hop(o, s);
     let _ = writeln!(s);
     if let Some(f) = &o.fanout {
         let _ = writeln!(
@@ -222,6 +270,40 @@ pub fn render(r: &Report, s: &mut String) {
         );
         let _ = writeln!(s, "   loopback multicast: {}", f.multicast);
     }
+}
+
+/// Section 7: the N = 4 hop against the raw floor and against the skeleton's hop.
+pub fn render_hop(o: &Overhead, s: &mut String) {
+    let opt = |v: Option<f64>, p: usize| v.map_or("n/a".into(), |v| format!("{v:.p$}"));
+    let _ = writeln!(
+        s,
+        "7. state hop p50 (N = 4) / warm raw iceoryx2 p50, {HOP_REPEATS} interleaved repetitions"
+    );
+    let _ = writeln!(
+        s,
+        "   {:>2} {:>10} {:>12} {:>9} {:>12} {:>12} {:>10}",
+        "", "floor µs", "skeleton µs", "run µs", "run / floor", "skel / floor", "run / skel"
+    );
+    for (i, p) in o.hop_repeats.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "   {:>2} {:>10.1} {:>12} {:>9} {:>12} {:>12} {:>10}",
+            i + 1,
+            p.floor_p50_us,
+            opt(p.skeleton_p50_us, 1),
+            opt(p.hop_p50_us, 1),
+            opt(p.ratio, 2),
+            opt(p.skeleton_ratio(), 2),
+            opt(p.over_skeleton(), 2)
+        );
+    }
+    let _ = writeln!(
+        s,
+        "   median ratios: run / floor {}, skeleton / floor {}, run / skeleton {}",
+        opt(o.hop_median(), 2),
+        opt(o.skeleton_hop_median(), 2),
+        opt(o.over_skeleton_median(), 2)
+    );
 }
 
 /// The goals of issue 17 this module measures.
@@ -282,6 +364,7 @@ mod tests {
     fn pair(ratio: Option<f64>) -> HopPair {
         HopPair {
             floor_p50_us: 10.0,
+            skeleton_p50_us: None,
             hop_p50_us: ratio.map(|r| r * 10.0),
             ratio,
         }
@@ -299,6 +382,30 @@ mod tests {
         let g = goals(&o);
         let hop = g.iter().find(|g| g.goal.contains("median of 5")).unwrap();
         assert_eq!(hop.met, Some(false));
+    }
+
+    #[test]
+    fn the_hop_is_compared_with_the_floor_and_the_skeleton() {
+        let o = Overhead {
+            hop_repeats: vec![
+                HopPair {
+                    floor_p50_us: 10.0,
+                    skeleton_p50_us: Some(20.0),
+                    hop_p50_us: Some(30.0),
+                    ratio: Some(3.0),
+                },
+                pair(Some(2.0)),
+            ],
+            ..Overhead::default()
+        };
+        assert_eq!(o.hop_repeats[0].skeleton_ratio(), Some(2.0));
+        assert_eq!(o.hop_repeats[0].over_skeleton(), Some(1.5));
+        // A repetition without a skeleton hop is left out of both skeleton medians.
+        assert_eq!(o.skeleton_hop_median(), Some(2.0));
+        assert_eq!(o.over_skeleton_median(), Some(1.5));
+        let mut s = String::new();
+        render_hop(&o, &mut s);
+        assert!(s.contains("run / skeleton 1.50"), "{s}");
     }
 
     #[test]
