@@ -52,6 +52,10 @@ pub struct HopPair {
     pub hop_p50_us: Option<f64>,
     /// hop / floor.
     pub ratio: Option<f64>,
+    /// The skeleton's state hop p50 by arrival order within a tick, µs.
+    pub skeleton_by_rank_us: Vec<f64>,
+    /// The run's state hop p50 by arrival order within a tick, µs.
+    pub run_by_rank_us: Vec<f64>,
 }
 
 impl HopPair {
@@ -153,9 +157,54 @@ pub fn hop_repeats(
             skeleton_p50_us: Some(skeleton.hop_us.p50),
             hop_p50_us: hop,
             ratio: hop.map(|h| h / floor.one_way_us.p50),
+            skeleton_by_rank_us: skeleton.hop_by_rank_us,
+            run_by_rank_us: hop_by_rank(&run.dir.join("logs/coordinator.msgs.csv"), 4),
         });
     }
     Ok(out)
+}
+
+/// The state hop p50 by arrival order within a tick (µs) from a coordinator's message
+/// records, over the ticks all `n` states of which are in (tick 0, the start-up, left
+/// out); empty without the file.
+pub fn hop_by_rank(msgs: &Path, n: usize) -> Vec<f64> {
+    use std::collections::BTreeMap;
+    use vbap_ipc::msglog::{self, MsgEvent};
+    let Ok(text) = std::fs::read_to_string(msgs) else {
+        return Vec::new();
+    };
+    let mut ticks: BTreeMap<u64, Vec<(u64, u64)>> = BTreeMap::new();
+    for r in text.lines().filter_map(msglog::parse) {
+        if let (MsgEvent::Recv, "state", Some(sent), Some(recv)) =
+            (r.event, r.hop, r.sent_ns, r.recv_ns)
+        {
+            if r.tick > 0 {
+                ticks.entry(r.tick).or_default().push((recv, sent));
+            }
+        }
+    }
+    let mut by_rank = vec![Vec::new(); n];
+    for states in ticks.values_mut().filter(|s| s.len() == n) {
+        states.sort_unstable();
+        for (rank, &(recv, sent)) in states.iter().enumerate() {
+            by_rank[rank].push(recv.saturating_sub(sent) as f64 / 1e3);
+        }
+    }
+    if by_rank.iter().any(Vec::is_empty) {
+        return Vec::new();
+    }
+    by_rank
+        .iter_mut()
+        .map(|v| vbap_mission::rundir::Percentiles::of(v).p50)
+        .collect()
+}
+
+/// Per arrival rank, the median over the repetitions of `of`'s p50s.
+fn rank_medians(pairs: &[HopPair], of: impl Fn(&HopPair) -> &[f64]) -> Vec<f64> {
+    let ranks = pairs.iter().map(|p| of(p).len()).max().unwrap_or(0);
+    (0..ranks)
+        .filter_map(|r| median(pairs.iter().filter_map(|p| of(p).get(r).copied())))
+        .collect()
 }
 
 /// `vbap bench --hop`: section 7 alone, printed with the load average before and after.
@@ -304,6 +353,22 @@ pub fn render_hop(o: &Overhead, s: &mut String) {
         opt(o.skeleton_hop_median(), 2),
         opt(o.over_skeleton_median(), 2)
     );
+    let show = |v: Vec<f64>| {
+        v.iter()
+            .map(|x| format!("{x:.1}"))
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    let skel = rank_medians(&o.hop_repeats, |p| &p.skeleton_by_rank_us);
+    let run = rank_medians(&o.hop_repeats, |p| &p.run_by_rank_us);
+    if !skel.is_empty() || !run.is_empty() {
+        let _ = writeln!(
+            s,
+            "   by arrival order in a tick (1st / 2nd / … state in, p50 µs, median of the repetitions):"
+        );
+        let _ = writeln!(s, "     skeleton {}", show(skel));
+        let _ = writeln!(s, "     vbap run {}", show(run));
+    }
 }
 
 /// The goals of issue 17 this module measures.
@@ -367,6 +432,8 @@ mod tests {
             skeleton_p50_us: None,
             hop_p50_us: ratio.map(|r| r * 10.0),
             ratio,
+            skeleton_by_rank_us: Vec::new(),
+            run_by_rank_us: Vec::new(),
         }
     }
 
@@ -393,6 +460,8 @@ mod tests {
                     skeleton_p50_us: Some(20.0),
                     hop_p50_us: Some(30.0),
                     ratio: Some(3.0),
+                    skeleton_by_rank_us: vec![20.0, 10.0],
+                    run_by_rank_us: vec![40.0, 12.0],
                 },
                 pair(Some(2.0)),
             ],
@@ -406,6 +475,31 @@ mod tests {
         let mut s = String::new();
         render_hop(&o, &mut s);
         assert!(s.contains("run / skeleton 1.50"), "{s}");
+        assert!(s.contains("vbap run 40.0 / 12.0"), "{s}");
+    }
+
+    #[test]
+    fn the_run_hop_by_rank_orders_each_complete_tick_by_arrival() {
+        let dir = std::env::temp_dir().join(format!("vbap-rank-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("coordinator.msgs.csv");
+        // event,hop,sender,receiver,tick,seq,sent_ns,recv_ns,injected_ns,reason
+        let lines = [
+            vbap_ipc::msglog::MSG_HEADER,
+            "recv,state,0,4294967294,0,1,0,900000,,", // tick 0: left out
+            "recv,state,1,4294967294,0,1,0,900000,,",
+            "recv,state,1,4294967294,1,2,1000000,1005000,,", // 2nd in: 5 µs
+            "recv,state,0,4294967294,1,2,1000000,1004000,,", // 1st in: 4 µs
+            "recv,state,0,4294967294,2,3,2000000,2030000,,", // 1st in: 30 µs
+            "recv,state,1,4294967294,2,3,2000000,2040000,,", // 2nd in: 40 µs
+            "recv,state,0,4294967294,3,4,3000000,3900000,,", // tick 3 incomplete
+        ];
+        std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+        let ranks = hop_by_rank(&file, 2);
+        let _ = std::fs::remove_dir_all(&dir);
+        // Nearest-rank p50 of two values is the lower one.
+        assert_eq!(ranks, vec![4.0, 5.0]);
+        assert!(hop_by_rank(&dir.join("absent.csv"), 2).is_empty());
     }
 
     #[test]

@@ -111,6 +111,9 @@ pub struct SkeletonFloor {
     /// The state hop, one-way (agent's stamp just before sending to the coordinator's
     /// wall clock once it holds the state, as `vbap analyze` measures the system's), µs.
     pub hop_us: Percentiles,
+    /// The state hop p50 by arrival order within a tick (the first state of a tick to
+    /// reach the coordinator, the second, …), µs.
+    pub hop_by_rank_us: Vec<f64>,
 }
 
 /// [`skeleton_floor`], with the state hop of the measured ticks.
@@ -176,22 +179,28 @@ pub fn skeleton_run(
         for h in helpers {
             h.reap(Duration::from_secs(5));
         }
+        let mut by_rank = vec![Vec::with_capacity(rounds); n];
+        for &(rank, hop) in &hops {
+            by_rank[rank.min(n - 1)].push(hop);
+        }
+        let mut hops: Vec<f64> = hops.into_iter().map(|(_, h)| h).collect();
         Ok(SkeletonFloor {
             ticks_per_s: rate,
             hop_us: Percentiles::of(&mut hops),
+            hop_by_rank_us: by_rank.iter_mut().map(|v| Percentiles::of(v).p50).collect(),
         })
     })
 }
 
 /// Waits until every agent's state of tick `tick` is in (draining only the subscribers
 /// whose vehicles woke the coordinator, as the coordinator does); the one-way latency of
-/// each state goes to `hops` (µs).
+/// each state goes to `hops` (µs), after the number of the tick's states in before it.
 fn gather(
     c: &Coordinator,
     waiter: &vbap_ipc::wait::Waiter<'_>,
     tick: u64,
     latest: &mut [VehicleState],
-    hops: &mut Vec<f64>,
+    hops: &mut Vec<(usize, f64)>,
 ) -> Result<()> {
     let n = latest.len();
     let mut have = latest.iter().filter(|s| s.header.tick == tick).count();
@@ -209,7 +218,10 @@ fn gather(
                 continue;
             };
             while let Some(s) = sub.receive().context("receiving a state")? {
-                hops.push(wall_ns().saturating_sub(s.header.sent_ns) as f64 / 1e3);
+                hops.push((
+                    have,
+                    wall_ns().saturating_sub(s.header.sent_ns) as f64 / 1e3,
+                ));
                 let slot = &mut latest[id as usize];
                 if s.header.tick == tick && slot.header.tick != tick {
                     have += 1;
