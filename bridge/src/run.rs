@@ -1,6 +1,7 @@
 //! The bridge's life: the Zenoh session, the outbound thread (this host's iceoryx2
-//! services → Zenoh, [`outbound`]) and the inbound loop (Zenoh → this host's services,
-//! [`inbound`]), readiness and the end.
+//! services → Zenoh, [`outbound`]), the inbound side (Zenoh → this host's services,
+//! published by the Zenoh subscribers' callbacks, [`inbound`]) and its loop (liveliness,
+//! readiness and the end).
 //!
 //! Readiness ("hosts start in any order and wait for each other"): a glider host's bridge
 //! declares its liveliness token as soon as its ports exist and prints `ready` (its
@@ -51,8 +52,10 @@ impl Counts {
 
 /// A message from Zenoh (the subscribers' callbacks) to the inbound loop.
 pub(crate) enum In {
-    /// A frame on key `key`.
-    Frame { key: String, bytes: Vec<u8> },
+    /// The mission's final command was published here (a glider host).
+    Finished,
+    /// A frame could not be published here: the bridge ends with this error.
+    Failed(String),
     /// Host `.0`'s liveliness token appeared.
     Up(String),
     /// Host `.0`'s liveliness token vanished (its bridge ended, or its link's lease ran out).
@@ -141,7 +144,7 @@ pub fn run(
     let counts = Arc::new(Counts::default());
     let stop = Arc::new(Stop::default());
     let (tx, rx) = mpsc::channel::<In>();
-    let _subscribers = inbound::subscribe(&session, &place, &tx)?;
+    let _liveliness = inbound::subscribe(&session, &place, &tx)?;
 
     let (up_tx, up_rx) = mpsc::channel::<()>();
     let out = {
@@ -164,7 +167,7 @@ pub fn run(
     };
     // The outbound ports exist (or the thread failed: its error is returned below).
     let _ = up_rx.recv();
-    let result = inbound::run(&session, &place, &rx, &stop, &counts, ready);
+    let result = inbound::run(&session, &place, (&tx, &rx), &stop, &counts, ready);
     stop.set();
     let out = out
         .join()

@@ -75,6 +75,10 @@ pub struct BenchArgs {
     /// against raw Zenoh over the same links (cli/src/bench/hosts.rs).
     #[arg(long)]
     pub hosts: bool,
+    /// Instead: only section 7, the N = 4 state hop against the raw iceoryx2 floor and
+    /// against the skeleton's hop, 5 interleaved repetitions (cli/src/bench/overhead.rs).
+    #[arg(long, conflicts_with = "hosts")]
+    pub hop: bool,
     /// Helper role of a peer process (internal).
     #[arg(long, hide = true, value_enum)]
     pub role: Option<floors::Role>,
@@ -199,6 +203,14 @@ pub fn main(args: &BenchArgs) -> Result<i32> {
         return Ok(code);
     }
     let stop = StopFlag::new(Domain::new(&unique_name("s"))?)?;
+    if args.hop {
+        let result = overhead::hop_only(args, &work, &stop);
+        stop.close();
+        if !keep {
+            let _ = std::fs::remove_dir_all(&work);
+        }
+        return result;
+    }
     let result = measure::bench(args, &work, &stop);
     stop.close();
     match result {

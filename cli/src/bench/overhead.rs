@@ -21,8 +21,8 @@ use super::fanout::{self, Fanout};
 use super::floors;
 use super::measure::paper_mission;
 use super::report::{Goal, Plan, Report};
-use super::system;
 use super::StopFlag;
+use super::{skeleton, system};
 
 /// Repetitions of the N = 4 hop against its floor.
 pub const HOP_REPEATS: usize = 5;
@@ -41,15 +41,35 @@ pub struct SkeletonRow {
     pub ratio: Option<f64>,
 }
 
-/// One repetition of the N = 4 hop against its floor.
+/// One repetition of the N = 4 hop against its floors.
 #[derive(Clone, Debug, Serialize)]
 pub struct HopPair {
     /// Warm raw iceoryx2 one-way p50, µs.
     pub floor_p50_us: f64,
+    /// The skeleton's state hop p50 at N = 4 (same topology and messages, no math), µs.
+    pub skeleton_p50_us: Option<f64>,
     /// The `vbap run` state hop p50, µs.
     pub hop_p50_us: Option<f64>,
     /// hop / floor.
     pub ratio: Option<f64>,
+    /// The skeleton's state hop p50 by arrival order within a tick, µs.
+    pub skeleton_by_rank_us: Vec<f64>,
+    /// The run's state hop p50 by arrival order within a tick, µs.
+    pub run_by_rank_us: Vec<f64>,
+}
+
+impl HopPair {
+    /// skeleton hop / raw floor: what the topology itself costs.
+    pub fn skeleton_ratio(&self) -> Option<f64> {
+        self.skeleton_p50_us.map(|s| s / self.floor_p50_us)
+    }
+
+    /// run hop / skeleton hop: what is ours.
+    pub fn over_skeleton(&self) -> Option<f64> {
+        self.hop_p50_us
+            .zip(self.skeleton_p50_us)
+            .map(|(h, s)| h / s)
+    }
 }
 
 /// The figures of this module.
@@ -73,16 +93,32 @@ impl Overhead {
 
     /// The median of the hop / floor ratios.
     pub fn hop_median(&self) -> Option<f64> {
-        let mut r: Vec<f64> = self.hop_repeats.iter().filter_map(|p| p.ratio).collect();
-        if r.is_empty() {
-            return None;
-        }
-        r.sort_by(f64::total_cmp);
-        Some(r[r.len() / 2])
+        median(self.hop_repeats.iter().filter_map(|p| p.ratio))
+    }
+
+    /// The median of the skeleton hop / floor ratios.
+    pub fn skeleton_hop_median(&self) -> Option<f64> {
+        median(self.hop_repeats.iter().filter_map(HopPair::skeleton_ratio))
+    }
+
+    /// The median of the run hop / skeleton hop ratios.
+    pub fn over_skeleton_median(&self) -> Option<f64> {
+        median(self.hop_repeats.iter().filter_map(HopPair::over_skeleton))
     }
 }
 
-/// The N = 4 hop against the warm raw iceoryx2 floor, [`HOP_REPEATS`] interleaved pairs.
+/// The median (upper for an even count) of `values`; None when there are none.
+fn median(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let mut r: Vec<f64> = values.collect();
+    if r.is_empty() {
+        return None;
+    }
+    r.sort_by(f64::total_cmp);
+    Some(r[r.len() / 2])
+}
+
+/// The N = 4 hop against the warm raw iceoryx2 floor and the skeleton's hop,
+/// [`HOP_REPEATS`] interleaved repetitions.
 pub fn hop_repeats(
     plan: &Plan,
     work: &Path,
@@ -93,7 +129,7 @@ pub fn hop_repeats(
     let mut out = Vec::with_capacity(HOP_REPEATS);
     for i in 0..HOP_REPEATS {
         eprintln!(
-            "vbap bench: hop repetition {} of {HOP_REPEATS}: warm raw iceoryx2 floor, then vbap run, N = 4",
+            "vbap bench: hop repetition {} of {HOP_REPEATS}: warm raw iceoryx2 floor, skeleton, vbap run, N = 4",
             i + 1
         );
         let floor = {
@@ -107,6 +143,8 @@ pub fn hop_repeats(
             )?
         };
         stop.check()?;
+        let skeleton = skeleton::skeleton_run(work, 4, ticks as usize, stop)?;
+        stop.check()?;
         let dt = 0.05;
         let mission = paper_mission(4, ticks as f64 * dt, dt, Pace::Lockstep)?;
         let run = system::run(&mission, work, stop, false)?;
@@ -116,11 +154,84 @@ pub fn hop_repeats(
         let hop = run.state_hop.as_ref().map(|h| h.transport_us.p50);
         out.push(HopPair {
             floor_p50_us: floor.one_way_us.p50,
+            skeleton_p50_us: Some(skeleton.hop_us.p50),
             hop_p50_us: hop,
             ratio: hop.map(|h| h / floor.one_way_us.p50),
+            skeleton_by_rank_us: skeleton.hop_by_rank_us,
+            run_by_rank_us: hop_by_rank(&run.dir.join("logs/coordinator.msgs.csv"), 4),
         });
     }
     Ok(out)
+}
+
+/// The state hop p50 by arrival order within a tick (µs) from a coordinator's message
+/// records, over the ticks all `n` states of which are in (tick 0, the start-up, left
+/// out); empty without the file.
+pub fn hop_by_rank(msgs: &Path, n: usize) -> Vec<f64> {
+    use std::collections::BTreeMap;
+    use vbap_ipc::msglog::{self, MsgEvent};
+    let Ok(text) = std::fs::read_to_string(msgs) else {
+        return Vec::new();
+    };
+    let mut ticks: BTreeMap<u64, Vec<(u64, u64)>> = BTreeMap::new();
+    for r in text.lines().filter_map(msglog::parse) {
+        if let (MsgEvent::Recv, "state", Some(sent), Some(recv)) =
+            (r.event, r.hop, r.sent_ns, r.recv_ns)
+        {
+            if r.tick > 0 {
+                ticks.entry(r.tick).or_default().push((recv, sent));
+            }
+        }
+    }
+    let mut by_rank = vec![Vec::new(); n];
+    for states in ticks.values_mut().filter(|s| s.len() == n) {
+        states.sort_unstable();
+        for (rank, &(recv, sent)) in states.iter().enumerate() {
+            by_rank[rank].push(recv.saturating_sub(sent) as f64 / 1e3);
+        }
+    }
+    if by_rank.iter().any(Vec::is_empty) {
+        return Vec::new();
+    }
+    by_rank
+        .iter_mut()
+        .map(|v| vbap_mission::rundir::Percentiles::of(v).p50)
+        .collect()
+}
+
+/// Per arrival rank, the median over the repetitions of `of`'s p50s.
+fn rank_medians(pairs: &[HopPair], of: impl Fn(&HopPair) -> &[f64]) -> Vec<f64> {
+    let ranks = pairs.iter().map(|p| of(p).len()).max().unwrap_or(0);
+    (0..ranks)
+        .filter_map(|r| median(pairs.iter().filter_map(|p| of(p).get(r).copied())))
+        .collect()
+}
+
+/// `vbap bench --hop`: section 7 alone, printed with the load average before and after.
+pub fn hop_only(args: &super::BenchArgs, work: &Path, stop: &StopFlag) -> Result<i32> {
+    let plan = Plan::new(args.quick);
+    let load = || {
+        std::fs::read_to_string("/proc/loadavg")
+            .map(|l| l.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+            .unwrap_or_else(|_| "n/a".into())
+    };
+    let before = load();
+    let mut suspect = Vec::new();
+    let o = Overhead {
+        hop_repeats: hop_repeats(&plan, work, stop, &mut suspect)?,
+        ..Overhead::default()
+    };
+    let mut s = format!(
+        "vbap bench --hop{} — load average {before} before, {} after\n",
+        if args.quick { " --quick" } else { "" },
+        load()
+    );
+    render_hop(&o, &mut s);
+    for dir in &suspect {
+        let _ = writeln!(s, "   suspect run: {}", dir.display());
+    }
+    print!("{s}");
+    Ok(0)
 }
 
 /// The fan-out of one command to [`FANOUT_RECEIVERS`] processes, both transports.
@@ -163,21 +274,7 @@ pub fn render(r: &Report, s: &mut String) {
         );
     }
     let _ = writeln!(s);
-    let _ = writeln!(
-        s,
-        "7. state hop p50 (N = 4) / warm raw iceoryx2 p50, {HOP_REPEATS} interleaved repetitions"
-    );
-    for (i, p) in o.hop_repeats.iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "   {}: floor {:>6.1} µs, hop {:>6} µs, ratio {}",
-            i + 1,
-            p.floor_p50_us,
-            opt(p.hop_p50_us, 1),
-            opt(p.ratio, 2)
-        );
-    }
-    let _ = writeln!(s, "   median ratio: {}", opt(o.hop_median(), 2));
+    render_hop(o, s);
     let _ = writeln!(s);
     if let Some(f) = &o.fanout {
         let _ = writeln!(
@@ -221,6 +318,56 @@ pub fn render(r: &Report, s: &mut String) {
             f.udp.last_us.p50 / f.iceoryx2.last_us.p50
         );
         let _ = writeln!(s, "   loopback multicast: {}", f.multicast);
+    }
+}
+
+/// Section 7: the N = 4 hop against the raw floor and against the skeleton's hop.
+pub fn render_hop(o: &Overhead, s: &mut String) {
+    let opt = |v: Option<f64>, p: usize| v.map_or("n/a".into(), |v| format!("{v:.p$}"));
+    let _ = writeln!(
+        s,
+        "7. state hop p50 (N = 4) / warm raw iceoryx2 p50, {HOP_REPEATS} interleaved repetitions"
+    );
+    let _ = writeln!(
+        s,
+        "   {:>2} {:>10} {:>12} {:>9} {:>12} {:>12} {:>10}",
+        "", "floor µs", "skeleton µs", "run µs", "run / floor", "skel / floor", "run / skel"
+    );
+    for (i, p) in o.hop_repeats.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "   {:>2} {:>10.1} {:>12} {:>9} {:>12} {:>12} {:>10}",
+            i + 1,
+            p.floor_p50_us,
+            opt(p.skeleton_p50_us, 1),
+            opt(p.hop_p50_us, 1),
+            opt(p.ratio, 2),
+            opt(p.skeleton_ratio(), 2),
+            opt(p.over_skeleton(), 2)
+        );
+    }
+    let _ = writeln!(
+        s,
+        "   median ratios: run / floor {}, skeleton / floor {}, run / skeleton {}",
+        opt(o.hop_median(), 2),
+        opt(o.skeleton_hop_median(), 2),
+        opt(o.over_skeleton_median(), 2)
+    );
+    let show = |v: Vec<f64>| {
+        v.iter()
+            .map(|x| format!("{x:.1}"))
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    let skel = rank_medians(&o.hop_repeats, |p| &p.skeleton_by_rank_us);
+    let run = rank_medians(&o.hop_repeats, |p| &p.run_by_rank_us);
+    if !skel.is_empty() || !run.is_empty() {
+        let _ = writeln!(
+            s,
+            "   by arrival order in a tick (1st / 2nd / … state in, p50 µs, median of the repetitions):"
+        );
+        let _ = writeln!(s, "     skeleton {}", show(skel));
+        let _ = writeln!(s, "     vbap run {}", show(run));
     }
 }
 
@@ -282,8 +429,11 @@ mod tests {
     fn pair(ratio: Option<f64>) -> HopPair {
         HopPair {
             floor_p50_us: 10.0,
+            skeleton_p50_us: None,
             hop_p50_us: ratio.map(|r| r * 10.0),
             ratio,
+            skeleton_by_rank_us: Vec::new(),
+            run_by_rank_us: Vec::new(),
         }
     }
 
@@ -299,6 +449,57 @@ mod tests {
         let g = goals(&o);
         let hop = g.iter().find(|g| g.goal.contains("median of 5")).unwrap();
         assert_eq!(hop.met, Some(false));
+    }
+
+    #[test]
+    fn the_hop_is_compared_with_the_floor_and_the_skeleton() {
+        let o = Overhead {
+            hop_repeats: vec![
+                HopPair {
+                    floor_p50_us: 10.0,
+                    skeleton_p50_us: Some(20.0),
+                    hop_p50_us: Some(30.0),
+                    ratio: Some(3.0),
+                    skeleton_by_rank_us: vec![20.0, 10.0],
+                    run_by_rank_us: vec![40.0, 12.0],
+                },
+                pair(Some(2.0)),
+            ],
+            ..Overhead::default()
+        };
+        assert_eq!(o.hop_repeats[0].skeleton_ratio(), Some(2.0));
+        assert_eq!(o.hop_repeats[0].over_skeleton(), Some(1.5));
+        // A repetition without a skeleton hop is left out of both skeleton medians.
+        assert_eq!(o.skeleton_hop_median(), Some(2.0));
+        assert_eq!(o.over_skeleton_median(), Some(1.5));
+        let mut s = String::new();
+        render_hop(&o, &mut s);
+        assert!(s.contains("run / skeleton 1.50"), "{s}");
+        assert!(s.contains("vbap run 40.0 / 12.0"), "{s}");
+    }
+
+    #[test]
+    fn the_run_hop_by_rank_orders_each_complete_tick_by_arrival() {
+        let dir = std::env::temp_dir().join(format!("vbap-rank-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("coordinator.msgs.csv");
+        // event,hop,sender,receiver,tick,seq,sent_ns,recv_ns,injected_ns,reason
+        let lines = [
+            vbap_ipc::msglog::MSG_HEADER,
+            "recv,state,0,4294967294,0,1,0,900000,,", // tick 0: left out
+            "recv,state,1,4294967294,0,1,0,900000,,",
+            "recv,state,1,4294967294,1,2,1000000,1005000,,", // 2nd in: 5 µs
+            "recv,state,0,4294967294,1,2,1000000,1004000,,", // 1st in: 4 µs
+            "recv,state,0,4294967294,2,3,2000000,2030000,,", // 1st in: 30 µs
+            "recv,state,1,4294967294,2,3,2000000,2040000,,", // 2nd in: 40 µs
+            "recv,state,0,4294967294,3,4,3000000,3900000,,", // tick 3 incomplete
+        ];
+        std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+        let ranks = hop_by_rank(&file, 2);
+        let _ = std::fs::remove_dir_all(&dir);
+        // Nearest-rank p50 of two values is the lower one.
+        assert_eq!(ranks, vec![4.0, 5.0]);
+        assert!(hop_by_rank(&dir.join("absent.csv"), 2).is_empty());
     }
 
     #[test]

@@ -34,6 +34,7 @@ use vbap_ipc::msg::{wall_ns, Header};
 use vbap_ipc::ports;
 use vbap_ipc::topics::{self, Domain, Limits};
 use vbap_ipc::wait::{Event, Wake, WakeListener};
+use vbap_mission::rundir::Percentiles;
 
 use super::floors::{in_private_domain, say_ready, wait_events, Helper, PEER_TIMEOUT};
 use super::{Interrupted, StopFlag};
@@ -99,6 +100,29 @@ pub fn skeleton_floor(
     rounds: usize,
     stop: &StopFlag,
 ) -> Result<f64> {
+    Ok(skeleton_run(work, n, rounds, stop)?.ticks_per_s)
+}
+
+/// What a skeleton run measured.
+#[derive(Clone, Debug)]
+pub struct SkeletonFloor {
+    /// Ticks per second.
+    pub ticks_per_s: f64,
+    /// The state hop, one-way (agent's stamp just before sending to the coordinator's
+    /// wall clock once it holds the state, as `vbap analyze` measures the system's), µs.
+    pub hop_us: Percentiles,
+    /// The state hop p50 by arrival order within a tick (the first state of a tick to
+    /// reach the coordinator, the second, …), µs.
+    pub hop_by_rank_us: Vec<f64>,
+}
+
+/// [`skeleton_floor`], with the state hop of the measured ticks.
+pub fn skeleton_run(
+    work: &std::path::Path,
+    n: usize,
+    rounds: usize,
+    stop: &StopFlag,
+) -> Result<SkeletonFloor> {
     in_private_domain("k", |domain| {
         let node = domain.node(topics::COORDINATOR_NODE)?;
         let c = Coordinator::open(domain, &node, n)?;
@@ -135,14 +159,16 @@ pub fn skeleton_floor(
         let mut batch = Box::new(SampleBatch::empty());
         let mut latest = vec![VehicleState::default(); n];
         let warmup = (rounds / 5).max(10);
+        let mut hops = Vec::with_capacity(rounds * n);
         let mut t0 = Instant::now();
         for k in 0..(warmup + rounds) as u64 {
             if k == warmup as u64 {
                 t0 = Instant::now();
+                hops.clear();
             }
             body.header = Header::new(Header::COORDINATOR, k, k as f64 * DT, k + 1);
             c.fan_out(&mut body)?;
-            gather(&c, &waiter, k + 1, &mut latest)?;
+            gather(&c, &waiter, k + 1, &mut latest, &mut hops)?;
             sense(&c, &waiter, k + 1, &latest, &mut batch)?;
         }
         let rate = rounds as f64 / t0.elapsed().as_secs_f64();
@@ -153,17 +179,28 @@ pub fn skeleton_floor(
         for h in helpers {
             h.reap(Duration::from_secs(5));
         }
-        Ok(rate)
+        let mut by_rank = vec![Vec::with_capacity(rounds); n];
+        for &(rank, hop) in &hops {
+            by_rank[rank.min(n - 1)].push(hop);
+        }
+        let mut hops: Vec<f64> = hops.into_iter().map(|(_, h)| h).collect();
+        Ok(SkeletonFloor {
+            ticks_per_s: rate,
+            hop_us: Percentiles::of(&mut hops),
+            hop_by_rank_us: by_rank.iter_mut().map(|v| Percentiles::of(v).p50).collect(),
+        })
     })
 }
 
 /// Waits until every agent's state of tick `tick` is in (draining only the subscribers
-/// whose vehicles woke the coordinator, as the coordinator does).
+/// whose vehicles woke the coordinator, as the coordinator does); the one-way latency of
+/// each state goes to `hops` (µs), after the number of the tick's states in before it.
 fn gather(
     c: &Coordinator,
     waiter: &vbap_ipc::wait::Waiter<'_>,
     tick: u64,
     latest: &mut [VehicleState],
+    hops: &mut Vec<(usize, f64)>,
 ) -> Result<()> {
     let n = latest.len();
     let mut have = latest.iter().filter(|s| s.header.tick == tick).count();
@@ -181,6 +218,10 @@ fn gather(
                 continue;
             };
             while let Some(s) = sub.receive().context("receiving a state")? {
+                hops.push((
+                    have,
+                    wall_ns().saturating_sub(s.header.sent_ns) as f64 / 1e3,
+                ));
                 let slot = &mut latest[id as usize];
                 if s.header.tick == tick && slot.header.tick != tick {
                     have += 1;
