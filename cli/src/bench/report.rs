@@ -329,7 +329,7 @@ pub(super) fn goals(r: &Report) -> Vec<Goal> {
     for n in [256, 1024] {
         if r.plan.realtime.contains(&n) {
             goal(
-                format!("N = {n} at real-time pace (dt = 0.1 s, no late tick, none lost)"),
+                format!("N = {n} at real time (dt = 0.1 s, none late or lost)"),
                 r.realtime.largest_vehicles.map(|n| n as f64),
                 &format!("largest N ≥ {n}"),
                 Some(largest >= n),
