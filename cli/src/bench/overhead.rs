@@ -374,13 +374,8 @@ pub fn render_hop(o: &Overhead, s: &mut String) {
 /// The goals of issue 17 this module measures.
 pub fn goals(o: &Overhead) -> Vec<Goal> {
     let mut out = Vec::new();
-    let mut goal = |goal: String, value: Option<f64>, target: &str, met: Option<bool>| {
-        out.push(Goal {
-            goal,
-            value,
-            target: target.into(),
-            met,
-        })
+    let mut goal = |g: String, value: Option<f64>, target: &str, met: Option<bool>| {
+        out.push(Goal::new(g, value, target, met))
     };
     for n in [16, 256] {
         let v = o

@@ -257,6 +257,18 @@ pub(super) struct Goal {
     pub(super) met: Option<bool>,
 }
 
+impl Goal {
+    /// Goal `goal`, measured `value`, aimed at `target` (as printed), `met` when known.
+    pub(super) fn new(goal: String, value: Option<f64>, target: &str, met: Option<bool>) -> Self {
+        Self {
+            goal,
+            value,
+            target: target.into(),
+            met,
+        }
+    }
+}
+
 /// Everything `vbap bench` measured.
 #[derive(Clone, Debug, Serialize)]
 pub(super) struct Report {
@@ -296,13 +308,8 @@ pub(super) struct Report {
 /// glider-days per minute ≥ 30) are gone: their figures stay in the tables above.
 pub(super) fn goals(r: &Report) -> Vec<Goal> {
     let mut out = Vec::new();
-    let mut goal = |goal: String, value: Option<f64>, target: &str, met: Option<bool>| {
-        out.push(Goal {
-            goal,
-            value,
-            target: target.into(),
-            met,
-        })
+    let mut goal = |g: String, value: Option<f64>, target: &str, met: Option<bool>| {
+        out.push(Goal::new(g, value, target, met))
     };
     // 1 and 6 (skeleton, hop median) and 3 (fan-out) come from the overhead sections.
     // 2: cost per tick·vehicle that grows linearly.
