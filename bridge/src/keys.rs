@@ -9,25 +9,6 @@ use vbap_mission::hosts::Hosts;
 /// bridge) is seen at once.
 pub const LEASE_MS: u64 = 1000;
 
-/// Zenoh's async runtimes, in the RON of its `ZENOH_RUNTIME` variable: every runtime
-/// (receive, accept, application, network) handed over to the transmit one, so a bridge
-/// runs all of Zenoh on one worker thread instead of six. A bridge forwards a few frames
-/// per tick; on a small board (and on the 2-CPU machine of `vbap bench --hosts`) fewer
-/// threads mean fewer thread wake-ups per frame and less competition with the agents:
-/// measured there, the raw ping-pong round trip 52–55 µs instead of 70–77 µs, and the
-/// three-host tick 2.2–2.4 ms instead of 2.5–2.7 ms (BENCHMARKS.md).
-pub const RUNTIME: &str =
-    "(rx: (handover: tx), acc: (handover: tx), app: (handover: tx), net: (handover: tx))";
-
-/// Makes [`RUNTIME`] this process's Zenoh runtime unless the user chose one
-/// (`ZENOH_RUNTIME` set). Call it first thing in `main`, before any thread exists (Zenoh
-/// reads the variable once, when it first starts a runtime).
-pub fn use_bridge_runtime() {
-    if std::env::var_os("ZENOH_RUNTIME").is_none() {
-        std::env::set_var("ZENOH_RUNTIME", RUNTIME);
-    }
-}
-
 /// The key expressions of mission `m`.
 #[derive(Clone, Debug)]
 pub struct Keys {

@@ -13,9 +13,7 @@
 //! sending host the bridge is woken as the absent reader would be (it listens on the
 //! coordinator's wake service on a glider host, on the remote vehicles' wake services on
 //! the shore). Sensor requests stay on the shore (the field server runs beside the
-//! coordinator: the hosts file says so). A received frame is published by the Zenoh
-//! subscriber's callback itself (thread-safe iceoryx2 ports), with no hand-off to another
-//! thread; all of Zenoh runs on one worker thread ([`keys::RUNTIME`]).
+//! coordinator: the hosts file says so).
 //!
 //! Quality of service: every stream is a reliable, blocking (`CongestionControl::Block`),
 //! express publication over the TCP link — lockstep needs every state and every command

@@ -28,7 +28,6 @@ struct Args {
 }
 
 fn main() {
-    vbap_bridge::keys::use_bridge_runtime();
     let args = Args::parse();
     die_with_parent(args.parent);
     let mission = load_mission_or_exit("vbap_bridge", &args.mission);

@@ -31,7 +31,6 @@ struct Args {
 }
 
 fn main() {
-    vbap_bridge::keys::use_bridge_runtime();
     let args = Args::parse();
     let hosts = match vbap_mission::hosts::Hosts::load(&args.hosts, args.vehicles)
         .and_then(|h| h.host(&args.host).map(|_| ()).map(|()| h))

@@ -1,7 +1,6 @@
 //! The bridge's life: the Zenoh session, the outbound thread (this host's iceoryx2
-//! services → Zenoh, [`outbound`]), the inbound side (Zenoh → this host's services,
-//! published by the Zenoh subscribers' callbacks, [`inbound`]) and its loop (liveliness,
-//! readiness and the end).
+//! services → Zenoh, [`outbound`]) and the inbound loop (Zenoh → this host's services,
+//! [`inbound`]), readiness and the end.
 //!
 //! Readiness ("hosts start in any order and wait for each other"): a glider host's bridge
 //! declares its liveliness token as soon as its ports exist and prints `ready` (its
@@ -52,10 +51,8 @@ impl Counts {
 
 /// A message from Zenoh (the subscribers' callbacks) to the inbound loop.
 pub(crate) enum In {
-    /// The mission's final command was published here (a glider host).
-    Finished,
-    /// A frame could not be published here: the bridge ends with this error.
-    Failed(String),
+    /// A frame on key `key`.
+    Frame { key: String, bytes: Vec<u8> },
     /// Host `.0`'s liveliness token appeared.
     Up(String),
     /// Host `.0`'s liveliness token vanished (its bridge ended, or its link's lease ran out).
@@ -144,7 +141,7 @@ pub fn run(
     let counts = Arc::new(Counts::default());
     let stop = Arc::new(Stop::default());
     let (tx, rx) = mpsc::channel::<In>();
-    let _liveliness = inbound::subscribe(&session, &place, &tx)?;
+    let _subscribers = inbound::subscribe(&session, &place, &tx)?;
 
     let (up_tx, up_rx) = mpsc::channel::<()>();
     let out = {
@@ -167,7 +164,7 @@ pub fn run(
     };
     // The outbound ports exist (or the thread failed: its error is returned below).
     let _ = up_rx.recv();
-    let result = inbound::run(&session, &place, (&tx, &rx), &stop, &counts, ready);
+    let result = inbound::run(&session, &place, &rx, &stop, &counts, ready);
     stop.set();
     let out = out
         .join()

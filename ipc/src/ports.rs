@@ -58,9 +58,9 @@ fn port_err(what: impl std::fmt::Display, e: impl Debug) -> TopicError {
 }
 
 /// A publisher of `service` (the error names the service).
-pub fn publisher<S: iceoryx2::service::Service, T: Debug + ZeroCopySend + 'static>(
-    service: &publish_subscribe::PortFactory<S, T, ()>,
-) -> Result<Publisher<S, T, ()>, TopicError> {
+pub fn publisher<T: Debug + ZeroCopySend + 'static>(
+    service: &publish_subscribe::PortFactory<ipc::Service, T, ()>,
+) -> Result<Publisher<ipc::Service, T, ()>, TopicError> {
     service
         .publisher_builder()
         .create()
@@ -78,10 +78,10 @@ pub fn subscriber<T: Debug + ZeroCopySend + 'static>(
 }
 
 /// A notifier of the wake service `service` whose plain `notify()` sends `event`.
-pub fn notifier<S: iceoryx2::service::Service>(
-    service: &event::PortFactory<S>,
+pub fn notifier(
+    service: &event::PortFactory<ipc::Service>,
     event: Event,
-) -> Result<Notifier<S>, TopicError> {
+) -> Result<Notifier<ipc::Service>, TopicError> {
     service
         .notifier_builder()
         .default_event_id(event.id())
@@ -101,18 +101,20 @@ pub fn listener(
 
 /// A publisher and the notifier that wakes its readers: every [`Sender::send`] publishes,
 /// then notifies with the sender's [`Event`].
-/// `S`: the service variant (`ipc::Service`; `ipc_threadsafe::Service` for a sender used
-/// from several threads, as the bridge's Zenoh callbacks are).
 #[derive(Debug)]
-pub struct Sender<T: Debug + ZeroCopySend + 'static, S: iceoryx2::service::Service = ipc::Service> {
-    publisher: Publisher<S, T, ()>,
-    notifier: Notifier<S>,
+pub struct Sender<T: Debug + ZeroCopySend + 'static> {
+    publisher: Publisher<ipc::Service, T, ()>,
+    notifier: Notifier<ipc::Service>,
     event: Event,
 }
 
-impl<T: Debug + ZeroCopySend + 'static, S: iceoryx2::service::Service> Sender<T, S> {
+impl<T: Debug + ZeroCopySend + 'static> Sender<T> {
     /// A sender publishing with `publisher`, waking with `event` on `notifier`.
-    pub fn new(publisher: Publisher<S, T, ()>, notifier: Notifier<S>, event: Event) -> Self {
+    pub fn new(
+        publisher: Publisher<ipc::Service, T, ()>,
+        notifier: Notifier<ipc::Service>,
+        event: Event,
+    ) -> Self {
         Self {
             publisher,
             notifier,
@@ -190,16 +192,6 @@ impl Domain {
         path: &str,
         limits: &Limits,
     ) -> Result<publish_subscribe::PortFactory<ipc::Service, T, ()>, TopicError> {
-        self.state_like_service_in(node, path, limits)
-    }
-
-    /// [`Domain::state_like_service_as`] through a node of service variant `S`.
-    pub fn state_like_service_in<S: iceoryx2::service::Service, T: Debug + ZeroCopySend>(
-        &self,
-        node: &Node<S>,
-        path: &str,
-        limits: &Limits,
-    ) -> Result<publish_subscribe::PortFactory<S, T, ()>, TopicError> {
         let name = self.service_name(path)?;
         node.service_builder(&name)
             .publish_subscribe::<T>()

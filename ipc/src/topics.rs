@@ -187,28 +187,6 @@ impl Domain {
         self.node_with_config(name, &self.config)
     }
 
-    /// [`Domain::node`] of service variant `S` (e.g. `ipc_threadsafe::Service`: the same
-    /// shared memory, ports that may be used from any thread, as the bridge's Zenoh
-    /// callbacks do).
-    pub fn node_as<S: iceoryx2::service::Service>(
-        &self,
-        name: &str,
-    ) -> Result<Node<S>, TopicError> {
-        let node_name = NodeName::new(name).map_err(|e| TopicError::Name {
-            name: name.to_string(),
-            reason: format!("{e:?}"),
-        })?;
-        NodeBuilder::new()
-            .name(&node_name)
-            .config(&self.config)
-            .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
-            .create::<S>()
-            .map_err(|e| TopicError::Node {
-                node: name.to_string(),
-                reason: format!("{e:?}"),
-            })
-    }
-
     /// [`Domain::node`] for a vehicle agent: it does not scan the domain for dead nodes when
     /// it is created or dropped, nor the nodes of a shared service when it opens one (the
     /// supervisor cleans up after a death before it restarts the process, and the
@@ -395,18 +373,6 @@ impl Domain {
         node: &Node<ipc::Service>,
         limits: &Limits,
     ) -> Result<publish_subscribe::PortFactory<ipc::Service, T, ()>, TopicError> {
-        self.body_service_in(node, limits)
-    }
-
-    /// [`Domain::body_service_as`] through a node of service variant `S`.
-    pub fn body_service_in<
-        S: iceoryx2::service::Service,
-        T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend,
-    >(
-        &self,
-        node: &Node<S>,
-        limits: &Limits,
-    ) -> Result<publish_subscribe::PortFactory<S, T, ()>, TopicError> {
         let name = self.service_name("body")?;
         node.service_builder(&name)
             .publish_subscribe::<T>()
@@ -462,18 +428,6 @@ impl Domain {
         node: &Node<ipc::Service>,
         limits: &Limits,
     ) -> Result<publish_subscribe::PortFactory<ipc::Service, T, ()>, TopicError> {
-        self.exits_service_in(node, limits)
-    }
-
-    /// [`Domain::exits_service_as`] through a node of service variant `S`.
-    pub fn exits_service_in<
-        S: iceoryx2::service::Service,
-        T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend,
-    >(
-        &self,
-        node: &Node<S>,
-        limits: &Limits,
-    ) -> Result<publish_subscribe::PortFactory<S, T, ()>, TopicError> {
         let name = self.service_name("supervisor/exits")?;
         node.service_builder(&name)
             .publish_subscribe::<T>()
@@ -487,15 +441,15 @@ impl Domain {
             .map_err(|e| service_err(&name, e))
     }
 
-    fn event_service<S: iceoryx2::service::Service>(
+    fn event_service(
         &self,
-        node: &Node<S>,
+        node: &Node<ipc::Service>,
         path: &str,
         listeners: usize,
         notifiers: usize,
         limits: &Limits,
         max_event_id: usize,
-    ) -> Result<event::PortFactory<S>, TopicError> {
+    ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
         let name = self.service_name(path)?;
         node.service_builder(&name)
             .event()
@@ -509,12 +463,12 @@ impl Domain {
     }
 
     /// `<m>/vehicle/<id>/wake`: the agent listens, the coordinator notifies.
-    pub fn vehicle_wake<S: iceoryx2::service::Service>(
+    pub fn vehicle_wake(
         &self,
-        node: &Node<S>,
+        node: &Node<ipc::Service>,
         id: u32,
         limits: &Limits,
-    ) -> Result<event::PortFactory<S>, TopicError> {
+    ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
         self.event_service(
             node,
             &format!("vehicle/{id}/wake"),
@@ -526,11 +480,11 @@ impl Domain {
     }
 
     /// `<m>/coordinator/wake`: the coordinator listens, agents and the field server notify.
-    pub fn coordinator_wake<S: iceoryx2::service::Service>(
+    pub fn coordinator_wake(
         &self,
-        node: &Node<S>,
+        node: &Node<ipc::Service>,
         limits: &Limits,
-    ) -> Result<event::PortFactory<S>, TopicError> {
+    ) -> Result<event::PortFactory<ipc::Service>, TopicError> {
         self.event_service(
             node,
             "coordinator/wake",

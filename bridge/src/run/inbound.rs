@@ -1,12 +1,6 @@
 //! Zenoh → this host's iceoryx2 services, published and notified exactly as the local
 //! writer would (same service, same wake event); the hosts' liveliness.
 //!
-//! A frame is published into iceoryx2 by the Zenoh subscriber's callback itself, on the
-//! Zenoh thread that received it: no hand-off to another thread, so one thread wake-up
-//! less per forwarded state and command. Those ports are `ipc_threadsafe` (the same
-//! shared memory as `ipc`; ports usable from any thread), held by a [`Forward`] behind a
-//! mutex. The loop of [`run`] handles the hosts' liveliness, readiness and the end.
-//!
 //! On the shore: remote vehicles' states (publisher of `<m>/vehicle/<id>/state`, waking
 //! the coordinator with `Event::Vehicle(id)`), the glider hosts' process exits, and for
 //! every remote vehicle whose host is up a *proxy node* `vehicle_agent_<id>` in this
@@ -17,15 +11,15 @@
 //! their proxy nodes end. On a glider host: the body commands (publisher of `<m>/body`,
 //! `Event::Body` on every local vehicle's wake service).
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
-use std::sync::{mpsc, Arc, Mutex};
+use std::sync::mpsc;
 
 use anyhow::{anyhow, Result};
 use iceoryx2::node::Node;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
-use iceoryx2::prelude::{ipc, ipc_threadsafe};
+use iceoryx2::prelude::ipc;
 use iceoryx2::service::port_factory::PortFactory as _;
 use tracing::{info, warn};
 use vbap_ipc::msg::agent_to_coordinator::VehicleState;
@@ -41,32 +35,12 @@ use super::{liveliness_event, Counts, In, Place, Stop, POLL};
 use crate::keys::Keys;
 use crate::wire::{self, RawBody, RawBytes, RawExit, RawState};
 
-/// The Zenoh subscriber of the hosts' liveliness (kept alive by the caller): its callback
-/// sends to `tx`.
+/// The Zenoh subscribers of this host (kept alive by the caller): their callbacks send to
+/// `tx`.
 pub(crate) fn subscribe(
     session: &zenoh::Session,
     place: &Place<'_>,
     tx: &mpsc::Sender<In>,
-) -> Result<zenoh::pubsub::Subscriber<()>> {
-    let tx = tx.clone();
-    session
-        .liveliness()
-        .declare_subscriber(place.keys.hosts())
-        .history(true)
-        .callback(move |s| liveliness_event(&tx, &s))
-        .wait()
-        .map_err(|e| anyhow!("subscribing to the hosts' liveliness: {e}"))
-}
-
-/// The frame subscribers of this host: each callback publishes what it receives through
-/// `forward` (see the module doc); the end of the mission (a glider host's final command)
-/// and a failure go to the loop on `tx`.
-fn subscribe_frames(
-    session: &zenoh::Session,
-    place: &Place<'_>,
-    forward: &Arc<Mutex<Forward>>,
-    tx: &mpsc::Sender<In>,
-    counts: &Arc<Counts>,
 ) -> Result<Vec<zenoh::pubsub::Subscriber<()>>> {
     let keys = &place.keys;
     let wanted = if place.is_shore() {
@@ -76,91 +50,63 @@ fn subscribe_frames(
     };
     let mut subs = Vec::new();
     for key in wanted {
-        let (forward, tx, counts) = (forward.clone(), tx.clone(), counts.clone());
+        let tx = tx.clone();
         subs.push(
             session
                 .declare_subscriber(key.clone())
                 .callback(move |s| {
-                    let bytes = s.payload().to_bytes();
-                    let done = match forward.lock() {
-                        Ok(mut f) => f.frame(s.key_expr().as_str(), &bytes, &counts),
-                        Err(_) => Err(anyhow!("the forwarding ports' lock is poisoned")),
-                    };
-                    match done {
-                        Ok(false) => {}
-                        Ok(true) => {
-                            let _ = tx.send(In::Finished);
-                        }
-                        Err(e) => {
-                            let _ = tx.send(In::Failed(format!("{e:#}")));
-                        }
-                    }
+                    let _ = tx.send(In::Frame {
+                        key: s.key_expr().as_str().to_string(),
+                        bytes: s.payload().to_bytes().into_owned(),
+                    });
                 })
                 .wait()
                 .map_err(|e| anyhow!("subscribing to {key}: {e}"))?,
         );
     }
+    let tx = tx.clone();
+    subs.push(
+        session
+            .liveliness()
+            .declare_subscriber(keys.hosts())
+            .history(true)
+            .callback(move |s| liveliness_event(&tx, &s))
+            .wait()
+            .map_err(|e| anyhow!("subscribing to the hosts' liveliness: {e}"))?,
+    );
     Ok(subs)
 }
 
-/// The thread-safe iceoryx2 service variant of the ports the Zenoh callbacks publish on.
-type Ts = ipc_threadsafe::Service;
-
-/// The ports the Zenoh callbacks publish on, and what the shore's need to know.
-pub(crate) enum Forward {
-    Shore(Box<ShoreForward>),
-    Glider(GliderForward),
-}
-
-impl Forward {
-    /// A frame on key `key`: published here; true when it was the mission's final command.
-    fn frame(&mut self, key: &str, bytes: &[u8], counts: &Counts) -> Result<bool> {
-        match self {
-            Forward::Shore(s) => s.frame(key, bytes, counts),
-            Forward::Glider(g) => g.frame(key, bytes, counts),
-        }
-    }
-}
-
-/// The shore's forwarding ports.
-pub(crate) struct ShoreForward {
-    _node: Node<Ts>,
-    states: BTreeMap<u32, Sender<RawState, Ts>>,
-    exits: Sender<RawExit, Ts>,
-    /// The vehicles of each host.
-    vehicles_of: BTreeMap<String, Vec<u32>>,
+/// The shore's inbound ports.
+struct Shore {
+    node: Node<ipc::Service>,
+    states: BTreeMap<u32, Sender<RawState>>,
+    exits: Sender<RawExit>,
+    /// Proxy nodes of the remote vehicles whose host is up.
+    proxies: BTreeMap<u32, Node<ipc::Service>>,
     /// The pid of each remote vehicle's process, from its last state.
     pids: BTreeMap<u32, u32>,
     /// This bridge started while the coordinator already ran (it is a restarted bridge:
     /// the coordinator lost the remote vehicles when the old one's proxy nodes died).
     restarted: bool,
     /// The remote vehicles whose first state through this bridge has been forwarded.
-    heard: BTreeSet<u32>,
+    heard: std::collections::BTreeSet<u32>,
 }
 
-/// A glider host's forwarding ports.
-pub(crate) struct GliderForward {
-    _node: Node<Ts>,
-    body: Publisher<Ts, RawBody, ()>,
-    wakes: Vec<Notifier<Ts>>,
+/// A glider host's inbound ports.
+struct Glider {
+    body: Publisher<ipc::Service, RawBody, ()>,
+    wakes: Vec<Notifier<ipc::Service>>,
 }
 
-/// The shore's proxy nodes.
-struct Shore {
-    node: Node<ipc::Service>,
-    /// Proxy nodes of the remote vehicles whose host is up.
-    proxies: BTreeMap<u32, Node<ipc::Service>>,
-}
-
-/// The inbound loop: opens the ports, subscribes to the frames, declares this host's
-/// token when it may, calls `ready` when this host may start its processes, runs until
-/// `stop` (or the mission's final command, on a glider host).
+/// The inbound loop: opens the ports, declares this host's token when it may, calls
+/// `ready` when this host may start its processes, forwards until `stop`.
 pub(crate) fn run(
     session: &zenoh::Session,
     place: &Place<'_>,
-    (tx, rx): (&mpsc::Sender<In>, &mpsc::Receiver<In>),
+    rx: &mpsc::Receiver<In>,
     stop: &Stop,
-    counts: &Arc<Counts>,
+    counts: &Counts,
     ready: impl FnOnce(),
 ) -> Result<()> {
     let (domain, limits) = (&place.domain, &place.limits);
@@ -168,15 +114,49 @@ pub(crate) fn run(
     // The coordinator is up once the body service has its publisher.
     let body_service = domain.body_service_as::<RawBody>(&node, limits)?;
     let coordinator_up = body_service.dynamic_config().number_of_publishers() > 0;
-    let forward = Arc::new(Mutex::new(open_forward(place, coordinator_up)?));
-    let mut shore = place.is_shore().then(|| Shore {
-        node,
-        proxies: BTreeMap::new(),
-    });
-    if shore.is_some() && coordinator_up {
-        info!("the coordinator already runs: a restarted bridge (remote vehicles rejoin)");
+    let mut shore = None;
+    let mut glider = None;
+    if place.is_shore() {
+        let mut states = BTreeMap::new();
+        for id in place.remote_vehicles() {
+            let publisher = ports::publisher(&domain.state_like_service_as::<RawState>(
+                &node,
+                &format!("vehicle/{id}/state"),
+                limits,
+            )?)?;
+            let wake = ports::notifier(&domain.coordinator_wake(&node, limits)?, Event::Data)?;
+            states.insert(id, Sender::new(publisher, wake, Event::Vehicle(id)));
+        }
+        let exits = Sender::new(
+            ports::publisher(&domain.exits_service_as::<RawExit>(&node, limits)?)?,
+            ports::notifier(&domain.coordinator_wake(&node, limits)?, Event::Exit)?,
+            Event::Exit,
+        );
+        shore = Some(Shore {
+            node,
+            states,
+            exits,
+            proxies: BTreeMap::new(),
+            pids: BTreeMap::new(),
+            restarted: coordinator_up,
+            heard: Default::default(),
+        });
+        if coordinator_up {
+            info!("the coordinator already runs: a restarted bridge (remote vehicles rejoin)");
+        }
+    } else {
+        let mut wakes = Vec::new();
+        for id in place.local_vehicles() {
+            wakes.push(ports::notifier(
+                &domain.vehicle_wake(&node, id, limits)?,
+                Event::Body,
+            )?);
+        }
+        glider = Some(Glider {
+            body: ports::publisher(&domain.body_service_as::<RawBody>(&node, limits)?)?,
+            wakes,
+        });
     }
-    let _frames = subscribe_frames(session, place, &forward, tx, counts)?;
     let liveliness = session.liveliness();
     let declare = || {
         liveliness
@@ -194,11 +174,17 @@ pub(crate) fn run(
     let mut ready = Some(ready);
     while !stop.is_set() {
         match rx.recv_timeout(POLL) {
-            Ok(In::Finished) => {
-                info!("the mission's final command is published here: bridge ends");
-                stop.set();
+            Ok(In::Frame { key, bytes }) => {
+                let finished = match (&mut shore, &glider) {
+                    (Some(s), _) => s.frame(place, &key, &bytes, counts)?,
+                    (_, Some(g)) => g.frame(&key, &bytes, counts)?,
+                    _ => false,
+                };
+                if finished {
+                    info!("the mission's final command is published here: bridge ends");
+                    stop.set();
+                }
             }
-            Ok(In::Failed(e)) => return Err(anyhow!(e)),
             Ok(In::Up(h)) => {
                 info!(host = %h, "host up");
                 up.insert(h.clone(), true);
@@ -210,7 +196,7 @@ pub(crate) fn run(
                 warn!(host = %h, "host gone");
                 up.insert(h.clone(), false);
                 if let Some(s) = &mut shore {
-                    s.host_down(place, &h, &forward)?;
+                    s.host_down(place, &h)?;
                 }
             }
             Err(mpsc::RecvTimeoutError::Timeout) => {}
@@ -240,63 +226,15 @@ pub(crate) fn run(
     Ok(())
 }
 
-/// The forwarding ports of this host: on the shore the remote vehicles' state publishers
-/// (waking the coordinator) and the exits; on a glider host the body publisher and the
-/// local vehicles' wake notifiers.
-fn open_forward(place: &Place<'_>, coordinator_up: bool) -> Result<Forward> {
-    let (domain, limits) = (&place.domain, &place.limits);
-    let node = domain.node_as::<Ts>("vbap_bridge_fwd")?;
-    if place.is_shore() {
-        let mut states = BTreeMap::new();
-        for id in place.remote_vehicles() {
-            let publisher = ports::publisher(&domain.state_like_service_in::<Ts, RawState>(
-                &node,
-                &format!("vehicle/{id}/state"),
-                limits,
-            )?)?;
-            let wake = ports::notifier(&domain.coordinator_wake(&node, limits)?, Event::Data)?;
-            states.insert(id, Sender::new(publisher, wake, Event::Vehicle(id)));
-        }
-        let exits = Sender::new(
-            ports::publisher(&domain.exits_service_in::<Ts, RawExit>(&node, limits)?)?,
-            ports::notifier(&domain.coordinator_wake(&node, limits)?, Event::Exit)?,
-            Event::Exit,
-        );
-        let vehicles_of = place
-            .hosts
-            .hosts
-            .iter()
-            .map(|(name, h)| (name.clone(), h.vehicles.clone()))
-            .collect();
-        Ok(Forward::Shore(Box::new(ShoreForward {
-            _node: node,
-            states,
-            exits,
-            vehicles_of,
-            pids: BTreeMap::new(),
-            restarted: coordinator_up,
-            heard: BTreeSet::new(),
-        })))
-    } else {
-        let mut wakes = Vec::new();
-        for id in place.local_vehicles() {
-            wakes.push(ports::notifier(
-                &domain.vehicle_wake(&node, id, limits)?,
-                Event::Body,
-            )?);
-        }
-        let body = ports::publisher(&domain.body_service_in::<Ts, RawBody>(&node, limits)?)?;
-        Ok(Forward::Glider(GliderForward {
-            _node: node,
-            body,
-            wakes,
-        }))
-    }
-}
-
-impl ShoreForward {
+impl Shore {
     /// A frame from a glider host: a state of a remote vehicle, or its host's exits.
-    fn frame(&mut self, key: &str, bytes: &[u8], counts: &Counts) -> Result<bool> {
+    fn frame(
+        &mut self,
+        place: &Place<'_>,
+        key: &str,
+        bytes: &[u8],
+        counts: &Counts,
+    ) -> Result<bool> {
         let last = Keys::last(key);
         if key.contains("/state/") {
             let Some(id) = last
@@ -346,10 +284,11 @@ impl ShoreForward {
             };
             let role = wire::u32_at(raw.bytes(), std::mem::offset_of!(ProcessExit, role));
             let vehicle = wire::u32_at(raw.bytes(), std::mem::offset_of!(ProcessExit, vehicle));
-            let theirs = self
-                .vehicles_of
+            let theirs = place
+                .hosts
+                .hosts
                 .get(last)
-                .is_some_and(|v| v.contains(&vehicle));
+                .is_some_and(|h| h.vehicles.contains(&vehicle));
             if role != ProcessExit::AGENT || !theirs {
                 counts.refuse(
                     key,
@@ -362,9 +301,7 @@ impl ShoreForward {
         counts.inbound.fetch_add(1, Ordering::Relaxed);
         Ok(false)
     }
-}
 
-impl Shore {
     /// Host `host` is up: proxy nodes for its vehicles.
     fn host_up(&mut self, place: &Place<'_>, host: &str) -> Result<()> {
         let _ = &self.node;
@@ -383,13 +320,7 @@ impl Shore {
     }
 
     /// Host `host` is gone: its vehicles are reported unreachable, their proxies end.
-    fn host_down(&mut self, place: &Place<'_>, host: &str, forward: &Mutex<Forward>) -> Result<()> {
-        let mut forward = forward
-            .lock()
-            .map_err(|_| anyhow!("the forwarding ports' lock is poisoned"))?;
-        let Forward::Shore(f) = &mut *forward else {
-            return Ok(());
-        };
+    fn host_down(&mut self, place: &Place<'_>, host: &str) -> Result<()> {
         for &id in place
             .hosts
             .hosts
@@ -398,8 +329,8 @@ impl Shore {
             .unwrap_or(&[])
         {
             if self.proxies.remove(&id).is_some() {
-                let pid = f.pids.get(&id).copied().unwrap_or(0);
-                f.exits.send(unreachable(id, pid))?;
+                let pid = self.pids.get(&id).copied().unwrap_or(0);
+                self.exits.send(unreachable(id, pid))?;
                 warn!(
                     vehicle = id,
                     pid, host, "vehicle unreachable: reported to the coordinator"
@@ -410,7 +341,7 @@ impl Shore {
     }
 }
 
-impl GliderForward {
+impl Glider {
     /// A body command from the shore: published here, every local agent woken; true when
     /// it is the mission's final one.
     fn frame(&self, key: &str, bytes: &[u8], counts: &Counts) -> Result<bool> {
