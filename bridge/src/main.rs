@@ -31,6 +31,7 @@ fn main() {
     let args = Args::parse();
     die_with_parent(args.parent);
     let mission = load_mission_or_exit("vbap_bridge", &args.mission);
+    vbap_ipc::process::join_domain(&mission.mission.name, args.parent);
     let hosts = match vbap_mission::hosts::Hosts::load(&args.hosts, mission.vehicles.count)
         .and_then(|h| h.host(&args.host).map(|_| ()).map(|()| h))
     {
@@ -42,6 +43,6 @@ fn main() {
     };
     let log = vbap_ipc::telemetry::init("vbap_bridge", args.log.as_deref());
     let result = vbap_bridge::run(&mission, &hosts, &args.host, announce_ready);
-    vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
+    vbap_ipc::process::leave_domain();
     finish("vbap_bridge", result.err().map(|e| format!("{e:#}")), log)
 }

@@ -23,24 +23,54 @@ pub fn clean_domain(domain: &Domain) -> Result<usize> {
     Ok(dead + domain.remove_files())
 }
 
-/// Waits (polling every 100 ms, at most `timeout`) until no process of `domain` is alive: the
-/// processes of a supervisor that was killed end on their own (they get SIGTERM when it
-/// dies). Err names the ones still alive.
+/// Waits (polling every 100 ms, at most `timeout`) until no process of `domain` is alive and
+/// none holds the domain's members file (the processes of a supervisor that was killed end
+/// on their own: they get SIGTERM when it dies, the last of them cleans), then cleans what
+/// is left, holding the members file exclusively meanwhile: a member of the earlier run
+/// still leaving finds the file locked or replaced and does not clean the new run's
+/// files. Err names the processes still alive.
 pub fn await_domain_free(domain: &Domain, timeout: Duration) -> Result<()> {
     let start = Instant::now();
+    let busy = |what: String| {
+        anyhow::anyhow!(
+            "mission {:?} is already running on this host (live processes: {what}); choose another mission.name",
+            domain.mission,
+        )
+    };
     loop {
         let alive = domain.alive_node_names();
         if alive.is_empty() {
-            return Ok(());
-        }
-        if start.elapsed() >= timeout {
-            bail!(
-                "mission {:?} is already running on this host (live processes: {}); choose another mission.name",
-                domain.mission,
-                alive.join(", ")
-            );
+            match claim_members(domain) {
+                Ok(claim) => {
+                    clean_domain(domain)?;
+                    drop(claim);
+                    return Ok(());
+                }
+                Err(Busy) if start.elapsed() >= timeout => {
+                    return Err(busy("members still leaving".into()))
+                }
+                Err(Busy) => {}
+            }
+        } else if start.elapsed() >= timeout {
+            return Err(busy(alive.join(", ")));
         }
         std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// The members file is still locked by a member of an earlier run.
+struct Busy;
+
+/// The domain's members file locked exclusively (None: there is none, or it cannot be
+/// opened or locked for another reason than a member holding it: nothing to wait for).
+fn claim_members(domain: &Domain) -> std::result::Result<Option<std::fs::File>, Busy> {
+    let Ok(file) = std::fs::File::open(domain.members_file()) else {
+        return Ok(None);
+    };
+    match file.try_lock() {
+        Ok(()) => Ok(Some(file)),
+        Err(std::fs::TryLockError::WouldBlock) => Err(Busy),
+        Err(std::fs::TryLockError::Error(_)) => Ok(None),
     }
 }
 

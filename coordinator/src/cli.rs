@@ -42,6 +42,7 @@ pub struct Args {
 pub fn main_with(args: &Args, truth: Option<Arc<dyn ScalarField>>) -> ! {
     die_with_parent(args.parent);
     let mission = load_mission_or_exit("coordinator", &args.mission);
+    vbap_ipc::process::join_domain(&mission.mission.name, args.parent);
     let dir = RunDir::create(&args.run_dir).unwrap_or_else(|e| {
         eprintln!("coordinator: --run-dir {}: {e}", args.run_dir.display());
         std::process::exit(EXIT_INVALID);
@@ -61,7 +62,7 @@ pub fn main_with(args: &Args, truth: Option<Arc<dyn ScalarField>>) -> ! {
         let parent = args.parent.filter(|_| args.summary_to_parent);
         deliver(&summary, &dir, parent)
     });
-    vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
+    vbap_ipc::process::leave_domain();
     finish("coordinator", result.err().map(|e| format!("{e:#}")), log)
 }
 

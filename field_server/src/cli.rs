@@ -29,9 +29,10 @@ pub struct Args {
 pub fn main_with(args: &Args, sensors: impl FnOnce(&Mission) -> Sensors) -> ! {
     die_with_parent(args.parent);
     let mission = load_mission_or_exit("field_server", &args.mission);
+    vbap_ipc::process::join_domain(&mission.mission.name, args.parent);
     let log = vbap_ipc::telemetry::init("field_server", args.log.as_deref());
     let msgs = vbap_ipc::process::message_log(args.log.as_deref());
     let result = crate::run::run_with(&mission, sensors(&mission), msgs, announce_ready);
-    vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
+    vbap_ipc::process::leave_domain();
     finish("field_server", result.err().map(|e| format!("{e:#}")), log)
 }

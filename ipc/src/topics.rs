@@ -320,17 +320,40 @@ impl Domain {
     /// Names of the live nodes of this domain (one `Node::list`: ~0.2 ms per few nodes, scan
     /// at most about once a second with large fleets).
     pub fn alive_node_names(&self) -> Vec<String> {
+        self.alive_nodes_where(|_| true)
+    }
+
+    /// Names of the live nodes of this domain owned by processes other than this one.
+    pub fn alive_node_names_of_others(&self) -> Vec<String> {
+        let me = std::process::id();
+        self.alive_nodes_where(|pid| pid != Some(me))
+    }
+
+    /// Names of the live nodes whose owner's pid (None: unknown) passes `keep`.
+    fn alive_nodes_where(&self, keep: impl Fn(Option<u32>) -> bool) -> Vec<String> {
+        use iceoryx2::node::NodeView;
         let mut names = Vec::new();
         let _ = Node::<ipc::Service>::list(&self.config, |state| {
             if let NodeState::Alive(view) = state {
-                use iceoryx2::node::NodeView;
-                if let Some(details) = view.details() {
-                    names.push(details.name().to_string());
+                let pid = view.id().pid::<ipc::Service>().ok();
+                let pid = pid.and_then(|p| u32::try_from(p.value()).ok());
+                if keep(pid) {
+                    if let Some(details) = view.details() {
+                        names.push(details.name().to_string());
+                    }
                 }
             }
             CallbackProgression::Continue
         });
         names
+    }
+
+    /// The domain's membership file, `/dev/shm/<prefix>members`: each process of the
+    /// mission holds a shared `flock(2)` on it for its life, so the last one out of an
+    /// orphaned mission knows it is the last (see `vbap_ipc::process::join_domain`). Its
+    /// name starts with the prefix: [`Domain::remove_files`] removes it with the rest.
+    pub fn members_file(&self) -> std::path::PathBuf {
+        std::path::Path::new("/dev/shm").join(format!("{}members", self.shm_prefix()))
     }
 
     /// The service name `<mission>/<path>`.

@@ -48,6 +48,7 @@ pub fn main_with(args: &Args, law: Arc<dyn ControlLaw>) -> ! {
 fn main_flying(args: &Args, law: Option<Arc<dyn ControlLaw>>) -> ! {
     die_with_parent(args.parent);
     let mission = load_mission_or_exit("vehicle_agent", &args.mission);
+    vbap_ipc::process::join_domain(&mission.mission.name, args.parent);
     if args.id as usize >= mission.vehicles.count {
         eprintln!(
             "vehicle_agent: --id {}: must be below vehicles.count = {}",
@@ -60,6 +61,6 @@ fn main_flying(args: &Args, law: Option<Arc<dyn ControlLaw>>) -> ! {
     let msgs = vbap_ipc::process::message_log(args.log.as_deref());
     let law = law.unwrap_or_else(|| crate::mission_law(&mission));
     let result = crate::run::run_with(&mission, args.id, args.rejoin, law, msgs, announce_ready);
-    vbap_ipc::process::leave_domain(&mission.mission.name, args.parent);
+    vbap_ipc::process::leave_domain();
     finish(&process, result.err().map(|e| format!("{e:#}")), log)
 }
