@@ -6,7 +6,7 @@ use std::path::Path;
 
 use netcdf_reader::{NcAttrValue, NcFile, NcType, NcVariable};
 
-use super::read::{pick, Coord, RawVar};
+use super::read::{pick, unpack, Coord, RawVar};
 use super::GridError;
 
 /// The first number of attribute `name` of `v`, whatever its type.
@@ -76,36 +76,30 @@ pub fn netcdf4(path: &Path, variable: Option<&str>) -> Result<RawVar, GridError>
         .iter()
         .filter_map(|a| number(var, a))
         .collect();
-    let scale = number(var, "scale_factor").unwrap_or(1.0);
-    let offset = number(var, "add_offset").unwrap_or(0.0);
     let mut data = values(&file, var, &fill).map_err(|e| fail(&name, e))?;
-    if scale != 1.0 || offset != 0.0 {
-        data.iter_mut().for_each(|x| *x = *x * scale + offset);
-    }
+    unpack(
+        &mut data,
+        number(var, "scale_factor"),
+        number(var, "add_offset"),
+    );
     let mut coords = Vec::with_capacity(dims.len());
     for d in &dims {
         let Some(c) = vars.iter().find(|v| &v.name == d && v.ndim() == 1) else {
             coords.push(None);
             continue;
         };
-        coords.push(Some(Coord {
-            name: d.clone(),
-            values: values(&file, c, &[])
-                .map_err(|e| fail(d, format!("cannot read the coordinate variable: {e}")))?,
-            units: text(c, "units"),
-            standard_name: text(c, "standard_name"),
-            axis: text(c, "axis").to_uppercase(),
-            positive: text(c, "positive").to_lowercase(),
-        }));
+        let values = values(&file, c, &[])
+            .map_err(|e| fail(d, format!("cannot read the coordinate variable: {e}")))?;
+        coords.push(Some(Coord::of_file(
+            d.clone(),
+            values,
+            text(c, "units"),
+            text(c, "standard_name"),
+            &text(c, "axis"),
+            &text(c, "positive"),
+        )));
     }
-    Ok(RawVar {
-        name,
-        dims,
-        shape,
-        data,
-        coords,
-        bare: false,
-    })
+    Ok(RawVar::of_file(name, dims, shape, data, coords))
 }
 
 #[cfg(test)]

@@ -25,6 +25,28 @@ pub struct Coord {
     pub positive: String,
 }
 
+impl Coord {
+    /// The coordinate variable `name` of a self-describing file, its `axis` upper-cased and
+    /// `positive` lower-cased as CF compares them.
+    pub(crate) fn of_file(
+        name: String,
+        values: Vec<f64>,
+        units: String,
+        standard_name: String,
+        axis: &str,
+        positive: &str,
+    ) -> Self {
+        Self {
+            name,
+            values,
+            units,
+            standard_name,
+            axis: axis.to_uppercase(),
+            positive: positive.to_lowercase(),
+        }
+    }
+}
+
 /// A variable as read: its dimensions (slowest first), values (missing data = NaN) and the
 /// coordinate variable of each dimension, if the file has one.
 #[derive(Clone, Debug, Default)]
@@ -41,6 +63,36 @@ pub struct RawVar {
     pub coords: Vec<Option<Coord>>,
     /// Whether the file says nothing about its axes (NumPy): the mission must.
     pub bare: bool,
+}
+
+impl RawVar {
+    /// Variable `name` of a self-describing file (NetCDF): packed values already unpacked
+    /// by [`unpack`], the file's coordinate variables.
+    pub(crate) fn of_file(
+        name: String,
+        dims: Vec<String>,
+        shape: Vec<usize>,
+        data: Vec<f64>,
+        coords: Vec<Option<Coord>>,
+    ) -> Self {
+        Self {
+            name,
+            dims,
+            shape,
+            data,
+            coords,
+            bare: false,
+        }
+    }
+}
+
+/// Unpacks CF packed values in place: `x · scale_factor + add_offset` (absent: 1 and 0).
+pub(crate) fn unpack(data: &mut [f64], scale_factor: Option<f64>, add_offset: Option<f64>) {
+    let scale = scale_factor.unwrap_or(1.0);
+    let offset = add_offset.unwrap_or(0.0);
+    if scale != 1.0 || offset != 0.0 {
+        data.iter_mut().for_each(|x| *x = *x * scale + offset);
+    }
 }
 
 /// The first number of an attribute, whatever its type.
@@ -133,18 +185,20 @@ pub fn netcdf(path: &Path, variable: Option<&str>) -> Result<RawVar, GridError> 
     for a in ["_FillValue", "missing_value"] {
         fill.extend(attr_number(ds, &name, a));
     }
-    let scale = attr_number(ds, &name, "scale_factor").unwrap_or(1.0);
-    let offset = attr_number(ds, &name, "add_offset").unwrap_or(0.0);
+    let scale_factor = attr_number(ds, &name, "scale_factor");
+    let add_offset = attr_number(ds, &name, "add_offset");
     let mut coords: Vec<Option<Coord>> = dims
         .iter()
         .map(|d| {
-            ds.get_var(d).filter(|c| c.num_dims() == 1).map(|_| Coord {
-                name: d.clone(),
-                values: Vec::new(),
-                units: attr_text(ds, d, "units"),
-                standard_name: attr_text(ds, d, "standard_name"),
-                axis: attr_text(ds, d, "axis").to_uppercase(),
-                positive: attr_text(ds, d, "positive").to_lowercase(),
+            ds.get_var(d).filter(|c| c.num_dims() == 1).map(|_| {
+                Coord::of_file(
+                    d.clone(),
+                    Vec::new(),
+                    attr_text(ds, d, "units"),
+                    attr_text(ds, d, "standard_name"),
+                    &attr_text(ds, d, "axis"),
+                    &attr_text(ds, d, "positive"),
+                )
             })
         })
         .collect();
@@ -152,9 +206,7 @@ pub fn netcdf(path: &Path, variable: Option<&str>) -> Result<RawVar, GridError> 
         .read_var(&name)
         .map_err(|e| fail(&name, format!("cannot read ({e})")))?;
     let mut data = to_f64(raw, &fill);
-    if scale != 1.0 || offset != 0.0 {
-        data.iter_mut().for_each(|x| *x = *x * scale + offset);
-    }
+    unpack(&mut data, scale_factor, add_offset);
     for c in coords.iter_mut().flatten() {
         let values = reader.read_var(&c.name).map_err(|e| {
             fail(
@@ -164,14 +216,7 @@ pub fn netcdf(path: &Path, variable: Option<&str>) -> Result<RawVar, GridError> 
         })?;
         c.values = to_f64(values, &[]);
     }
-    Ok(RawVar {
-        name,
-        dims,
-        shape,
-        data,
-        coords,
-        bare: false,
-    })
+    Ok(RawVar::of_file(name, dims, shape, data, coords))
 }
 
 /// The only name of `names`, or what is wrong.
