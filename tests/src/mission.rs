@@ -2,6 +2,8 @@
 //! Gaussian hill (peak 10 at (6, 3), width 6, σ = 0.1), with the keys a test varies set
 //! by name and anything else appended as text:
 //! `GaussianHill::new(name).count(5).pace("1.0").toml()` is such a mission's text.
+//! [`GaussianHill::stiff`] is its variant of the fault and liveness tests: a stiff,
+//! damped formation that settles within a few seconds.
 
 /// A builder of the shared Gaussian-hill mission file (TOML text).
 #[derive(Clone, Debug)]
@@ -9,11 +11,25 @@ pub struct GaussianHill {
     name: String,
     seed: u64,
     duration: f64,
+    dt: f64,
     pace: Option<String>,
-    objective: bool,
+    objective: Objective,
+    mission_keys: String,
     count: usize,
     start_at_origin: bool,
+    start_spread: bool,
     tail: String,
+}
+
+/// Which objective keys `[mission]` states.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Objective {
+    /// `goal = "max"`, `dim = 2`, `tolerance = 1.0`.
+    Full,
+    /// `goal = "max"` alone.
+    GoalOnly,
+    /// None: the mission's defaults.
+    Default,
 }
 
 impl GaussianHill {
@@ -24,12 +40,42 @@ impl GaussianHill {
             name: name.to_owned(),
             seed: 7,
             duration: 20.0,
+            dt: 0.05,
             pace: None,
-            objective: true,
+            objective: Objective::Full,
+            mission_keys: String::new(),
             count: 4,
             start_at_origin: true,
+            start_spread: true,
             tail: String::new(),
         }
+    }
+
+    /// The fault and liveness tests' variant: `goal = "max"` alone, the default start and
+    /// spread, `vehicles.damping = 5`, a stiff formation (`alpha = 60`, `radius = 1.2`: it
+    /// settles fast) followed by `formation_keys`, then `[body] v_u = 10`. Seed 7 unless
+    /// set; more sections go after it with [`GaussianHill::then`].
+    pub fn stiff(name: &str, formation_keys: &str) -> Self {
+        let mut m = Self::new(name);
+        m.objective = Objective::GoalOnly;
+        m.start_at_origin = false;
+        m.start_spread = false;
+        m.tail = format!(
+            "damping = 5.0\n\n[formation]\nalpha = 60.0\nradius = 1.2\n{formation_keys}\n[body]\nv_u = 10.0\n"
+        );
+        m
+    }
+
+    /// `mission.dt`, s.
+    pub fn dt(mut self, seconds: f64) -> Self {
+        self.dt = seconds;
+        self
+    }
+
+    /// More `[mission]` keys, as TOML lines.
+    pub fn mission_keys(mut self, text: &str) -> Self {
+        self.mission_keys.push_str(text);
+        self
     }
 
     /// `mission.seed`.
@@ -52,7 +98,7 @@ impl GaussianHill {
 
     /// Leaves out `goal`, `dim` and `tolerance` (the mission's defaults apply).
     pub fn default_objective(mut self) -> Self {
-        self.objective = false;
+        self.objective = Objective::Default;
         self
     }
 
@@ -78,15 +124,18 @@ impl GaussianHill {
     /// The mission file's text.
     pub fn toml(&self) -> String {
         let mut text = format!(
-            "\n[mission]\nname = \"{}\"\nseed = {}\nduration = {:?}\ndt = 0.05\n",
-            self.name, self.seed, self.duration
+            "\n[mission]\nname = \"{}\"\nseed = {}\nduration = {:?}\ndt = {:?}\n",
+            self.name, self.seed, self.duration, self.dt
         );
         if let Some(pace) = &self.pace {
             text.push_str(&format!("pace = {pace}\n"));
         }
-        if self.objective {
-            text.push_str("goal = \"max\"\ndim = 2\ntolerance = 1.0\n");
+        match self.objective {
+            Objective::Full => text.push_str("goal = \"max\"\ndim = 2\ntolerance = 1.0\n"),
+            Objective::GoalOnly => text.push_str("goal = \"max\"\n"),
+            Objective::Default => {}
         }
+        text.push_str(&self.mission_keys);
         text.push_str(
             "\n[field]\nkind = \"gaussian\"\ncenter = [6.0, 3.0]\namplitude = 10.0\n\
              width = 6.0\nnoise_std = 0.1\n\n[vehicles]\n",
@@ -95,7 +144,9 @@ impl GaussianHill {
         if self.start_at_origin {
             text.push_str("start = [0.0, 0.0]\n");
         }
-        text.push_str("start_spread = 0.3\n");
+        if self.start_spread {
+            text.push_str("start_spread = 0.3\n");
+        }
         text.push_str(&self.tail);
         text
     }

@@ -6,42 +6,20 @@ use std::collections::BTreeSet;
 use std::path::Path;
 use std::time::Duration;
 
+use tests::mission::GaussianHill;
 use tests::*;
 
 fn mission(name: &str, n: usize, duration: f64, dt: f64, pace: &str, extra: &str) -> String {
-    format!(
-        r#"
-[mission]
-name = "{name}"
-seed = 5
-duration = {duration}
-dt = {dt}
-pace = {pace}
-goal = "max"
-
-[field]
-kind = "gaussian"
-center = [6.0, 3.0]
-amplitude = 10.0
-width = 6.0
-noise_std = 0.1
-
-[vehicles]
-count = {n}
-damping = 5.0
-
-[formation]
-alpha = 60.0
-radius = 1.2
-# Stiff on purpose (fast settling), so the formation may not shrink below 0.6: the step
-# stays stable (omega dt < 2 at min_scale).
-min_scale = 0.6
-
-[body]
-v_u = 10.0
-{extra}
-"#
-    )
+    // Stiff on purpose (fast settling), so the formation may not shrink below 0.6: the
+    // step stays stable (omega dt < 2 at min_scale).
+    GaussianHill::stiff(name, "min_scale = 0.6\n")
+        .seed(5)
+        .count(n)
+        .duration(duration)
+        .dt(dt)
+        .pace(pace)
+        .then(extra)
+        .toml()
 }
 
 fn events(dir: &Path) -> Vec<serde_json::Value> {

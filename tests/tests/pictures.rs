@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use tests::mission::GaussianHill;
 use tests::*;
 
 /// Vehicles of the mission below.
@@ -11,35 +12,12 @@ const N: usize = 5;
 
 /// A short mission with a surfacing schedule, a link outage and a kill with a restart.
 fn mission(name: &str) -> String {
-    format!(
-        r#"
-[mission]
-name = "{name}"
-seed = 11
-duration = 20.0
-dt = 0.05
-goal = "max"
-
-[field]
-kind = "gaussian"
-center = [6.0, 3.0]
-amplitude = 10.0
-width = 6.0
-noise_std = 0.1
-
-[vehicles]
-count = {N}
-damping = 5.0
-
-[formation]
-alpha = 60.0
-radius = 1.2
-# Stiff on purpose; stable at its smallest scale (omega dt < 2).
-min_scale = 0.6
-
-[body]
-v_u = 10.0
-
+    // Stiff on purpose; stable at its smallest scale (omega dt < 2).
+    GaussianHill::stiff(name, "min_scale = 0.6\n")
+        .seed(11)
+        .count(N)
+        .then(
+            r#"
 [links]
 delay = 0.2
 loss = 0.05
@@ -63,8 +41,9 @@ kind = "link_down"
 vehicle = 1
 at = 3.0
 until = 6.0
-"#
-    )
+"#,
+        )
+        .toml()
 }
 
 /// The text of an SVG file that starts with `<svg` and ends with `</svg>`, one of each.
