@@ -232,3 +232,134 @@ fn a_delayed_link_lets_the_vehicle_run_ahead_exactly_as_far_as_the_delay() {
         assert!(vehicle.ready_to_step(&model, c + 6, dt));
     }
 }
+
+/// The neighbour vectors of [`Guidance::with_neighbours`] as they were before it left the
+/// empty ones empty: all five, one entry per neighbour.
+fn full_neighbours(
+    mut g: Guidance,
+    id: u32,
+    snapshot: &[vbap_ipc::msg::coordinator_to_agent::SnapshotEntry],
+) -> Guidance {
+    use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+    use vbap_ipc::msg::to_vec3;
+    let spacing = g.inter.d0;
+    g.neighbours.clear();
+    g.neighbour_sigmas.clear();
+    g.neighbour_slots.clear();
+    g.neighbour_velocities.clear();
+    g.neighbour_ages.clear();
+    for e in snapshot
+        .iter()
+        .filter(|e| e.id != id && e.alive != SnapshotEntry::LOST)
+    {
+        let position = to_vec3(&e.position);
+        let (sigma, slot) = if e.rejoining != 0 {
+            let target = to_vec3(&e.target);
+            (
+                vbap_math::rejoin::homing_weight((position - target).norm(), spacing),
+                target,
+            )
+        } else {
+            (0.0, position)
+        };
+        g.neighbours.push(position);
+        g.neighbour_sigmas.push(sigma);
+        g.neighbour_slots.push(slot);
+        g.neighbour_velocities.push(to_vec3(&e.velocity));
+        g.neighbour_ages.push(e.age);
+    }
+    let own = snapshot
+        .iter()
+        .find(|e| e.id == id && e.alive != SnapshotEntry::LOST);
+    g.target = own.filter(|e| e.rejoining != 0).map(|e| to_vec3(&e.target));
+    g.slot = own.filter(|e| e.has_slot != 0).map(|e| to_vec3(&e.slot));
+    g
+}
+
+#[test]
+fn compact_guidance_flies_as_the_full_one() {
+    use rand::Rng;
+    use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+    use vbap_math::rng::{keyed, Stream};
+    use vbap_mission::config::LawKind;
+
+    let mission = paper_mission(None);
+    let design = initial_design(&mission).unwrap();
+    let dt = 0.05;
+    for case in 0..400u64 {
+        let mut rng = keyed(17, Stream::Test, case, 0);
+        let n = rng.random_range(1..12usize);
+        let id = rng.random_range(0..n as u32);
+        // Which fields vary in this case: rejoining neighbours, ages, lost vehicles.
+        let rejoins = rng.random_bool(0.5);
+        let aged = rng.random_bool(0.5);
+        let mut p = |amp: f64| {
+            [
+                rng.random_range(-amp..amp),
+                rng.random_range(-amp..amp),
+                0.0,
+            ]
+        };
+        let mut snapshot: Vec<SnapshotEntry> = (0..n as u32)
+            .map(|i| SnapshotEntry {
+                id: i,
+                alive: SnapshotEntry::MEMBER,
+                position: p(2.0),
+                velocity: p(0.5),
+                target: p(2.0),
+                slot: p(2.0),
+                has_slot: 1,
+                ..SnapshotEntry::default()
+            })
+            .collect();
+        for e in &mut snapshot {
+            let draw: f64 = keyed(17, Stream::Test, case, u64::from(e.id) + 1).random();
+            if rejoins && draw < 0.3 {
+                e.rejoining = 1;
+            }
+            if aged && draw > 0.6 {
+                e.age = if draw > 0.9 { -0.0 } else { 0.1 * draw };
+            }
+            if draw > 0.45 && draw < 0.55 {
+                e.alive = SnapshotEntry::LOST;
+            }
+        }
+        let base = Guidance::initial(&mission, &design);
+        let compact = base.clone().with_neighbours(id, &snapshot);
+        let full = full_neighbours(base, id, &snapshot);
+        assert_eq!(compact.neighbours, full.neighbours);
+        assert_eq!(compact.neighbour_velocities, full.neighbour_velocities);
+        assert_eq!(compact.target, full.target);
+        assert_eq!(compact.slot, full.slot);
+        if !rejoins {
+            assert!(compact.neighbour_sigmas.is_empty() && compact.neighbour_slots.is_empty());
+        }
+        if !aged {
+            assert!(compact.neighbour_ages.is_empty());
+        }
+        for law in [LawKind::Paper, LawKind::Robust] {
+            let mut m = mission.clone();
+            m.control.law = law;
+            let law = crate::mission_law(&m);
+            let agent = Agent {
+                id,
+                dim: 2,
+                position: Vec3::new(0.3, -0.2, 0.0),
+                velocity: Vec3::new(0.1, 0.05, 0.0),
+            };
+            // On the command of the tick (age 0) and on one 3 ticks old (dead reckoning).
+            for k in [0u64, 3] {
+                let fly = |g: &Guidance| {
+                    let mut v = Vehicle::new(agent, g.clone(), 0).with_law(law.clone());
+                    v.step(k, dt);
+                    (v.agent.position, v.agent.velocity)
+                };
+                let (xc, vc) = fly(&compact);
+                let (xf, vf) = fly(&full);
+                for (a, b) in xc.iter().chain(vc.iter()).zip(xf.iter().chain(vf.iter())) {
+                    assert_eq!(a.to_bits(), b.to_bits(), "case {case}, tick {k}");
+                }
+            }
+        }
+    }
+}

@@ -111,7 +111,7 @@ impl CommandFilter {
             d0: p[1],
             d1: p[2],
         };
-        let guidance = Guidance::of_command(
+        let (guidance, own) = Guidance::of_command(
             tick,
             command.leaders[..command.n_leaders as usize]
                 .iter()
@@ -123,9 +123,8 @@ impl CommandFilter {
             to_vec3(&command.velocity),
             self.v0,
         )
-        .with_neighbours(self.id, snapshot)
-        .with_plan(command.schedule(), to_vec3(&command.r), command.scale);
-        let own = snapshot.iter().find(|e| e.id == self.id).copied();
+        .with_neighbours_and_own(self.id, snapshot);
+        let guidance = guidance.with_plan(command.schedule(), to_vec3(&command.r), command.scale);
         (tick, guidance, own)
     }
 }
