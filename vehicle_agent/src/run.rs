@@ -34,7 +34,7 @@ use vbap_mission::config::{Mission, Pace};
 use vbap_mission::link::{Fate, LinkModel};
 
 use self::commands::{CommandFilter, NewCommand};
-use self::outbox::Outbox;
+use self::outbox::{Announce, Outbox};
 use crate::{initial_agent, initial_design, Agent, Guidance, Vehicle};
 
 /// Runs vehicle `id` of `mission` under the mission's control law ([`crate::mission_law`])
@@ -100,7 +100,9 @@ pub fn run_with(
     } else {
         0
     };
-    pilot.out.publish(&pilot.vehicle, 0, flags, 0)?;
+    pilot
+        .out
+        .publish(&pilot.vehicle, 0, flags, 0, Announce::Now)?;
 
     // Check for commands first, wait only when there is nothing to act on.
     let mut idle = false;
@@ -232,8 +234,13 @@ impl<'m> Pilot<'m> {
             tick = self.k,
             "coordinator silent: holding station"
         );
-        self.out
-            .publish(&self.vehicle, self.k, VehicleState::HOLDING, self.read())
+        self.out.publish(
+            &self.vehicle,
+            self.k,
+            VehicleState::HOLDING,
+            self.read(),
+            Announce::Now,
+        )
     }
 
     /// The end of the mission. Commands read in the same drain as the end (a slow agent
@@ -301,7 +308,8 @@ impl<'m> Pilot<'m> {
                 self.k += 1;
                 stepped = true;
                 if self.k < self.ticks {
-                    self.out.publish(&self.vehicle, self.k, 0, self.read())?;
+                    self.out
+                        .publish(&self.vehicle, self.k, 0, self.read(), Announce::Now)?;
                     self.reported_read = self.read();
                 }
             }
@@ -337,14 +345,15 @@ impl<'m> Pilot<'m> {
         if k + 1 < self.ticks && k < limit && self.vehicle.ready_to_step(&self.model, k, self.dt) {
             self.vehicle.step(k, self.dt);
             self.k += 1;
-            if self.k <= self.read() + 1 {
-                // The state of the tick the coordinator gathers now (or next).
-                self.out.publish(&self.vehicle, self.k, 0, self.read())?;
+            // The state of the tick the coordinator gathers now (or next) wakes it; ahead of
+            // it, it is woken once, before we next wait.
+            let announce = if self.k <= self.read() + 1 {
+                Announce::Now
             } else {
-                // Ahead of the coordinator: it is woken once, before we next wait.
-                self.out
-                    .publish_ahead(&self.vehicle, self.k, 0, self.read())?;
-            }
+                Announce::BeforeNextWait
+            };
+            self.out
+                .publish(&self.vehicle, self.k, 0, self.read(), announce)?;
             self.reported_read = self.read();
             return Ok(true);
         }

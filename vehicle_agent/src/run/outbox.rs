@@ -11,6 +11,18 @@ use vbap_ipc::topics::Limits;
 
 use crate::Vehicle;
 
+/// When a published state wakes the coordinator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Announce {
+    /// With the state: the coordinator gathers its tick now (or next).
+    Now,
+    /// Once for all the states published so, by [`Outbox::announce`] before the agent next
+    /// waits: states the coordinator will not need before then (a lockstep agent running
+    /// ahead). It drains every state of a vehicle on its wake-up, so nothing is missed; a
+    /// submerged glider costs one wake-up per run-ahead instead of one per tick.
+    BeforeNextWait,
+}
+
 /// Publishes vehicle `id`'s states and wakes the coordinator with each.
 pub(super) struct Outbox {
     sender: Sender<VehicleState>,
@@ -22,7 +34,7 @@ pub(super) struct Outbox {
     seq: u64,
     /// The states published lately: a restarted coordinator asks for them again.
     recent: VecDeque<VehicleState>,
-    /// A state was published without waking the coordinator ([`Outbox::publish_ahead`]).
+    /// A state was published without waking the coordinator ([`Announce::BeforeNextWait`]).
     unannounced: bool,
 }
 
@@ -46,28 +58,7 @@ impl Outbox {
             .map_err(|e| anyhow::anyhow!("publishing the state: {e}"))
     }
 
-    /// [`Outbox::publish`] of a state the coordinator will not need before this agent next
-    /// waits (a lockstep agent running ahead): published without waking the coordinator,
-    /// which [`Outbox::announce`] then does once for the whole run-ahead. The coordinator
-    /// drains every state of a vehicle on its wake-up, so nothing is missed; a submerged
-    /// glider costs one wake-up per run-ahead instead of one per tick.
-    pub(super) fn publish_ahead(
-        &mut self,
-        vehicle: &Vehicle,
-        k: u64,
-        flags: u32,
-        read: u64,
-    ) -> Result<()> {
-        let state = self.state(vehicle, k, flags, read);
-        self.sender
-            .publish(state)
-            .map_err(|e| anyhow::anyhow!("publishing the state: {e}"))?;
-        self.unannounced = true;
-        self.keep(state);
-        Ok(())
-    }
-
-    /// Wakes the coordinator if a state went out without ([`Outbox::publish_ahead`]); call
+    /// Wakes the coordinator if a state went out without ([`Announce::BeforeNextWait`]); call
     /// before every wait.
     pub(super) fn announce(&mut self) -> Result<()> {
         if std::mem::take(&mut self.unannounced) {
@@ -78,17 +69,27 @@ impl Outbox {
         Ok(())
     }
 
-    /// Publishes `vehicle`'s state (true and reported) at tick `k` with `flags`, having read `read` commands
-    /// (`VehicleState::commands_read`); keeps it among the recent states.
+    /// Publishes `vehicle`'s state (true and reported) at tick `k` with `flags`, having read
+    /// `read` commands (`VehicleState::commands_read`), waking the coordinator as `announce`
+    /// says; keeps it among the recent states.
     pub(super) fn publish(
         &mut self,
         vehicle: &Vehicle,
         k: u64,
         flags: u32,
         read: u64,
+        announce: Announce,
     ) -> Result<()> {
         let state = self.state(vehicle, k, flags, read);
-        self.send(state)?;
+        match announce {
+            Announce::Now => self.send(state)?,
+            Announce::BeforeNextWait => {
+                self.sender
+                    .publish(state)
+                    .map_err(|e| anyhow::anyhow!("publishing the state: {e}"))?;
+                self.unannounced = true;
+            }
+        }
         self.keep(state);
         Ok(())
     }
