@@ -44,14 +44,17 @@ fn wait_all(children: Vec<(&str, &mut ChildGuard)>) {
 }
 
 /// The three hosts of a paced (2× real time) rejoin mission of `duration` s, 40 ticks in.
+///
+/// Fields drop in this order: the hosts' processes first, then the network, then the
+/// directory.
 struct Paced {
-    tmp: TempDir,
-    net: Net,
     shore: ChildGuard,
     a: ChildGuard,
     b: ChildGuard,
     /// The shore's run directory.
     out: PathBuf,
+    net: Net,
+    tmp: TempDir,
 }
 
 impl Paced {
@@ -68,38 +71,40 @@ impl Paced {
         let out = tmp.join("shore");
         wait_for_ticks(&out, 40);
         Self {
-            tmp,
-            net,
             shore,
             a,
             b,
             out,
+            net,
+            tmp,
         }
+    }
+
+    /// Waits for the three hosts' `vbap run`, each to succeed.
+    fn wait_hosts(&mut self) {
+        wait_all(vec![
+            ("shore", &mut self.shore),
+            ("glider_a", &mut self.a),
+            ("glider_b", &mut self.b),
+        ]);
     }
 }
 
 #[test]
 fn the_shore_lost_to_the_network_makes_gliders_hold_and_they_resume_when_it_returns() {
     // Paced: a glider hears nothing and holds station, as when the coordinator dies.
-    let Paced {
-        tmp,
-        net,
-        mut shore,
-        mut a,
-        mut b,
-        out,
-    } = Paced::start("hostslost", 40.0);
-    net.link("shore", false);
+    let mut p = Paced::start("hostslost", 40.0);
+    p.net.link("shore", false);
     let cut = Instant::now();
     // The glider hosts' vehicles are lost on the shore (its links' lease, 1 s) ...
     wait_until(
-        || events(&out, "lost").len() >= 4,
+        || events(&p.out, "lost").len() >= 4,
         Duration::from_secs(30),
         "the glider hosts' vehicles lost on the shore",
     );
     // ... and hold station on their hosts (their own logs).
     let holding = |h: &str, v: u32| {
-        read(&tmp.join(h).join(format!("logs/vehicle_agent_{v}.jsonl")))
+        read(&p.tmp.join(h).join(format!("logs/vehicle_agent_{v}.jsonl")))
             .contains("coordinator silent: holding station")
     };
     wait_until(
@@ -111,53 +116,42 @@ fn the_shore_lost_to_the_network_makes_gliders_hold_and_they_resume_when_it_retu
     while cut.elapsed() < Duration::from_secs(4) {
         std::thread::park_timeout(Duration::from_millis(100));
     }
-    net.link("shore", true);
+    p.net.link("shore", true);
     wait_until(
-        || events(&out, "rejoin").len() >= 4,
+        || events(&p.out, "rejoin").len() >= 4,
         Duration::from_secs(60),
         "the glider hosts' vehicles rejoined",
     );
-    wait_all(vec![
-        ("shore", &mut shore),
-        ("glider_a", &mut a),
-        ("glider_b", &mut b),
-    ]);
+    p.wait_hosts();
     // Found by the bridge's liveliness ("host unreachable") or, when the coordinator's own
     // scan sees the vehicle's proxy node go first, as "process gone": either is this loss.
-    for e in events(&out, "lost") {
+    for e in events(&p.out, "lost") {
         let cause = e["detail"]["cause"].as_str().unwrap_or_default();
         assert!(["host unreachable", "process gone"].contains(&cause), "{e}");
     }
     // The truth of the run: every vehicle's states reach the coordinator again after the
     // outage, up to the mission's end (vehicles.csv), and the shore's own never stopped.
-    let last = ticks_of(&out, 4).into_iter().max().unwrap();
+    let last = ticks_of(&p.out, 4).into_iter().max().unwrap();
     for v in 0..6 {
-        let ticks = ticks_of(&out, v);
+        let ticks = ticks_of(&p.out, v);
         assert!(
             ticks.iter().any(|&t| t + 20 >= last),
             "vehicle {v} recorded near the end (last tick {last}): {:?}",
             ticks.last()
         );
     }
-    let s = summary(&out);
+    let s = summary(&p.out);
     assert_eq!(s["mode"], "multi-process");
     assert!(s["vehicles_lost"].as_u64().unwrap() >= 4, "{s}");
-    assert_clean(net, &tmp);
+    assert_clean(p.net, &p.tmp);
 }
 
 #[test]
 fn the_shores_bridge_restarted_alone_lets_the_remote_vehicles_rejoin() {
     // Paced, so the mission outlasts the bridge's restart (in lockstep the shore's own two
     // vehicles ran it to its end first).
-    let Paced {
-        tmp,
-        net,
-        mut shore,
-        mut a,
-        mut b,
-        out,
-    } = Paced::start("hostsbridge", 60.0);
-    let needle = format!("--host shore --mission {}", out.display());
+    let mut p = Paced::start("hostsbridge", 60.0);
+    let needle = format!("--host shore --mission {}", p.out.display());
     let bridge = processes_mentioning(&needle);
     assert_eq!(bridge.len(), 1, "the shore's bridge: {bridge:?}");
     let _ = Command::new("kill")
@@ -165,25 +159,21 @@ fn the_shores_bridge_restarted_alone_lets_the_remote_vehicles_rejoin() {
         .status();
     // Its proxy nodes die with it: the coordinator loses the remote vehicles ...
     wait_until(
-        || events(&out, "lost").len() >= 4,
+        || events(&p.out, "lost").len() >= 4,
         Duration::from_secs(60),
         "the remote vehicles lost",
     );
     // ... and the shore's supervisor restarts the bridge: they rejoin through it.
     wait_until(
-        || events(&out, "rejoin").len() >= 4,
+        || events(&p.out, "rejoin").len() >= 4,
         Duration::from_secs(90),
         "the remote vehicles back",
     );
-    wait_all(vec![
-        ("shore", &mut shore),
-        ("glider_a", &mut a),
-        ("glider_b", &mut b),
-    ]);
-    let log = read(&out.join("logs/vbap_bridge.jsonl"));
+    p.wait_hosts();
+    let log = read(&p.out.join("logs/vbap_bridge.jsonl"));
     assert!(log.contains("a restarted bridge"), "{log}");
-    assert_eq!(summary(&out)["mode"], "multi-process");
-    assert_clean(net, &tmp);
+    assert_eq!(summary(&p.out)["mode"], "multi-process");
+    assert_clean(p.net, &p.tmp);
 }
 
 #[test]
