@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use vbap_ipc::topics::Domain;
 
 /// Removes the stale iceoryx2 resources of `domain`: dead nodes, then every file of the
@@ -13,11 +13,7 @@ use vbap_ipc::topics::Domain;
 pub fn clean_domain(domain: &Domain) -> Result<usize> {
     let alive = domain.alive_node_names();
     if !alive.is_empty() {
-        bail!(
-            "mission {:?} is already running on this host (live processes: {}); choose another mission.name",
-            domain.mission,
-            alive.join(", ")
-        );
+        return Err(already_running(domain, &alive.join(", ")));
     }
     let dead = domain.cleanup_dead_nodes();
     Ok(dead + domain.remove_files())
@@ -31,12 +27,6 @@ pub fn clean_domain(domain: &Domain) -> Result<usize> {
 /// files. Err names the processes still alive.
 pub fn await_domain_free(domain: &Domain, timeout: Duration) -> Result<()> {
     let start = Instant::now();
-    let busy = |what: String| {
-        anyhow::anyhow!(
-            "mission {:?} is already running on this host (live processes: {what}); choose another mission.name",
-            domain.mission,
-        )
-    };
     loop {
         let alive = domain.alive_node_names();
         if alive.is_empty() {
@@ -47,15 +37,23 @@ pub fn await_domain_free(domain: &Domain, timeout: Duration) -> Result<()> {
                     return Ok(());
                 }
                 Err(Busy) if start.elapsed() >= timeout => {
-                    return Err(busy("members still leaving".into()))
+                    return Err(already_running(domain, "members still leaving"))
                 }
                 Err(Busy) => {}
             }
         } else if start.elapsed() >= timeout {
-            return Err(busy(alive.join(", ")));
+            return Err(already_running(domain, &alive.join(", ")));
         }
         std::thread::sleep(Duration::from_millis(100));
     }
+}
+
+/// The error of a start refused because processes of `domain` (`which`) still run.
+fn already_running(domain: &Domain, which: &str) -> anyhow::Error {
+    anyhow::anyhow!(
+        "mission {:?} is already running on this host (live processes: {which}); choose another mission.name",
+        domain.mission,
+    )
 }
 
 /// The members file is still locked by a member of an earlier run.
