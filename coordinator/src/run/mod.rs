@@ -242,7 +242,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         if waited.is_none() {
             return Ok(None);
         }
-        if !paced {
+        if !paced && self.sensors.idle() {
             let ahead = self.read_ahead(admitted);
             self.sensors.request(k, self.dt, &ahead)?;
         }
@@ -278,16 +278,19 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         Ok(Some((truth, told)))
     }
 
-    /// The states of later ticks already in, in tick order, for a read-ahead (not past a
-    /// vehicle's scheduled kill: its sensor is never read then).
+    /// The states of later ticks already in whose readings are not, in tick order, for a
+    /// read-ahead (not past a vehicle's scheduled kill: its sensor is never read then).
     fn read_ahead(&self, admitted: &BTreeSet<u32>) -> Vec<VehicleState> {
         let k = self.k;
         let mut ahead: Vec<VehicleState> =
             self.fleet
                 .alive()
                 .filter(|v| !admitted.contains(v))
-                .filter_map(|v| self.inbox.states.get(&v))
-                .flat_map(|m| m.range(k + 1..).map(|(_, s)| *s))
+                .filter_map(|v| {
+                    let from = self.sensors.unread_from(v, k + 1);
+                    Some(self.inbox.states.get(&v)?.range(from..).map(|(_, s)| *s))
+                })
+                .flatten()
                 .filter(|s| {
                     !self.faults.kills.iter().any(|x| {
                         x.vehicle == s.header.sender && x.tick > k && x.tick <= s.header.tick

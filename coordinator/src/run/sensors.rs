@@ -73,6 +73,27 @@ impl SensorReads {
         }
     }
 
+    /// True when the readings of every state in `states` are in.
+    pub fn has_all(&self, states: &[VehicleState]) -> bool {
+        states
+            .iter()
+            .all(|s| self.readings.contains_key(&read_key(s)))
+    }
+
+    /// True when no request is in flight: a read-ahead would be sent now.
+    pub fn idle(&self) -> bool {
+        self.pending.is_none()
+    }
+
+    /// The first tick of vehicle `v` whose reading is not in yet, from `from` on: after the
+    /// newest reading of `v` in (a vehicle's states come, and are read, in tick order).
+    pub fn unread_from(&self, v: u32, from: u64) -> u64 {
+        self.readings
+            .range((v, from)..=(v, u64::MAX))
+            .next_back()
+            .map_or(from, |(&(_, tick), _)| tick + 1)
+    }
+
     /// Asks for the readings of the states in `wanted` (in order) that are neither in
     /// nor asked for, unless a request is in flight (one at a time).
     pub fn request(&mut self, k: u64, dt: f64, wanted: &[VehicleState]) -> Result<()> {
@@ -195,10 +216,7 @@ impl SensorReads {
                 self.forget_pending("the field server died");
             }
             self.poll(msgs)?;
-            if needed
-                .iter()
-                .all(|s| self.readings.contains_key(&read_key(s)))
-            {
+            if self.has_all(needed) {
                 return Ok(Some(()));
             }
             if self.pending.is_some() && self.sent_at.elapsed() >= RESEND_AFTER {
@@ -233,6 +251,9 @@ impl SensorReads {
     /// Forgets the readings of ticks up to `k` that were never used (their vehicle was
     /// lost).
     pub fn forget_through(&mut self, k: u64) {
-        self.readings.retain(|(_, tick), _| *tick > k);
+        // Most ticks there is none: the readings in are of later ticks (read ahead).
+        if self.readings.keys().any(|&(_, tick)| tick <= k) {
+            self.readings.retain(|(_, tick), _| *tick > k);
+        }
     }
 }
