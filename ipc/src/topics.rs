@@ -95,8 +95,25 @@ impl Limits {
     }
     /// Buffer of a vehicle-state subscriber: enough for a burst of stored-and-forwarded states.
     pub const STATE_BUFFER: usize = 64;
-    /// Buffer of a body subscriber (commands an agent has not read yet).
-    pub const BODY_BUFFER: usize = 4;
+    /// Buffer of a body subscriber (commands an agent has not read yet): as many as fit
+    /// [`Limits::BODY_SEGMENT_BUDGET`] for this fleet, between [`Limits::BODY_BUFFER_MIN`]
+    /// and [`Limits::BODY_BUFFER_MAX`]. In lockstep a submerged glider that runs ahead is
+    /// woken once every `body_buffer() − 2` commands (coordinator `Inbox::needs_wake`),
+    /// so a deeper buffer means fewer wake-ups (32 up to N = 6: one every 30 ticks; 24 at
+    /// N = 16; 4 from N ≈ 100 on, where the command, 135 KiB, is read in place by many).
+    pub fn body_buffer(&self) -> usize {
+        let per_command = (self.fleet_ports() * std::mem::size_of::<BodyCommand>()).max(1);
+        (Self::BODY_SEGMENT_BUDGET / per_command)
+            .clamp(Self::BODY_BUFFER_MIN, Self::BODY_BUFFER_MAX)
+    }
+    /// Shared memory the body service's subscriber buffers may reserve, bytes (virtual:
+    /// iceoryx2 sizes the publisher's segment for every subscriber holding a full buffer
+    /// of distinct commands): 64 MiB.
+    pub const BODY_SEGMENT_BUDGET: usize = 64 << 20;
+    /// Smallest body buffer (lockstep flow control needs room for 2 unread commands).
+    pub const BODY_BUFFER_MIN: usize = 4;
+    /// Largest body buffer.
+    pub const BODY_BUFFER_MAX: usize = 32;
     /// Ticks a lockstep agent may run ahead of the newest command it has received (the
     /// conservative lookahead of `vehicle_agent::Vehicle::ready_to_step`): its states must
     /// fit the coordinator's state buffer between two of its drains.
@@ -403,7 +420,7 @@ impl Domain {
             .max_subscribers(limits.fleet_ports())
             .max_nodes(limits.max_nodes())
             .history_size(1)
-            .subscriber_max_buffer_size(Limits::BODY_BUFFER)
+            .subscriber_max_buffer_size(limits.body_buffer())
             .enable_safe_overflow(true)
             .open_or_create()
             .map_err(|e| service_err(&name, e))
@@ -592,6 +609,35 @@ mod prefix_tests {
                     assert!(!file_of_b.starts_with(&domain_prefix(a)), "{a} vs {b}");
                 }
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod body_buffer_tests {
+    use super::Limits;
+    use crate::msg::coordinator_to_agent::BodyCommand;
+
+    /// Deep for a few vehicles, never below the flow control's minimum, never deeper for a
+    /// larger fleet, and within the budget whenever above the minimum.
+    #[test]
+    fn the_body_buffer_fits_its_budget_and_shrinks_with_the_fleet() {
+        assert_eq!(Limits::for_fleet(6).body_buffer(), Limits::BODY_BUFFER_MAX);
+        assert_eq!(
+            Limits::for_fleet(1024).body_buffer(),
+            Limits::BODY_BUFFER_MIN
+        );
+        let mut last = usize::MAX;
+        for n in 1..=1024 {
+            let limits = Limits::for_fleet(n);
+            let b = limits.body_buffer();
+            assert!((Limits::BODY_BUFFER_MIN..=Limits::BODY_BUFFER_MAX).contains(&b));
+            assert!(b <= last, "N = {n}: {b} > {last}");
+            if b > Limits::BODY_BUFFER_MIN {
+                let bytes = b * limits.fleet_ports() * std::mem::size_of::<BodyCommand>();
+                assert!(bytes <= Limits::BODY_SEGMENT_BUDGET, "N = {n}: {bytes} B");
+            }
+            last = b;
         }
     }
 }

@@ -79,7 +79,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
 
     /// Lockstep, before the mission's last message: waits until every alive agent has
     /// room for it in its command buffer (has acknowledged reading all but
-    /// `Limits::BODY_BUFFER − 1` commands). An agent that ran ahead to the end and still
+    /// `Limits::body_buffer` − 1 commands). An agent that ran ahead to the end and still
     /// had a full buffer would otherwise lose its oldest unread command to the buffer's
     /// overflow, and with it that command's link fate and its receive record. Bounded by
     /// [`LOCKSTEP_TIMEOUT`] (a dead agent needs no room); [`STOP`] on a termination signal.

@@ -47,6 +47,8 @@ pub(super) struct Inbox {
     pub joins: BTreeSet<u32>,
     pub counts: MessageCounts,
     pub msgs: MsgLog,
+    /// Commands an agent's body subscriber holds unread (`Limits::body_buffer`).
+    body_buffer: u64,
 }
 
 impl Inbox {
@@ -58,6 +60,7 @@ impl Inbox {
             joins: BTreeSet::new(),
             counts: MessageCounts::default(),
             msgs,
+            body_buffer: Limits::for_fleet(n).body_buffer() as u64,
         }
     }
 
@@ -214,7 +217,7 @@ impl Inbox {
 
     /// Lockstep, command `k` just published: whether vehicle `v`'s agent must be woken for
     /// it. Not when it runs ahead (its state of tick k + 2 or later is in: it needs no
-    /// command to step for now) and at most `Limits::BODY_BUFFER` − 2 commands are unread
+    /// command to step for now) and at most `Limits::body_buffer` − 2 commands are unread
     /// (it is woken for the next one at the latest, before [`Inbox::behind`] could hold).
     /// Results do not change (an agent steps on what its commands say, whenever it reads
     /// them); a submerged glider is woken every few ticks instead of every tick.
@@ -225,14 +228,14 @@ impl Inbox {
             .and_then(|m| m.keys().next_back())
             .is_some_and(|&t| t >= k + 2);
         let unread = (k + 1).saturating_sub(self.peers[v as usize].commands_read);
-        !ahead || unread + 2 > Limits::BODY_BUFFER as u64
+        !ahead || unread + 2 > self.body_buffer
     }
 
     /// True when publishing command `k` could overflow the command buffer of vehicle `v`'s
     /// agent, which ran ahead and reads late (lockstep flow control).
     pub fn behind(&self, v: u32, k: u64) -> bool {
         let unread = k.saturating_sub(self.peers[v as usize].commands_read) + 1;
-        unread > Limits::BODY_BUFFER as u64
+        unread > self.body_buffer
     }
 }
 
