@@ -140,20 +140,20 @@ impl<P: for<'de> Deserialize<'de>> Checkpoint<P> {
     }
 }
 
-/// FNV-1a, 64 bits: tells a torn checkpoint from a whole one.
-fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3)
-    })
+/// CRC-32 (IEEE, `crc32fast`: SIMD where the CPU has it) of a checkpoint's body, widened
+/// to 64 bits: tells a torn checkpoint from a whole one. A byte-at-a-time FNV-1a of the
+/// ~5 KB body of a glider mission cost ~5 µs a tick, 4 % of a `vbap run`'s samples.
+fn body_hash(bytes: &[u8]) -> u64 {
+    u64::from(crc32fast::hash(bytes))
 }
 
-/// The body of a checkpoint slot — a little-endian u64 length, the u64 FNV-1a hash of the
+/// The body of a checkpoint slot — a little-endian u64 length, the u64 hash ([`body_hash`]) of the
 /// body, the body — when it is whole (a slot is rewritten in place, never truncated).
 fn framed(bytes: &[u8]) -> Option<&[u8]> {
     let len = u64::from_le_bytes(bytes.get(..8)?.try_into().ok()?) as usize;
     let hash = u64::from_le_bytes(bytes.get(8..16)?.try_into().ok()?);
     let body = bytes.get(16..16usize.checked_add(len)?)?;
-    (fnv1a(body) == hash).then_some(body)
+    (body_hash(body) == hash).then_some(body)
 }
 
 /// The two journals of a run directory: held reports, body track.
@@ -286,7 +286,7 @@ impl CheckpointWriter {
         self.buffer =
             postcard::to_extend(cp, std::mem::take(&mut self.buffer)).map_err(io::Error::other)?;
         let len = (self.buffer.len() - 16) as u64;
-        let hash = fnv1a(&self.buffer[16..]);
+        let hash = body_hash(&self.buffer[16..]);
         self.buffer[..8].copy_from_slice(&len.to_le_bytes());
         self.buffer[8..16].copy_from_slice(&hash.to_le_bytes());
         self.files[self.turn].write_all_at(&self.buffer, 0)?;
@@ -306,7 +306,7 @@ mod tests {
     fn a_torn_slot_is_told_from_a_whole_one() {
         let body = b"a checkpoint body".to_vec();
         let mut slot = (body.len() as u64).to_le_bytes().to_vec();
-        slot.extend_from_slice(&fnv1a(&body).to_le_bytes());
+        slot.extend_from_slice(&body_hash(&body).to_le_bytes());
         slot.extend_from_slice(&body);
         assert_eq!(framed(&slot), Some(&body[..]));
         // Old bytes after the body (the slot is never truncated) do not matter.
