@@ -296,14 +296,16 @@ impl<T> DelayQueue<T> {
     }
 
     /// Removes and returns every item due at or before `now`, in delivery order.
+    ///
+    /// The items kept stay where they are (moved down in place): the coordinator's queue
+    /// holds every vehicle's reports, hundreds per submerged glider, and one surfaced
+    /// glider's report falls due nearly every tick. Splitting the whole queue into two new
+    /// vectors each time was a fifth of `vbap sim`'s time on the glider mission.
     pub fn pop_due(&mut self, now: f64) -> Vec<T> {
         if !self.held.iter().any(|(at, _, _)| *at <= now) {
             return Vec::new();
         }
-        let (mut due, keep): (Vec<_>, Vec<_>) = std::mem::take(&mut self.held)
-            .into_iter()
-            .partition(|(at, _, _)| *at <= now);
-        self.held = keep;
+        let mut due: Vec<_> = self.held.extract_if(.., |(at, _, _)| *at <= now).collect();
         due.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         due.into_iter().map(|(_, _, item)| item).collect()
     }
