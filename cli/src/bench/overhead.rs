@@ -39,6 +39,13 @@ pub struct SkeletonRow {
     pub run_ticks_per_s: Option<f64>,
     /// Lockstep tick / skeleton tick.
     pub ratio: Option<f64>,
+    /// The skeleton with the tick's work added: its tick plus the in-process tick of
+    /// `vbap sim` (every agent's law, the planner, the field, the rows) spread evenly over
+    /// every CPU, ticks per second. A bound no `vbap run` can beat on this machine: the
+    /// processes must do that work besides exchanging the skeleton's messages.
+    pub with_work_ticks_per_s: f64,
+    /// Lockstep tick / (skeleton tick + in-process tick / CPUs).
+    pub ratio_with_work: Option<f64>,
 }
 
 /// One repetition of the N = 4 hop against its floors.
@@ -81,13 +88,25 @@ pub struct Overhead {
 }
 
 impl Overhead {
-    /// Records the skeleton's rate next to the lockstep run's.
-    pub fn skeleton_row(&mut self, vehicles: usize, skeleton: f64, run: Option<f64>) {
+    /// Records the skeleton's rate next to the lockstep run's, and the bound with the work
+    /// of the tick added: `in_process` is `vbap sim`'s rate on the same mission, spread over
+    /// `cpus`.
+    pub fn skeleton_row(
+        &mut self,
+        vehicles: usize,
+        skeleton: f64,
+        run: Option<f64>,
+        in_process: f64,
+        cpus: usize,
+    ) {
+        let with_work = 1.0 / (1.0 / skeleton + 1.0 / (in_process * cpus.max(1) as f64));
         self.skeleton.push(SkeletonRow {
             vehicles,
             skeleton_ticks_per_s: skeleton,
             run_ticks_per_s: run,
             ratio: run.map(|r| skeleton / r),
+            with_work_ticks_per_s: with_work,
+            ratio_with_work: run.map(|r| with_work / r),
         });
     }
 
@@ -260,19 +279,32 @@ pub fn render(r: &Report, s: &mut String) {
     );
     let _ = writeln!(
         s,
-        "   {:>4} {:>14} {:>12} {:>20}",
-        "N", "skeleton t/s", "vbap run t/s", "run tick / skeleton"
+        "   {:>4} {:>14} {:>12} {:>20} {:>16} {:>18}",
+        "N",
+        "skeleton t/s",
+        "vbap run t/s",
+        "run tick / skeleton",
+        "+ work t/s (*)",
+        "run tick / (+ work)"
     );
     for row in &o.skeleton {
         let _ = writeln!(
             s,
-            "   {:>4} {:>14.1} {:>12} {:>20}",
+            "   {:>4} {:>14.1} {:>12} {:>20} {:>16.1} {:>18}",
             row.vehicles,
             row.skeleton_ticks_per_s,
             opt(row.run_ticks_per_s, 1),
-            opt(row.ratio, 2)
+            opt(row.ratio, 2),
+            row.with_work_ticks_per_s,
+            opt(row.ratio_with_work, 2)
         );
     }
+    let _ = writeln!(
+        s,
+        "   (*) the skeleton's tick plus vbap sim's tick of the same mission spread over all {} CPUs:\n       \
+         the work no run can skip (laws, planner, field, rows), perfectly parallel; a bound, not a floor met",
+        r.machine.cpus
+    );
     let _ = writeln!(s);
     render_hop(o, s);
     let _ = writeln!(s);
@@ -500,9 +532,14 @@ mod tests {
     #[test]
     fn the_skeleton_ratio_is_run_tick_over_skeleton_tick() {
         let mut o = Overhead::default();
-        o.skeleton_row(16, 3000.0, Some(1500.0));
-        o.skeleton_row(256, 100.0, None);
+        o.skeleton_row(16, 3000.0, Some(1500.0), 1500.0, 2);
+        o.skeleton_row(256, 100.0, None, 50.0, 2);
         assert_eq!(o.skeleton[0].ratio, Some(2.0));
+        // 1 / (1/3000 + 1/3000) = 1500 t/s: the run is at the bound with its work.
+        assert!((o.skeleton[0].with_work_ticks_per_s - 1500.0).abs() < 1e-9);
+        assert_eq!(o.skeleton[0].ratio_with_work, Some(1.0));
+        assert!((o.skeleton[1].with_work_ticks_per_s - 50.0).abs() < 1e-9);
+        assert_eq!(o.skeleton[1].ratio_with_work, None);
         let g = goals(&o);
         assert_eq!(g[0].value, Some(2.0));
         assert_eq!(g[0].met, Some(false));
