@@ -723,8 +723,10 @@ pub async fn run_share(
         // The mission is over: the others end on FINISHED; stragglers get SIGTERM.
         await_the_rest(&mut set, &mut exits).await;
         // The shore's bridge delivers the final command to every glider host, at most
-        // `final_wait` (it says so when that runs out).
-        if let Some(wait) = plan.filter(|p| p.shore).map(|p| p.final_wait) {
+        // `final_wait` (it says so when that runs out); without a final command it has
+        // nothing to deliver and is stopped with the rest.
+        let wait = plan.filter(|p| p.shore).map(|p| p.final_wait);
+        if let (Some(wait), true) = (wait, notices.mission_finished().await) {
             let bridge_only = set
                 .procs
                 .iter()

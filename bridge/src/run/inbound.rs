@@ -108,6 +108,8 @@ struct Held {
     since: Instant,
     last_put: Instant,
     pending: BTreeSet<String>,
+    /// A pending host's token is back: put the command again at once.
+    now: bool,
 }
 
 /// A glider host's inbound ports.
@@ -223,6 +225,9 @@ pub(crate) fn run(
                 up.insert(h.clone(), true);
                 if let Some(s) = &mut shore {
                     s.host_up(place, &h)?;
+                    if let Some(held) = s.held.as_mut().filter(|d| d.pending.contains(&h)) {
+                        held.now = true;
+                    }
                 }
             }
             Ok(In::Down(h)) => {
@@ -249,7 +254,7 @@ pub(crate) fn run(
             Err(mpsc::RecvTimeoutError::Disconnected) => break,
         }
         if let Some(s) = &mut shore {
-            if s.resend(&up, final_wait, counts)? {
+            if s.resend(final_wait, counts)? {
                 stop.set();
             }
         }
@@ -399,6 +404,7 @@ impl Shore {
             since: now,
             last_put: now,
             pending,
+            now: false,
         });
         none
     }
@@ -423,14 +429,9 @@ impl Shore {
     }
 
     /// While the final command is held: puts it again every [`RESEND`] or at once when a
-    /// pending host's token is back (`up`: the hosts' tokens as last seen); true when
-    /// `final_wait` has run out (the hosts that never acknowledged are logged).
-    fn resend(
-        &mut self,
-        up: &BTreeMap<String, bool>,
-        final_wait: Duration,
-        counts: &Counts,
-    ) -> Result<bool> {
+    /// pending host's token is back; true when `final_wait` has run out (the hosts that
+    /// never acknowledged are logged).
+    fn resend(&mut self, final_wait: Duration, counts: &Counts) -> Result<bool> {
         let Some(held) = &mut self.held else {
             return Ok(false);
         };
@@ -445,9 +446,8 @@ impl Shore {
             );
             return Ok(true);
         }
-        let returned = held.pending.iter().any(|h| up.get(h) == Some(&true))
-            && held.last_put.elapsed() >= POLL;
-        if held.last_put.elapsed() >= RESEND || returned {
+        if held.last_put.elapsed() >= RESEND || held.now {
+            held.now = false;
             self.body_out
                 .put(held.frame.as_slice())
                 .wait()
