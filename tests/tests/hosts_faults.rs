@@ -60,12 +60,18 @@ struct Paced {
 
 impl Paced {
     fn start(tag: &str, duration: f64) -> Self {
+        Self::start_with(tag, duration, "")
+    }
+
+    /// [`Paced::start`] with `top` put before the hosts file's tables (e.g. `final_wait`).
+    fn start_with(tag: &str, duration: f64, top: &str) -> Self {
         let tmp = TempDir::new(tag);
         let net = Net::new();
         let text = rejoin_mission(&unique_name(tag), duration, "")
             .replace("tolerance = 1.0", "tolerance = 1.0\npace = 2.0");
         let file = write(&tmp, "m.toml", &text);
-        let hosts = write(&tmp, "hosts.toml", &net.hosts_file_with(SHORE_VEHICLES));
+        let hosts_text = format!("{top}{}", net.hosts_file_with(SHORE_VEHICLES));
+        let hosts = write(&tmp, "hosts.toml", &hosts_text);
         let shore = start_host(&net, &tmp, &file, &hosts, "shore");
         let a = start_host(&net, &tmp, &file, &hosts, "glider_a");
         let b = start_host(&net, &tmp, &file, &hosts, "glider_b");
@@ -284,6 +290,74 @@ fn a_glider_host_off_the_network_at_the_final_command_gets_it_when_it_returns() 
         "{log}"
     );
     assert_eq!(summary(&p.out)["mode"], "multi-process");
+    assert_clean(p.net, &p.tmp);
+}
+
+/// Waits at most `timeout` for `child` to end; its status, None when it still runs.
+fn exit_within(child: &mut ChildGuard, timeout: Duration) -> Option<std::process::ExitStatus> {
+    let start = Instant::now();
+    let c = child.0.as_mut().expect("a running host");
+    loop {
+        if let Some(s) = c.try_wait().expect("waiting for a host") {
+            child.0 = None;
+            return Some(s);
+        }
+        if start.elapsed() > timeout {
+            return None;
+        }
+        std::thread::park_timeout(Duration::from_millis(100));
+    }
+}
+
+#[test]
+fn the_shore_ends_after_final_wait_naming_a_glider_host_that_never_returned() {
+    // final_wait 2 s; glider_a's link goes down 10 ticks before the end and stays down.
+    let mut p = Paced::start_with("hostsfinalwait", 16.0, "final_wait = 2.0\n");
+    let body = p.out.join("body.csv");
+    wait_until(
+        || line_count(&body) > 150,
+        Duration::from_secs(60),
+        "the mission's last ticks",
+    );
+    p.net.link("glider_a", false);
+    let shore = exit_within(&mut p.shore, Duration::from_secs(60));
+    if shore.is_none() {
+        for pid in processes_mentioning(&p.tmp.path.to_string_lossy()) {
+            let _ = Command::new("kill")
+                .args(["-KILL", &pid.to_string()])
+                .status();
+        }
+        panic!("the shore still running 60 s after glider_a's link went down");
+    }
+    assert!(shore.unwrap().success(), "shore: {shore:?}");
+    let log = read(&p.out.join("logs/vbap_bridge.jsonl"));
+    let never: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains("final command not acknowledged"))
+        .collect();
+    assert_eq!(never.len(), 1, "{log}");
+    assert!(
+        never[0].contains("glider_a") && !never[0].contains("glider_b"),
+        "{}",
+        never[0]
+    );
+    // glider_b had it and ended; glider_a never will by itself (its agents hold station):
+    // its supervisor is stopped as a user would (SIGTERM), and nothing is left behind.
+    assert!(exit_within(&mut p.b, Duration::from_secs(30)).is_some_and(|s| s.success()));
+    let a_run = processes_mentioning(&format!("--host glider_a --out {}", p.tmp.path.display()))
+        .into_iter()
+        .filter(|pid| {
+            std::fs::read_to_string(format!("/proc/{pid}/comm")).is_ok_and(|c| c.trim() == "vbap")
+        })
+        .collect::<Vec<u32>>();
+    assert_eq!(a_run.len(), 1, "glider_a's vbap run: {a_run:?}");
+    let _ = Command::new("kill")
+        .args(["-TERM", &a_run[0].to_string()])
+        .status();
+    assert!(
+        exit_within(&mut p.a, Duration::from_secs(30)).is_some(),
+        "glider_a's run ends on SIGTERM"
+    );
     assert_clean(p.net, &p.tmp);
 }
 
