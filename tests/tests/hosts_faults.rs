@@ -1,8 +1,9 @@
 //! Faults of the shore across hosts (network namespaces, root: see `tests::netns`): the
 //! shore host lost to the network (gliders hold, resume when it returns), the shore's
 //! bridge killed alone (the remote vehicles rejoin through the restarted one), a glider
-//! host off the network when the final command is published (it gets it when it returns),
-//! and a placement that cannot work (exit 2, the key named).
+//! host off the network when the final command is published (it gets it when it returns;
+//! never returning, the shore ends after `final_wait` naming it), and a placement that
+//! cannot work (exit 2, the key named).
 
 use std::path::PathBuf;
 use std::process::Command;
