@@ -22,13 +22,22 @@ impl Keys {
             root: format!("vbap/{mission}"),
         }
     }
-    /// Vehicle `id`'s states (glider host → shore).
-    pub fn state(&self, id: u32) -> String {
-        format!("{}/state/{id}", self.root)
+    /// The states of host `host`'s vehicles, a frame per pass of its bridge (glider host →
+    /// shore).
+    pub fn states(&self, host: &str) -> String {
+        format!("{}/states/{host}", self.root)
     }
-    /// Every vehicle's states.
-    pub fn states(&self) -> String {
-        format!("{}/state/*", self.root)
+    /// Every host's states.
+    pub fn all_states(&self) -> String {
+        format!("{}/states/*", self.root)
+    }
+    /// Host `host`'s acknowledgement of the mission's final command (glider host → shore).
+    pub fn final_ack(&self, host: &str) -> String {
+        format!("{}/final_ack/{host}", self.root)
+    }
+    /// Every host's acknowledgement of the final command.
+    pub fn final_acks(&self) -> String {
+        format!("{}/final_ack/*", self.root)
     }
     /// The body commands with their snapshot (shore → every glider host).
     pub fn body(&self) -> String {

@@ -3,8 +3,9 @@
 //!
 //! | stream | Zenoh key | direction | iceoryx2 side |
 //! |---|---|---|---|
-//! | vehicle states (joins are flagged states) | `vbap/<m>/state/<id>` | glider host → shore | `<m>/vehicle/<id>/state` + `Event::Vehicle(id)` on `<m>/coordinator/wake` |
+//! | vehicle states (joins are flagged states), a frame per pass of a host's bridge | `vbap/<m>/states/<host>` | glider host → shore | `<m>/vehicle/<id>/state` + `Event::Vehicle(id)` on `<m>/coordinator/wake`, per state |
 //! | body commands with the snapshot | `vbap/<m>/body` | shore → glider hosts | `<m>/body` + `Event::Body` on every local `<m>/vehicle/<id>/wake` |
+//! | acknowledgement of the mission's final command | `vbap/<m>/final_ack/<host>` | glider host → shore | none (the shore's bridge ends once every glider host's is in: `run`'s doc) |
 //! | process exits of a host's supervisor | `vbap/<m>/exits/<host>` | glider host → shore | `<m>/supervisor/exits` + `Event::Exit` |
 //! | liveliness of a host's bridge | `vbap/<m>/host/<host>` (token) | every host | proxy nodes `vehicle_agent_<id>`; `ProcessExit::UNREACHABLE` when gone |
 //!
@@ -16,7 +17,7 @@
 //! coordinator: the hosts file says so).
 //!
 //! Quality of service: every stream is a reliable, blocking (`CongestionControl::Block`),
-//! express publication over the TCP link — lockstep needs every state and every command
+//! express publication over the TCP link (the acknowledgements too) — lockstep needs every state and every command
 //! (a dropped one would stall or desynchronise the tick), and the link model that drops
 //! messages lives in the application, not here. States and commands go at
 //! `Priority::RealTime`, exits at `Priority::InteractiveHigh`.

@@ -8,6 +8,16 @@
 //! prints `ready` (its supervisor then starts the field server and the coordinator) once it
 //! sees every glider host's token, and declares its own token once the coordinator's body
 //! publisher exists: a glider's agents so never speak before the coordinator listens.
+//!
+//! The end ("the final command reaches a host that was off the network"): the shore's
+//! bridge keeps the mission's final command once it has forwarded it and puts it again
+//! every [`RESEND`] (and at once when a glider host's token reappears) until every glider
+//! host's bridge has acknowledged it on `vbap/<m>/final_ack/<host>`, then ends; a glider
+//! host's bridge acknowledges every final command it receives (it publishes only the
+//! first to its agents) and ends when the shore's token vanishes after it. Both wait at
+//! most the hosts file's `final_wait`; when it runs out on the shore, its bridge's log
+//! names the glider hosts that never acknowledged (warning `final command not
+//! acknowledged`) and the shore's run ends.
 
 mod inbound;
 mod outbound;
@@ -31,8 +41,10 @@ use crate::keys::{self, Keys};
 /// What the bridge forwarded and refused (logged at the end).
 #[derive(Debug, Default)]
 pub struct Counts {
-    /// Messages sent to Zenoh.
+    /// Messages sent to Zenoh (a state, a body command, an exit).
     pub out: AtomicU64,
+    /// Zenoh puts (frames: a glider host's states of one pass share one).
+    pub frames_out: AtomicU64,
     /// Messages received from Zenoh and published here.
     pub inbound: AtomicU64,
     /// Frames refused (another payload type or version, a sender that is not its key's).
@@ -57,6 +69,8 @@ pub(crate) enum In {
     Up(String),
     /// Host `.0`'s liveliness token vanished (its bridge ended, or its link's lease ran out).
     Down(String),
+    /// The shore's outbound thread forwarded the mission's final command, frame `.0`.
+    Final(Vec<u8>),
 }
 
 /// Where this bridge is and what it forwards.
@@ -94,8 +108,9 @@ impl Place<'_> {
     }
 }
 
-/// Set when the bridge is to end (a termination signal, or the mission's final command
-/// forwarded).
+/// Set when the bridge is to end (a termination signal; on the shore every glider host's
+/// acknowledgement of the mission's final command or `final_wait` run out; on a glider
+/// host the shore gone after the final command, or `final_wait` run out).
 #[derive(Default)]
 pub(crate) struct Stop {
     flag: AtomicBool,
@@ -112,7 +127,7 @@ impl Stop {
 }
 
 /// Runs the bridge of host `host` of `mission` placed by `hosts` until a termination
-/// signal or the mission's final command; `ready` is called once this host may start its
+/// signal or the end of the mission's final command's delivery (see [`Stop`]); `ready` is called once this host may start its
 /// processes (see the module doc).
 pub fn run(
     mission: &Mission,
@@ -146,6 +161,7 @@ pub fn run(
     let (up_tx, up_rx) = mpsc::channel::<()>();
     let out = {
         let (session, stop, counts) = (session.clone(), stop.clone(), counts.clone());
+        let inbound = tx.clone();
         let (domain, limits, keys) = (place.domain.clone(), place.limits, place.keys.clone());
         let spec = outbound::Spec {
             shore: place.is_shore(),
@@ -157,7 +173,7 @@ pub fn run(
             .name("outbound".into())
             .spawn(move || {
                 outbound::run(
-                    &session, &domain, &limits, &keys, &spec, &stop, &counts, up_tx,
+                    &session, &domain, &limits, &keys, &spec, &stop, &counts, up_tx, inbound,
                 )
             })
             .context("starting the outbound thread")?
@@ -172,6 +188,7 @@ pub fn run(
     let closed = session.close().wait();
     info!(
         out = counts.out.load(Ordering::Relaxed),
+        frames_out = counts.frames_out.load(Ordering::Relaxed),
         inbound = counts.inbound.load(Ordering::Relaxed),
         refused = counts.refused.load(Ordering::Relaxed),
         "bridge done"
@@ -190,6 +207,10 @@ pub(crate) fn liveliness_event(tx: &mpsc::Sender<In>, sample: &zenoh::sample::Sa
         SampleKind::Delete => In::Down(host),
     });
 }
+
+/// How often the shore puts the held final command again while a glider host has not
+/// acknowledged it.
+pub(crate) const RESEND: Duration = Duration::from_millis(250);
 
 /// How often the inbound loop looks at its stop flag and readiness with nothing received.
 pub(crate) const POLL: Duration = Duration::from_millis(50);

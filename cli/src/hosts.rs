@@ -44,6 +44,7 @@ pub fn plan(
         shore: hosts.is_shore(host),
         vehicles: me.vehicles.clone(),
         file,
+        final_wait: std::time::Duration::from_secs_f64(hosts.final_wait),
     }))
 }
 

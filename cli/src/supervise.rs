@@ -394,6 +394,10 @@ pub struct HostPlan {
     pub vehicles: Vec<u32>,
     /// The hosts file (copied into the run directory as `hosts.toml`).
     pub file: PathBuf,
+    /// How long the shore's bridge may keep the mission's final command for glider hosts
+    /// that have not acknowledged it (the hosts file's `final_wait`): the shore's bridge is
+    /// given this long past [`GRACE`] to end by itself.
+    pub final_wait: Duration,
 }
 
 impl<'a> ProcessSet<'a> {
@@ -718,6 +722,26 @@ pub async fn run_share(
     if !interrupted {
         // The mission is over: the others end on FINISHED; stragglers get SIGTERM.
         await_the_rest(&mut set, &mut exits).await;
+        // The shore's bridge delivers the final command to every glider host, at most
+        // `final_wait` (it says so when that runs out); without a final command it has
+        // nothing to deliver and is stopped with the rest.
+        let wait = plan.filter(|p| p.shore).map(|p| p.final_wait);
+        if let (Some(wait), true) = (wait, notices.mission_finished().await) {
+            let bridge_only = set
+                .procs
+                .iter()
+                .all(|p| p.pid.is_none() || p.role == Role::Bridge);
+            if set.running() > 0 && bridge_only {
+                info!(
+                    final_wait_s = wait.as_secs_f64(),
+                    "waiting for the bridge to deliver the final command to every host"
+                );
+                tokio::select! {
+                    _ = await_for(&mut set, &mut exits, wait) => {}
+                    _ = shutdown_signal() => {}
+                }
+            }
+        }
     }
     stop_all(&mut set, &mut exits).await;
     notices.stop();
@@ -815,7 +839,16 @@ async fn on_exit(
 
 /// Waits, at most [`GRACE`], for the processes still running to end by themselves.
 async fn await_the_rest(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedReceiver<Exit>) {
-    let deadline = tokio::time::Instant::now() + GRACE;
+    await_for(set, exits, GRACE).await
+}
+
+/// Waits, at most `wait`, for the processes still running to end by themselves.
+async fn await_for(
+    set: &mut ProcessSet<'_>,
+    exits: &mut mpsc::UnboundedReceiver<Exit>,
+    wait: Duration,
+) {
+    let deadline = tokio::time::Instant::now() + wait;
     while set.running() > 0 {
         match tokio::time::timeout_at(deadline, exits.recv()).await {
             Ok(Some(e)) if set.procs[e.slot].generation == e.generation => {

@@ -2,6 +2,7 @@
 //! NAME`): which host runs what, and the Zenoh endpoint each host listens on.
 //!
 //! ```toml
+//! final_wait = 30.0        # optional, s (default 30): see below
 //! [hosts.shore]
 //! endpoint = "tcp/10.88.0.1:7447"
 //! processes = ["coordinator", "field_server"]
@@ -19,7 +20,12 @@
 //! - a host name holds letters, digits and `_`;
 //! - endpoints are `tcp/<address>:<port>` with a port other than 0, each host its own; the
 //!   shore's is one the glider hosts can reach (not the unspecified `0.0.0.0` / `[::]`:
-//!   they connect to it).
+//!   they connect to it);
+//! - `final_wait` (s, finite, > 0; default [`DEFAULT_FINAL_WAIT`]): how long the shore's
+//!   bridge keeps the mission's final command after forwarding it, re-sending it until
+//!   every glider host's bridge has acknowledged it (a glider host off the network at that
+//!   moment gets it when it returns). When it runs out the shore's run ends anyway and its
+//!   bridge's log names the hosts that never acknowledged.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -43,19 +49,31 @@ pub struct Host {
     pub vehicles: Vec<u32>,
 }
 
+/// Default of the hosts file's `final_wait`, s.
+pub const DEFAULT_FINAL_WAIT: f64 = 30.0;
+
+fn default_final_wait() -> f64 {
+    DEFAULT_FINAL_WAIT
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct File {
+    #[serde(default = "default_final_wait")]
+    final_wait: f64,
     hosts: BTreeMap<String, Host>,
 }
 
 /// A validated hosts file for a fleet of N vehicles.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Hosts {
     /// Every host by name.
     pub hosts: BTreeMap<String, Host>,
     /// The host of the coordinator and the field server.
     pub shore: String,
+    /// How long the shore keeps the mission's final command for glider hosts that have
+    /// not acknowledged it yet, s (`final_wait`, see the module doc).
+    pub final_wait: f64,
 }
 
 impl Hosts {
@@ -70,6 +88,12 @@ impl Hosts {
     pub fn parse(text: &str, origin: &str, vehicles: usize) -> Result<Self, String> {
         let file: File = toml::from_str(text).map_err(|e| format!("{origin}: {e}"))?;
         let err = |key: String, reason: String| format!("{origin}: {key}: {reason}");
+        if !(file.final_wait.is_finite() && file.final_wait > 0.0) {
+            return Err(err(
+                format!("final_wait = {}", file.final_wait),
+                "must be a finite number of seconds above 0".into(),
+            ));
+        }
         let mut shore = None;
         let mut field = None;
         let mut owner: Vec<Option<&str>> = vec![None; vehicles];
@@ -131,6 +155,7 @@ impl Hosts {
         Ok(Self {
             hosts: file.hosts,
             shore,
+            final_wait: file.final_wait,
         })
     }
 
@@ -224,6 +249,18 @@ vehicles = [2]
         assert_eq!(h.host_of(1), Some("glider_a"));
         assert_eq!(h.host_of(2), Some("glider_b"));
         assert!(h.host("nowhere").unwrap_err().contains("glider_a"));
+        assert_eq!(h.final_wait, DEFAULT_FINAL_WAIT);
+    }
+
+    #[test]
+    fn final_wait_is_read_and_checked() {
+        let h = Hosts::parse(&format!("final_wait = 2.5\n{GOOD}"), "hosts.toml", 3).unwrap();
+        assert_eq!(h.final_wait, 2.5);
+        for bad in ["0.0", "-1.0", "nan", "inf"] {
+            let e =
+                Hosts::parse(&format!("final_wait = {bad}\n{GOOD}"), "hosts.toml", 3).unwrap_err();
+            assert!(e.contains("hosts.toml: final_wait"), "{e}");
+        }
     }
 
     #[test]

@@ -1,7 +1,9 @@
 //! Faults of the shore across hosts (network namespaces, root: see `tests::netns`): the
 //! shore host lost to the network (gliders hold, resume when it returns), the shore's
-//! bridge killed alone (the remote vehicles rejoin through the restarted one), and a
-//! placement that cannot work (exit 2, the key named).
+//! bridge killed alone (the remote vehicles rejoin through the restarted one), a glider
+//! host off the network when the final command is published (it gets it when it returns;
+//! never returning, the shore ends after `final_wait` naming it), and a placement that
+//! cannot work (exit 2, the key named).
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -59,12 +61,18 @@ struct Paced {
 
 impl Paced {
     fn start(tag: &str, duration: f64) -> Self {
+        Self::start_with(tag, duration, "")
+    }
+
+    /// [`Paced::start`] with `top` put before the hosts file's tables (e.g. `final_wait`).
+    fn start_with(tag: &str, duration: f64, top: &str) -> Self {
         let tmp = TempDir::new(tag);
         let net = Net::new();
         let text = rejoin_mission(&unique_name(tag), duration, "")
             .replace("tolerance = 1.0", "tolerance = 1.0\npace = 2.0");
         let file = write(&tmp, "m.toml", &text);
-        let hosts = write(&tmp, "hosts.toml", &net.hosts_file_with(SHORE_VEHICLES));
+        let hosts_text = format!("{top}{}", net.hosts_file_with(SHORE_VEHICLES));
+        let hosts = write(&tmp, "hosts.toml", &hosts_text);
         let shore = start_host(&net, &tmp, &file, &hosts, "shore");
         let a = start_host(&net, &tmp, &file, &hosts, "glider_a");
         let b = start_host(&net, &tmp, &file, &hosts, "glider_b");
@@ -77,6 +85,47 @@ impl Paced {
             out,
             net,
             tmp,
+        }
+    }
+
+    /// Waits at most `timeout` for the three hosts' `vbap run`, each to succeed; past it,
+    /// kills every process of the run (nothing is left behind) and fails naming the hosts
+    /// still running.
+    fn wait_hosts_within(&mut self, timeout: Duration) {
+        let start = Instant::now();
+        let mut hosts = [
+            ("shore", &mut self.shore),
+            ("glider_a", &mut self.a),
+            ("glider_b", &mut self.b),
+        ];
+        let mut status: [Option<std::process::ExitStatus>; 3] = [None; 3];
+        while status.iter().any(Option::is_none) {
+            for (i, (_, child)) in hosts.iter_mut().enumerate() {
+                if status[i].is_none() {
+                    let c = child.0.as_mut().expect("a running host");
+                    status[i] = c.try_wait().expect("waiting for a host");
+                }
+            }
+            if start.elapsed() > timeout && status.iter().any(Option::is_none) {
+                let running: Vec<&str> = hosts
+                    .iter()
+                    .zip(&status)
+                    .filter(|(_, s)| s.is_none())
+                    .map(|((h, _), _)| *h)
+                    .collect();
+                for pid in processes_mentioning(&self.tmp.path.to_string_lossy()) {
+                    let _ = Command::new("kill")
+                        .args(["-KILL", &pid.to_string()])
+                        .status();
+                }
+                panic!("hosts {running:?} still running {timeout:?} after the wait began");
+            }
+            std::thread::park_timeout(Duration::from_millis(100));
+        }
+        for ((h, child), s) in hosts.iter_mut().zip(status) {
+            child.0 = None;
+            let s = s.expect("ended");
+            assert!(s.success(), "host {h}: {s:?}");
         }
     }
 
@@ -173,6 +222,143 @@ fn the_shores_bridge_restarted_alone_lets_the_remote_vehicles_rejoin() {
     let log = read(&p.out.join("logs/vbap_bridge.jsonl"));
     assert!(log.contains("a restarted bridge"), "{log}");
     assert_eq!(summary(&p.out)["mode"], "multi-process");
+    assert_clean(p.net, &p.tmp);
+}
+
+/// The lines of JSON-lines log `path` (none while it does not exist).
+fn log_lines(path: &std::path::Path) -> Vec<String> {
+    std::fs::read_to_string(path)
+        .unwrap_or_default()
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn a_glider_host_off_the_network_at_the_final_command_gets_it_when_it_returns() {
+    // Paced, 160 ticks at 2× real time (8 s); glider_a's link goes down 10 ticks (0.5 s)
+    // before the end, so the final command is published while it is away.
+    let mut p = Paced::start("hostsfinal", 16.0);
+    let body = p.out.join("body.csv");
+    wait_until(
+        || line_count(&body) > 150,
+        Duration::from_secs(60),
+        "the mission's last ticks",
+    );
+    p.net.link("glider_a", false);
+    let shore_bridge = p.out.join("logs/vbap_bridge.jsonl");
+    let a_bridge = p.tmp.join("glider_a").join("logs/vbap_bridge.jsonl");
+    wait_until(
+        || {
+            log_lines(&shore_bridge)
+                .iter()
+                .any(|l| l.contains("the mission's final command is forwarded"))
+        },
+        Duration::from_secs(60),
+        "the shore's bridge forwarding the final command",
+    );
+    // Away until glider_a's own link to the shore is given up (its lease, 1 s): a final
+    // command queued on the old connection is lost with it.
+    wait_until(
+        || {
+            log_lines(&a_bridge)
+                .iter()
+                .any(|l| l.contains("host gone") && l.contains("\"host\":\"shore\""))
+        },
+        Duration::from_secs(30),
+        "glider_a losing the shore",
+    );
+    p.net.link("glider_a", true);
+    // Every host ends by itself: glider_a's agents on the final command, not by a bound.
+    p.wait_hosts_within(Duration::from_secs(60));
+    for v in [0, 1] {
+        let log = read(
+            &p.tmp
+                .join(&format!("glider_a/logs/vehicle_agent_{v}.jsonl")),
+        );
+        assert!(log.contains("mission finished"), "vehicle {v}: {log}");
+    }
+    let log = read(&shore_bridge);
+    for h in ["glider_a", "glider_b"] {
+        assert!(
+            log.lines()
+                .any(|l| l.contains("final command acknowledged") && l.contains(h)),
+            "{h} acknowledged the final command: {log}"
+        );
+    }
+    assert!(
+        log.contains("every glider host has the final command"),
+        "{log}"
+    );
+    assert_eq!(summary(&p.out)["mode"], "multi-process");
+    assert_clean(p.net, &p.tmp);
+}
+
+/// Waits at most `timeout` for `child` to end; its status, None when it still runs.
+fn exit_within(child: &mut ChildGuard, timeout: Duration) -> Option<std::process::ExitStatus> {
+    let start = Instant::now();
+    let c = child.0.as_mut().expect("a running host");
+    loop {
+        if let Some(s) = c.try_wait().expect("waiting for a host") {
+            child.0 = None;
+            return Some(s);
+        }
+        if start.elapsed() > timeout {
+            return None;
+        }
+        std::thread::park_timeout(Duration::from_millis(100));
+    }
+}
+
+#[test]
+fn the_shore_ends_after_final_wait_naming_a_glider_host_that_never_returned() {
+    // final_wait 2 s; glider_a's link goes down 10 ticks before the end and stays down.
+    let mut p = Paced::start_with("hostsfinalwait", 16.0, "final_wait = 2.0\n");
+    let body = p.out.join("body.csv");
+    wait_until(
+        || line_count(&body) > 150,
+        Duration::from_secs(60),
+        "the mission's last ticks",
+    );
+    p.net.link("glider_a", false);
+    let shore = exit_within(&mut p.shore, Duration::from_secs(60));
+    if shore.is_none() {
+        for pid in processes_mentioning(&p.tmp.path.to_string_lossy()) {
+            let _ = Command::new("kill")
+                .args(["-KILL", &pid.to_string()])
+                .status();
+        }
+        panic!("the shore still running 60 s after glider_a's link went down");
+    }
+    assert!(shore.unwrap().success(), "shore: {shore:?}");
+    let log = read(&p.out.join("logs/vbap_bridge.jsonl"));
+    let never: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains("final command not acknowledged"))
+        .collect();
+    assert_eq!(never.len(), 1, "{log}");
+    assert!(
+        never[0].contains("glider_a") && !never[0].contains("glider_b"),
+        "{}",
+        never[0]
+    );
+    // glider_b had it and ended; glider_a never will by itself (its agents hold station):
+    // its supervisor is stopped as a user would (SIGTERM), and nothing is left behind.
+    assert!(exit_within(&mut p.b, Duration::from_secs(30)).is_some_and(|s| s.success()));
+    let a_run = processes_mentioning(&format!("--host glider_a --out {}", p.tmp.path.display()))
+        .into_iter()
+        .filter(|pid| {
+            std::fs::read_to_string(format!("/proc/{pid}/comm")).is_ok_and(|c| c.trim() == "vbap")
+        })
+        .collect::<Vec<u32>>();
+    assert_eq!(a_run.len(), 1, "glider_a's vbap run: {a_run:?}");
+    let _ = Command::new("kill")
+        .args(["-TERM", &a_run[0].to_string()])
+        .status();
+    assert!(
+        exit_within(&mut p.a, Duration::from_secs(30)).is_some(),
+        "glider_a's run ends on SIGTERM"
+    );
     assert_clean(p.net, &p.tmp);
 }
 

@@ -1,19 +1,22 @@
 //! Zenoh → this host's iceoryx2 services, published and notified exactly as the local
 //! writer would (same service, same wake event); the hosts' liveliness.
 //!
-//! On the shore: remote vehicles' states (publisher of `<m>/vehicle/<id>/state`, waking
-//! the coordinator with `Event::Vehicle(id)`), the glider hosts' process exits, and for
+//! On the shore: remote vehicles' states (a frame per glider host's pass, each state
+//! checked alone and published on `<m>/vehicle/<id>/state`, waking the coordinator with
+//! `Event::Vehicle(id)`), the glider hosts' process exits and acknowledgements of the
+//! final command (see `super`'s doc: the end), and for
 //! every remote vehicle whose host is up a *proxy node* `vehicle_agent_<id>` in this
 //! domain (the coordinator's node-list scan finds the vehicle alive while its host is).
 //! When a glider host's token vanishes, its vehicles are reported
 //! [`ProcessExit::UNREACHABLE`] on `<m>/supervisor/exits` (the coordinator loses them at
 //! once and redesigns; the process may live on, so its next state is a join request) and
 //! their proxy nodes end. On a glider host: the body commands (publisher of `<m>/body`,
-//! `Event::Body` on every local vehicle's wake service).
+//! `Event::Body` on every local vehicle's wake service), the final one acknowledged.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::atomic::Ordering;
 use std::sync::mpsc;
+use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Result};
 use iceoryx2::node::Node;
@@ -29,9 +32,10 @@ use vbap_ipc::msg::{wall_ns, Header};
 use vbap_ipc::ports::{self, Sender};
 use vbap_ipc::topics;
 use vbap_ipc::wait::Event;
+use zenoh::qos::Priority;
 use zenoh::Wait;
 
-use super::{liveliness_event, Counts, In, Place, Stop, POLL};
+use super::{liveliness_event, Counts, In, Place, Stop, POLL, RESEND};
 use crate::keys::Keys;
 use crate::wire::{self, RawBody, RawBytes, RawExit, RawState};
 
@@ -44,7 +48,7 @@ pub(crate) fn subscribe(
 ) -> Result<Vec<zenoh::pubsub::Subscriber<()>>> {
     let keys = &place.keys;
     let wanted = if place.is_shore() {
-        vec![keys.states(), keys.all_exits()]
+        vec![keys.all_states(), keys.all_exits(), keys.final_acks()]
     } else {
         vec![keys.body()]
     };
@@ -90,13 +94,32 @@ struct Shore {
     /// the coordinator lost the remote vehicles when the old one's proxy nodes died).
     restarted: bool,
     /// The remote vehicles whose first state through this bridge has been forwarded.
-    heard: std::collections::BTreeSet<u32>,
+    heard: BTreeSet<u32>,
+    /// The body commands' key, for putting the final command again.
+    body_out: zenoh::pubsub::Publisher<'static>,
+    /// The mission's final command once forwarded, until every glider host has it.
+    held: Option<Held>,
+}
+
+/// The mission's final command kept on the shore for the glider hosts that have not
+/// acknowledged it.
+struct Held {
+    frame: Vec<u8>,
+    since: Instant,
+    last_put: Instant,
+    pending: BTreeSet<String>,
+    /// A pending host's token is back: put the command again at once.
+    now: bool,
 }
 
 /// A glider host's inbound ports.
 struct Glider {
     body: Publisher<ipc::Service, RawBody, ()>,
     wakes: Vec<Notifier<ipc::Service>>,
+    /// Acknowledges the mission's final command to the shore.
+    ack: zenoh::pubsub::Publisher<'static>,
+    /// When the final command was published here (None: not yet).
+    finished: Option<Instant>,
 }
 
 /// The inbound loop: opens the ports, declares this host's token when it may, calls
@@ -140,6 +163,8 @@ pub(crate) fn run(
             pids: BTreeMap::new(),
             restarted: coordinator_up,
             heard: Default::default(),
+            body_out: super::publisher(session, place.keys.body(), Priority::RealTime)?,
+            held: None,
         });
         if coordinator_up {
             info!("the coordinator already runs: a restarted bridge (remote vehicles rejoin)");
@@ -155,6 +180,12 @@ pub(crate) fn run(
         glider = Some(Glider {
             body: ports::publisher(&domain.body_service_as::<RawBody>(&node, limits)?)?,
             wakes,
+            ack: super::publisher(
+                session,
+                place.keys.final_ack(place.host),
+                Priority::RealTime,
+            )?,
+            finished: None,
         });
     }
     let liveliness = session.liveliness();
@@ -172,16 +203,20 @@ pub(crate) fn run(
     };
     let mut up: BTreeMap<String, bool> = BTreeMap::new();
     let mut ready = Some(ready);
+    let final_wait = Duration::from_secs_f64(place.hosts.final_wait);
     while !stop.is_set() {
         match rx.recv_timeout(POLL) {
             Ok(In::Frame { key, bytes }) => {
-                let finished = match (&mut shore, &glider) {
+                // On the shore: true on the last acknowledgement of the final command.
+                let delivered = match (&mut shore, &mut glider) {
                     (Some(s), _) => s.frame(place, &key, &bytes, counts)?,
-                    (_, Some(g)) => g.frame(&key, &bytes, counts)?,
+                    (_, Some(g)) => {
+                        g.frame(&key, &bytes, counts)?;
+                        false
+                    }
                     _ => false,
                 };
-                if finished {
-                    info!("the mission's final command is published here: bridge ends");
+                if delivered {
                     stop.set();
                 }
             }
@@ -190,6 +225,9 @@ pub(crate) fn run(
                 up.insert(h.clone(), true);
                 if let Some(s) = &mut shore {
                     s.host_up(place, &h)?;
+                    if let Some(held) = s.held.as_mut().filter(|d| d.pending.contains(&h)) {
+                        held.now = true;
+                    }
                 }
             }
             Ok(In::Down(h)) => {
@@ -198,9 +236,36 @@ pub(crate) fn run(
                 if let Some(s) = &mut shore {
                     s.host_down(place, &h)?;
                 }
+                if let Some(g) = &glider {
+                    if g.finished.is_some() && h == place.hosts.shore {
+                        info!("the shore is gone after the final command: bridge ends");
+                        stop.set();
+                    }
+                }
+            }
+            Ok(In::Final(frame)) => {
+                if let Some(s) = &mut shore {
+                    if s.hold(place, frame) {
+                        stop.set();
+                    }
+                }
             }
             Err(mpsc::RecvTimeoutError::Timeout) => {}
             Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        }
+        if let Some(s) = &mut shore {
+            if s.resend(final_wait, counts)? {
+                stop.set();
+            }
+        }
+        if let Some(at) = glider.as_ref().and_then(|g| g.finished) {
+            if at.elapsed() > final_wait {
+                warn!(
+                    final_wait_s = final_wait.as_secs_f64(),
+                    "the shore still there final_wait after the final command: bridge ends"
+                );
+                stop.set();
+            }
         }
         let all_up = |names: &[String]| names.iter().all(|n| up.get(n) == Some(&true));
         let may_start = if place.is_shore() {
@@ -227,7 +292,8 @@ pub(crate) fn run(
 }
 
 impl Shore {
-    /// A frame from a glider host: a state of a remote vehicle, or its host's exits.
+    /// A frame from a glider host: its vehicles' states, its exits, or its acknowledgement
+    /// of the final command; true when that was the last acknowledgement awaited.
     fn frame(
         &mut self,
         place: &Place<'_>,
@@ -236,69 +302,159 @@ impl Shore {
         counts: &Counts,
     ) -> Result<bool> {
         let last = Keys::last(key);
-        if key.contains("/state/") {
-            let Some(id) = last
-                .parse::<u32>()
-                .ok()
-                .filter(|id| self.states.contains_key(id))
-            else {
-                counts.refuse(key, &"no remote vehicle of this id");
-                return Ok(false);
-            };
-            let raw = match wire::decode::<RawState>(bytes) {
-                Ok(r) => r,
+        if key.contains("/states/") {
+            let entries = match wire::decode_all::<RawState>(bytes) {
+                Ok(e) => e,
                 Err(e) => {
                     counts.refuse(key, &e);
                     return Ok(false);
                 }
             };
-            let h = std::mem::offset_of!(VehicleState, header);
-            let from = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, sender));
-            if from != id {
-                counts.refuse(
-                    key,
-                    &format!("a state of sender {from} on vehicle {id}'s key"),
-                );
-                return Ok(false);
-            }
-            let pid = wire::u32_at(raw.bytes(), std::mem::offset_of!(VehicleState, pid));
-            self.pids.insert(id, pid);
-            if self.restarted && self.heard.insert(id) {
-                // The coordinator lost this vehicle with the old bridge's proxy node (it
-                // saw a dead node) and takes its process's states as last words: report
-                // it unreachable, so its next state is a join request and it rejoins.
-                self.exits.send(unreachable(id, pid))?;
-                info!(
-                    vehicle = id,
-                    pid, "first state through a restarted bridge: rejoins"
-                );
-            }
-            self.states[&id].send(raw)?;
-        } else {
-            let raw = match wire::decode::<RawExit>(bytes) {
-                Ok(r) => r,
-                Err(e) => {
-                    counts.refuse(key, &e);
-                    return Ok(false);
+            for entry in entries {
+                match entry {
+                    Ok(raw) => self.state(place, key, raw, counts)?,
+                    Err(e) => counts.refuse(key, &e),
                 }
-            };
-            let role = wire::u32_at(raw.bytes(), std::mem::offset_of!(ProcessExit, role));
-            let vehicle = wire::u32_at(raw.bytes(), std::mem::offset_of!(ProcessExit, vehicle));
-            let theirs = place
-                .hosts
-                .hosts
-                .get(last)
-                .is_some_and(|h| h.vehicles.contains(&vehicle));
-            if role != ProcessExit::AGENT || !theirs {
-                counts.refuse(
-                    key,
-                    &format!("an exit of role {role}, vehicle {vehicle} from host {last}"),
-                );
-                return Ok(false);
             }
-            self.exits.send(raw)?;
+            return Ok(false);
         }
+        if key.contains("/final_ack/") {
+            return Ok(self.acknowledged(last));
+        }
+        let raw = match wire::decode::<RawExit>(bytes) {
+            Ok(r) => r,
+            Err(e) => {
+                counts.refuse(key, &e);
+                return Ok(false);
+            }
+        };
+        let role = wire::u32_at(raw.bytes(), std::mem::offset_of!(ProcessExit, role));
+        let vehicle = wire::u32_at(raw.bytes(), std::mem::offset_of!(ProcessExit, vehicle));
+        let theirs = place
+            .hosts
+            .hosts
+            .get(last)
+            .is_some_and(|h| h.vehicles.contains(&vehicle));
+        if role != ProcessExit::AGENT || !theirs {
+            counts.refuse(
+                key,
+                &format!("an exit of role {role}, vehicle {vehicle} from host {last}"),
+            );
+            return Ok(false);
+        }
+        self.exits.send(raw)?;
         counts.inbound.fetch_add(1, Ordering::Relaxed);
+        Ok(false)
+    }
+
+    /// One state of the frame of glider host `key`'s last chunk: published on its vehicle's
+    /// service when the vehicle is one of that host's, else refused alone.
+    fn state(
+        &mut self,
+        place: &Place<'_>,
+        key: &str,
+        raw: RawState,
+        counts: &Counts,
+    ) -> Result<()> {
+        let host = Keys::last(key);
+        let h = std::mem::offset_of!(VehicleState, header);
+        let id = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, sender));
+        let theirs = place
+            .hosts
+            .hosts
+            .get(host)
+            .is_some_and(|h| h.vehicles.contains(&id));
+        if !theirs || !self.states.contains_key(&id) {
+            counts.refuse(
+                key,
+                &format!("a state of sender {id}, not a remote vehicle of host {host}"),
+            );
+            return Ok(());
+        }
+        let pid = wire::u32_at(raw.bytes(), std::mem::offset_of!(VehicleState, pid));
+        self.pids.insert(id, pid);
+        if self.restarted && self.heard.insert(id) {
+            // The coordinator lost this vehicle with the old bridge's proxy node (it saw a
+            // dead node) and takes its process's states as last words: report it
+            // unreachable, so its next state is a join request and it rejoins.
+            self.exits.send(unreachable(id, pid))?;
+            info!(
+                vehicle = id,
+                pid, "first state through a restarted bridge: rejoins"
+            );
+        }
+        self.states[&id].send(raw)?;
+        counts.inbound.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    }
+
+    /// The outbound thread forwarded the mission's final command `frame`: kept until every
+    /// glider host acknowledges it; true when there is none to wait for.
+    fn hold(&mut self, place: &Place<'_>, frame: Vec<u8>) -> bool {
+        let pending: BTreeSet<String> = place.glider_hosts().into_iter().collect();
+        info!(
+            hosts = ?pending,
+            final_wait_s = place.hosts.final_wait,
+            "the mission's final command is forwarded: kept until every glider host acknowledges it"
+        );
+        let now = Instant::now();
+        let none = pending.is_empty();
+        self.held = Some(Held {
+            frame,
+            since: now,
+            last_put: now,
+            pending,
+            now: false,
+        });
+        none
+    }
+
+    /// Glider host `host` acknowledged the final command; true when it was the last.
+    fn acknowledged(&mut self, host: &str) -> bool {
+        let Some(held) = &mut self.held else {
+            return false;
+        };
+        if held.pending.remove(host) {
+            info!(
+                host,
+                after_ms = held.since.elapsed().as_secs_f64() * 1e3,
+                "final command acknowledged"
+            );
+        }
+        if held.pending.is_empty() {
+            info!("every glider host has the final command: bridge ends");
+            return true;
+        }
+        false
+    }
+
+    /// While the final command is held: puts it again every [`RESEND`] or at once when a
+    /// pending host's token is back; true when `final_wait` has run out (the hosts that
+    /// never acknowledged are logged).
+    fn resend(&mut self, final_wait: Duration, counts: &Counts) -> Result<bool> {
+        let Some(held) = &mut self.held else {
+            return Ok(false);
+        };
+        if held.pending.is_empty() {
+            return Ok(false);
+        }
+        if held.since.elapsed() > final_wait {
+            warn!(
+                never = ?held.pending,
+                final_wait_s = final_wait.as_secs_f64(),
+                "final command not acknowledged by every glider host within final_wait: bridge ends"
+            );
+            return Ok(true);
+        }
+        if held.last_put.elapsed() >= RESEND || held.now {
+            held.now = false;
+            self.body_out
+                .put(held.frame.as_slice())
+                .wait()
+                .map_err(|e| anyhow!("putting the final command again: {e}"))?;
+            counts.frames_out.fetch_add(1, Ordering::Relaxed);
+            held.last_put = Instant::now();
+        }
         Ok(false)
     }
 
@@ -342,14 +498,15 @@ impl Shore {
 }
 
 impl Glider {
-    /// A body command from the shore: published here, every local agent woken; true when
-    /// it is the mission's final one.
-    fn frame(&self, key: &str, bytes: &[u8], counts: &Counts) -> Result<bool> {
+    /// A body command from the shore: published here, every local agent woken; the
+    /// mission's final one acknowledged (every time it comes: the shore puts it again
+    /// until it hears us), and once it is published nothing more is.
+    fn frame(&mut self, key: &str, bytes: &[u8], counts: &Counts) -> Result<()> {
         let raw = match wire::decode::<RawBody>(bytes) {
             Ok(r) => r,
             Err(e) => {
                 counts.refuse(key, &e);
-                return Ok(false);
+                return Ok(());
             }
         };
         let h = std::mem::offset_of!(BodyCommand, header);
@@ -357,16 +514,30 @@ impl Glider {
         let flags = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, flags));
         if sender != Header::COORDINATOR {
             counts.refuse(key, &format!("a body command of sender {sender}"));
-            return Ok(false);
+            return Ok(());
         }
-        self.body
-            .send_copy(raw)
-            .map_err(|e| anyhow!("publishing the body: {e:?}"))?;
-        for w in &self.wakes {
-            let _ = w.notify();
+        let last = flags & BodyCommand::FINISHED != 0;
+        if self.finished.is_none() {
+            self.body
+                .send_copy(raw)
+                .map_err(|e| anyhow!("publishing the body: {e:?}"))?;
+            for w in &self.wakes {
+                let _ = w.notify();
+            }
+            counts.inbound.fetch_add(1, Ordering::Relaxed);
+            if last {
+                info!("the mission's final command is published here: acknowledged, waiting for the shore to end");
+                self.finished = Some(Instant::now());
+            }
         }
-        counts.inbound.fetch_add(1, Ordering::Relaxed);
-        Ok(flags & BodyCommand::FINISHED != 0)
+        if last {
+            self.ack
+                .put(&[][..])
+                .wait()
+                .map_err(|e| anyhow!("acknowledging the final command: {e}"))?;
+            counts.frames_out.fetch_add(1, Ordering::Relaxed);
+        }
+        Ok(())
     }
 }
 

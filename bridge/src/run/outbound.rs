@@ -5,6 +5,11 @@
 //! body service. On a glider host it stands for the coordinator: it listens on
 //! `<m>/coordinator/wake` (the agents' `Event::Vehicle(id)`, the supervisor's
 //! `Event::Exit`) and reads the local vehicles' states and the supervisor's exits.
+//!
+//! A glider host's states read in one pass (one wake-up: the states of one tick that
+//! have arrived) leave in one frame, one put ([`crate::wire::Batch`]). On the shore the
+//! mission's final command, once forwarded, is handed to the inbound loop (it keeps it
+//! until every glider host has acknowledged it) and this thread ends.
 
 use std::sync::atomic::Ordering;
 use std::sync::mpsc;
@@ -23,9 +28,9 @@ use vbap_ipc::topics::{Domain, Limits};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::Wait;
 
-use super::{Counts, Stop};
+use super::{Counts, In, Stop};
 use crate::keys::Keys;
-use crate::wire::{self, Raw, RawBody, RawExit, RawState};
+use crate::wire::{self, Batch, Raw, RawBody, RawExit, RawState};
 
 /// What the outbound side of a host forwards.
 pub(crate) struct Spec {
@@ -54,33 +59,64 @@ pub(crate) fn publisher(
         .map_err(|e| anyhow!("declaring the Zenoh publisher {key}: {e}"))
 }
 
-/// Reads every sample of `sub` and puts its frame on `publisher`; true when a body command
-/// read was the mission's final one.
+/// Puts frame `frame` on `publisher`.
+fn put(publisher: &zenoh::pubsub::Publisher<'static>, frame: &[u8], counts: &Counts) -> Result<()> {
+    publisher
+        .put(frame)
+        .wait()
+        .map_err(|e| anyhow!("putting on {}: {e}", publisher.key_expr()))?;
+    counts.frames_out.fetch_add(1, Ordering::Relaxed);
+    Ok(())
+}
+
+/// Reads every sample of `sub` and puts each in a frame of its own on `publisher`;
+/// returns the frame of the mission's final body command when one was read.
 fn forward<T: Raw>(
     sub: &Subscriber<ipc::Service, T, ()>,
     publisher: &zenoh::pubsub::Publisher<'static>,
     counts: &Counts,
-) -> Result<bool> {
-    let mut finished = false;
+) -> Result<Option<Vec<u8>>> {
+    let mut last = None;
     while let Some(sample) = sub.receive().map_err(|e| anyhow!("receiving: {e:?}"))? {
         let raw: &T = &sample;
+        let frame = wire::encode(raw);
+        put(publisher, &frame, counts)?;
+        counts.out.fetch_add(1, Ordering::Relaxed);
         if T::NAME == RawBody::NAME {
             let h = std::mem::offset_of!(BodyCommand, header);
             let sender = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, sender));
             let flags = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, flags));
-            finished |= sender == Header::COORDINATOR && flags & BodyCommand::FINISHED != 0;
+            if sender == Header::COORDINATOR && flags & BodyCommand::FINISHED != 0 {
+                last = Some(frame);
+            }
         }
-        publisher
-            .put(wire::encode(raw))
-            .wait()
-            .map_err(|e| anyhow!("putting on {}: {e}", publisher.key_expr()))?;
-        counts.out.fetch_add(1, Ordering::Relaxed);
     }
-    Ok(finished)
+    Ok(last)
+}
+
+/// Reads every sample of every subscriber of `subs` (this host's vehicles' states) into one
+/// frame and puts it on `publisher` (nothing when none was read).
+fn forward_batch(
+    subs: &[Subscriber<ipc::Service, RawState, ()>],
+    publisher: &zenoh::pubsub::Publisher<'static>,
+    counts: &Counts,
+) -> Result<()> {
+    let mut batch = Batch::<RawState>::default();
+    for sub in subs {
+        while let Some(sample) = sub.receive().map_err(|e| anyhow!("receiving: {e:?}"))? {
+            batch.push(&sample);
+        }
+    }
+    if !batch.is_empty() {
+        put(publisher, batch.frame(), counts)?;
+        counts.out.fetch_add(batch.len() as u64, Ordering::Relaxed);
+    }
+    Ok(())
 }
 
 /// The outbound thread: opens its ports, says so on `up`, then forwards until `stop` (or,
-/// on the shore, until the mission's final command is forwarded).
+/// on the shore, until the mission's final command is forwarded: its frame goes to the
+/// inbound loop on `inbound`).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn run(
     session: &zenoh::Session,
@@ -91,10 +127,12 @@ pub(crate) fn run(
     stop: &Stop,
     counts: &Counts,
     up: mpsc::Sender<()>,
+    inbound: mpsc::Sender<In>,
 ) -> Result<()> {
     let node = domain.node("vbap_bridge_out")?;
     let mut listeners: Vec<Listener<ipc::Service>> = Vec::new();
     let mut states = Vec::new();
+    let mut states_out = None;
     let mut body = None;
     let mut exits = None;
     if spec.shore {
@@ -113,11 +151,13 @@ pub(crate) fn run(
                 &format!("vehicle/{id}/state"),
                 limits,
             )?;
-            states.push((
-                ports::subscriber(&service)?,
-                publisher(session, keys.state(id), Priority::RealTime)?,
-            ));
+            states.push(ports::subscriber(&service)?);
         }
+        states_out = Some(publisher(
+            session,
+            keys.states(&spec.host),
+            Priority::RealTime,
+        )?);
         exits = Some((
             ports::subscriber(&domain.exits_service_as::<RawExit>(&node, limits)?)?,
             publisher(session, keys.exits(&spec.host), Priority::InteractiveHigh)?,
@@ -152,16 +192,17 @@ pub(crate) fn run(
             l.try_wait(|_| {})
                 .map_err(|e| anyhow!("draining a wake listener: {e:?}"))?;
         }
-        for (sub, publisher) in &states {
-            forward(sub, publisher, counts)?;
+        if let Some(publisher) = &states_out {
+            forward_batch(&states, publisher, counts)?;
         }
         if let Some((sub, publisher)) = &exits {
             forward(sub, publisher, counts)?;
         }
         if let Some((sub, publisher)) = &body {
-            if forward(sub, publisher, counts)? {
-                info!("the mission's final command is forwarded");
-                stop.set();
+            if let Some(frame) = forward(sub, publisher, counts)? {
+                info!("the mission's final command is forwarded: handed to the inbound loop");
+                let _ = inbound.send(In::Final(frame));
+                break;
             }
         }
     }
