@@ -255,6 +255,22 @@ pub(super) fn wait_events(
     Ok(wake)
 }
 
+/// [`wait_events`] after polling for up to `spin` (the coordinator's way of waiting:
+/// [`vbap_ipc::wait::COORDINATOR_SPIN`]); a wake-up without an event is returned as
+/// [`Wake::Events`] for the caller to look and wait again.
+pub(super) fn wait_events_spinning(
+    waiter: &Waiter<'_>,
+    timeout: Duration,
+    spin: Duration,
+    on_event: impl FnMut(Event),
+) -> Result<Wake> {
+    let wake = waiter.spin_then_wait(timeout, spin, on_event)?;
+    if wake == Wake::Stop {
+        StopFlag::set();
+    }
+    Ok(wake)
+}
+
 /// The ping of round `i`.
 fn ping(i: u64, flags: u32) -> VehicleState {
     VehicleState {

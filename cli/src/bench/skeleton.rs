@@ -19,6 +19,9 @@
 //!    [`ReadingBatch`] (the field server wakes it with the sample event; it also drains the
 //!    body subscriber it holds, as the real one does).
 //!
+//! The coordinator waits as the real one does: it polls for up to
+//! [`vbap_ipc::wait::COORDINATOR_SPIN`] before it sleeps.
+//!
 //! Nothing is computed (readings are zeros), nothing is written to a file: the cheapest a
 //! lockstep tick of this design can be.
 
@@ -33,10 +36,12 @@ use vbap_ipc::msg::field_to_coordinator::{Reading, ReadingBatch};
 use vbap_ipc::msg::{wall_ns, Header};
 use vbap_ipc::ports;
 use vbap_ipc::topics::{self, Domain, Limits};
-use vbap_ipc::wait::{Event, Wake, WakeListener};
+use vbap_ipc::wait::{Event, Wake, WakeListener, COORDINATOR_SPIN};
 use vbap_mission::rundir::Percentiles;
 
-use super::floors::{in_private_domain, say_ready, wait_events, Helper, PEER_TIMEOUT};
+use super::floors::{
+    in_private_domain, say_ready, wait_events, wait_events_spinning, Helper, PEER_TIMEOUT,
+};
 use super::{Interrupted, StopFlag};
 
 /// Time step written into the headers (s); nothing depends on it.
@@ -207,7 +212,7 @@ fn gather(
     let mut woke = Vec::new();
     while have < n {
         woke.clear();
-        match wait_events(waiter, PEER_TIMEOUT, |e| woke.push(e))? {
+        match wait_events_spinning(waiter, PEER_TIMEOUT, COORDINATOR_SPIN, |e| woke.push(e))? {
             Wake::Stop => return Err(Interrupted.into()),
             Wake::Timeout => bail!("skeleton, N = {n}: {have} of {n} states of tick {tick}"),
             Wake::Events => {}
@@ -268,7 +273,7 @@ fn sense(
             );
             return Ok(());
         }
-        match wait_events(waiter, PEER_TIMEOUT, |_| {})? {
+        match wait_events_spinning(waiter, PEER_TIMEOUT, COORDINATOR_SPIN, |_| {})? {
             Wake::Stop => return Err(Interrupted.into()),
             Wake::Timeout => bail!("skeleton: no readings for tick {tick}"),
             Wake::Events => {}

@@ -13,7 +13,7 @@ use vbap_ipc::msg::field_to_coordinator::ReadingBatch;
 use vbap_ipc::msg::supervisor_to_coordinator::ProcessExit;
 use vbap_ipc::msg::wall_ns;
 use vbap_ipc::topics::{self, Domain, Limits};
-use vbap_ipc::wait::{wait_once, Waiter, Wake, WakeListener};
+use vbap_ipc::wait::{spin_then_wait, Waiter, Wake, WakeListener, COORDINATOR_SPIN};
 use vbap_mission::config::Mission;
 
 use super::inbox::StateSubscriber;
@@ -133,10 +133,11 @@ impl Ports {
     /// Waits at most `timeout` for a wake-up; the ids of the events that arrived go into
     /// `ids`.
     pub fn wait(&self, timeout: Duration, ids: &mut Vec<usize>) -> Result<Wake> {
-        Ok(wait_once(
+        Ok(spin_then_wait(
             self.wake.waitset(),
             self.wake.listener(),
             timeout,
+            COORDINATOR_SPIN,
             |id| ids.push(id),
         )?)
     }
