@@ -225,6 +225,18 @@ fn the_shores_bridge_restarted_alone_lets_the_remote_vehicles_rejoin() {
     assert_clean(p.net, &p.tmp);
 }
 
+/// Waits for the last ticks of `p`'s mission (160 ticks: past 150 rows of body.csv), then
+/// takes glider_a's link down, so the final command is published while it is away.
+fn glider_a_off_before_the_end(p: &Paced) {
+    let body = p.out.join("body.csv");
+    wait_until(
+        || line_count(&body) > 150,
+        Duration::from_secs(60),
+        "the mission's last ticks",
+    );
+    p.net.link("glider_a", false);
+}
+
 /// The lines of JSON-lines log `path` (none while it does not exist).
 fn log_lines(path: &std::path::Path) -> Vec<String> {
     std::fs::read_to_string(path)
@@ -239,13 +251,7 @@ fn a_glider_host_off_the_network_at_the_final_command_gets_it_when_it_returns() 
     // Paced, 160 ticks at 2× real time (8 s); glider_a's link goes down 10 ticks (0.5 s)
     // before the end, so the final command is published while it is away.
     let mut p = Paced::start("hostsfinal", 16.0);
-    let body = p.out.join("body.csv");
-    wait_until(
-        || line_count(&body) > 150,
-        Duration::from_secs(60),
-        "the mission's last ticks",
-    );
-    p.net.link("glider_a", false);
+    glider_a_off_before_the_end(&p);
     let shore_bridge = p.out.join("logs/vbap_bridge.jsonl");
     let a_bridge = p.tmp.join("glider_a").join("logs/vbap_bridge.jsonl");
     wait_until(
@@ -314,13 +320,7 @@ fn exit_within(child: &mut ChildGuard, timeout: Duration) -> Option<std::process
 fn the_shore_ends_after_final_wait_naming_a_glider_host_that_never_returned() {
     // final_wait 2 s; glider_a's link goes down 10 ticks before the end and stays down.
     let mut p = Paced::start_with("hostsfinalwait", 16.0, "final_wait = 2.0\n");
-    let body = p.out.join("body.csv");
-    wait_until(
-        || line_count(&body) > 150,
-        Duration::from_secs(60),
-        "the mission's last ticks",
-    );
-    p.net.link("glider_a", false);
+    glider_a_off_before_the_end(&p);
     let shore = exit_within(&mut p.shore, Duration::from_secs(60));
     if shore.is_none() {
         for pid in processes_mentioning(&p.tmp.path.to_string_lossy()) {
