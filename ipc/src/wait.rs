@@ -355,6 +355,39 @@ pub fn every(
 mod tests {
     use super::*;
 
+    /// A pending event ends the spin at once; with none, the wait ends at its timeout
+    /// (the spin is part of it, not added to it).
+    #[test]
+    fn spin_then_wait_takes_a_pending_event_and_keeps_its_timeout() {
+        use crate::topics::{Domain, Limits};
+        let domain = Domain::new(&format!("spinwait_{}", std::process::id())).unwrap();
+        let limits = Limits::for_fleet(1);
+        let node = domain.node("spin_test").unwrap();
+        let service = domain.coordinator_wake(&node, &limits).unwrap();
+        let wake = WakeListener::new(&service).unwrap();
+        let notifier = service.notifier_builder().create().unwrap();
+        let spin = Duration::from_millis(5);
+        {
+            let waiter = wake.attach().unwrap();
+            notifier
+                .notify_with_custom_event_id(Event::Vehicle(0).id())
+                .unwrap();
+            let mut got = Vec::new();
+            let woke = waiter
+                .spin_then_wait(Duration::from_secs(5), spin, |e| got.push(e))
+                .unwrap();
+            assert_eq!((woke, got), (Wake::Events, vec![Event::Vehicle(0)]));
+            let started = Instant::now();
+            let timeout = Duration::from_millis(30);
+            let woke = waiter.spin_then_wait(timeout, spin, |_| {}).unwrap();
+            assert_eq!(woke, Wake::Timeout);
+            assert!(started.elapsed() >= timeout, "{:?}", started.elapsed());
+        }
+        drop((notifier, wake, service, node));
+        domain.remove_files();
+        assert!(domain.files().is_empty());
+    }
+
     #[test]
     fn every_event_survives_its_id() {
         let events = [
