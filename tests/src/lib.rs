@@ -71,6 +71,11 @@ pub fn unique_name(prefix: &str) -> String {
 
 /// A temporary directory (`tempfile`'s) removed on drop, but kept, with its path printed,
 /// when the test thread panics, so the run directories and logs in it can be read.
+///
+/// Every process of a test mentions its directory (the mission file, `--out`), so on drop
+/// each process still running whose command line mentions it is killed (SIGKILL) first: a
+/// test that fails half-way, or whose direct child was only a wrapper (`ip netns exec`,
+/// `sh -c`), leaves no `vbap run`, agent or bridge behind.
 pub struct TempDir {
     /// The directory.
     pub path: PathBuf,
@@ -97,6 +102,11 @@ impl TempDir {
 
 impl Drop for TempDir {
     fn drop(&mut self) {
+        for pid in processes_mentioning(&self.path.to_string_lossy()) {
+            let _ = Command::new("kill")
+                .args(["-KILL", &pid.to_string()])
+                .status();
+        }
         if std::thread::panicking() {
             if let Some(dir) = self.dir.take() {
                 eprintln!("kept for inspection: {}", dir.keep().display());

@@ -89,8 +89,8 @@ impl Paced {
     }
 
     /// Waits at most `timeout` for the three hosts' `vbap run`, each to succeed; past it,
-    /// kills every process of the run (nothing is left behind) and fails naming the hosts
-    /// still running.
+    /// fails naming the hosts still running (the test's directory, dropped, kills every
+    /// process of the run: nothing is left behind).
     fn wait_hosts_within(&mut self, timeout: Duration) {
         let start = Instant::now();
         let mut hosts = [
@@ -113,11 +113,7 @@ impl Paced {
                     .filter(|(_, s)| s.is_none())
                     .map(|((h, _), _)| *h)
                     .collect();
-                for pid in processes_mentioning(&self.tmp.path.to_string_lossy()) {
-                    let _ = Command::new("kill")
-                        .args(["-KILL", &pid.to_string()])
-                        .status();
-                }
+                // The test's directory kills every process of the run as it drops.
                 panic!("hosts {running:?} still running {timeout:?} after the wait began");
             }
             std::thread::park_timeout(Duration::from_millis(100));
@@ -324,16 +320,9 @@ fn the_shore_ends_after_final_wait_naming_a_glider_host_that_never_returned() {
     // come within final_wait (with 2 s, CI once saw glider_b named too).
     let mut p = Paced::start_with("hostsfinalwait", 16.0, "final_wait = 10.0\n");
     glider_a_off_before_the_end(&p);
-    let shore = exit_within(&mut p.shore, Duration::from_secs(60));
-    if shore.is_none() {
-        for pid in processes_mentioning(&p.tmp.path.to_string_lossy()) {
-            let _ = Command::new("kill")
-                .args(["-KILL", &pid.to_string()])
-                .status();
-        }
-        panic!("the shore still running 60 s after glider_a's link went down");
-    }
-    assert!(shore.unwrap().success(), "shore: {shore:?}");
+    let shore = exit_within(&mut p.shore, Duration::from_secs(60))
+        .expect("the shore still running 60 s after glider_a's link went down");
+    assert!(shore.success(), "shore: {shore:?}");
     let log = read(&p.out.join("logs/vbap_bridge.jsonl"));
     let never: Vec<&str> = log
         .lines()

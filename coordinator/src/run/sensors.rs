@@ -45,13 +45,52 @@ pub(super) struct SensorReads {
     pending: Option<(SampleResponse, Vec<(u32, u64)>)>,
     /// When the request in flight was sent.
     sent_at: Instant,
-    /// Readings received and not used yet: (vehicle, tick) → reading (None: rejected).
-    readings: BTreeMap<(u32, u64), Option<f64>>,
+    /// Readings received and not used yet.
+    readings: Readings,
 }
 
 /// The key of a state's sensor read.
 fn read_key(s: &VehicleState) -> (u32, u64) {
     (s.header.sender, s.header.tick)
+}
+
+/// The readings received and not used yet: (vehicle, tick) → reading (None: rejected).
+/// The bookkeeping of [`SensorReads`], apart from its ports.
+#[derive(Debug, Default)]
+struct Readings(BTreeMap<(u32, u64), Option<f64>>);
+
+impl Readings {
+    /// True when the reading of `key` is in (good or rejected).
+    fn has(&self, key: (u32, u64)) -> bool {
+        self.0.contains_key(&key)
+    }
+
+    /// The first tick of vehicle `v` whose reading is not in yet, from `from` on: after the
+    /// newest reading of `v` in (a vehicle's states come, and are read, in tick order).
+    fn unread_from(&self, v: u32, from: u64) -> u64 {
+        self.0
+            .range((v, from)..=(v, u64::MAX))
+            .next_back()
+            .map_or(from, |(&(_, tick), _)| tick + 1)
+    }
+
+    /// Keeps the reading of `key` (None: rejected).
+    fn insert(&mut self, key: (u32, u64), reading: Option<f64>) {
+        self.0.insert(key, reading);
+    }
+
+    /// The reading of `key` (None: rejected, or not in), forgotten here.
+    fn take(&mut self, key: (u32, u64)) -> Option<f64> {
+        self.0.remove(&key).flatten()
+    }
+
+    /// Forgets the readings of ticks up to `k`.
+    fn forget_through(&mut self, k: u64) {
+        // Most ticks there is none: the readings in are of later ticks (read ahead).
+        if self.0.keys().any(|&(_, tick)| tick <= k) {
+            self.0.retain(|(_, tick), _| *tick > k);
+        }
+    }
 }
 
 impl SensorReads {
@@ -69,15 +108,13 @@ impl SensorReads {
             seq: 0,
             pending: None,
             sent_at: Instant::now(),
-            readings: BTreeMap::new(),
+            readings: Readings::default(),
         }
     }
 
     /// True when the readings of every state in `states` are in.
     pub fn has_all(&self, states: &[VehicleState]) -> bool {
-        states
-            .iter()
-            .all(|s| self.readings.contains_key(&read_key(s)))
+        states.iter().all(|s| self.readings.has(read_key(s)))
     }
 
     /// True when no request is in flight: a read-ahead would be sent now.
@@ -88,10 +125,7 @@ impl SensorReads {
     /// The first tick of vehicle `v` whose reading is not in yet, from `from` on: after the
     /// newest reading of `v` in (a vehicle's states come, and are read, in tick order).
     pub fn unread_from(&self, v: u32, from: u64) -> u64 {
-        self.readings
-            .range((v, from)..=(v, u64::MAX))
-            .next_back()
-            .map_or(from, |(&(_, tick), _)| tick + 1)
+        self.readings.unread_from(v, from)
     }
 
     /// Asks for the readings of the states in `wanted` (in order) that are neither in
@@ -109,7 +143,7 @@ impl SensorReads {
                 break;
             }
             let key = read_key(s);
-            if self.readings.contains_key(&key) || !taken.insert(key) {
+            if self.readings.has(key) || !taken.insert(key) {
                 continue;
             }
             self.batch.reads[keys.len()] = SensorRead {
@@ -245,15 +279,60 @@ impl SensorReads {
 
     /// The reading of state `s` (None: rejected, or never asked for), forgotten here.
     pub fn take(&mut self, s: &VehicleState) -> Option<f64> {
-        self.readings.remove(&read_key(s)).flatten()
+        self.readings.take(read_key(s))
     }
 
     /// Forgets the readings of ticks up to `k` that were never used (their vehicle was
     /// lost).
     pub fn forget_through(&mut self, k: u64) {
-        // Most ticks there is none: the readings in are of later ticks (read ahead).
-        if self.readings.keys().any(|&(_, tick)| tick <= k) {
-            self.readings.retain(|(_, tick), _| *tick > k);
+        self.readings.forget_through(k);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Readings;
+
+    #[test]
+    fn unread_from_starts_after_the_newest_reading_of_the_vehicle() {
+        let mut r = Readings::default();
+        // Nothing in: from `from` itself.
+        assert_eq!(r.unread_from(3, 10), 10);
+        // Vehicle 3 read through tick 14 (one rejected), vehicle 4 through 30.
+        for tick in 10..=14 {
+            r.insert((3, tick), (tick != 12).then_some(tick as f64));
         }
+        r.insert((4, 30), Some(1.0));
+        assert_eq!(r.unread_from(3, 10), 15);
+        assert_eq!(r.unread_from(3, 14), 15);
+        // Another vehicle's readings never count.
+        assert_eq!(r.unread_from(2, 10), 10);
+        assert_eq!(r.unread_from(4, 10), 31);
+        // Readings before `from` are not "ahead".
+        assert_eq!(r.unread_from(3, 15), 15);
+        assert_eq!(r.unread_from(3, 20), 20);
+        // The extremes of the key space.
+        r.insert((u32::MAX, u64::MAX - 1), None);
+        assert_eq!(r.unread_from(u32::MAX, 0), u64::MAX);
+    }
+
+    #[test]
+    fn readings_are_taken_once_and_forgotten_through_a_tick() {
+        let mut r = Readings::default();
+        r.insert((0, 5), Some(2.5));
+        r.insert((0, 6), None);
+        r.insert((1, 7), Some(-1.0));
+        assert!(r.has((0, 6)), "a rejected reading is in");
+        assert_eq!(r.take((0, 6)), None);
+        assert!(!r.has((0, 6)));
+        assert_eq!(r.take((0, 5)), Some(2.5));
+        assert_eq!(r.take((0, 5)), None, "taken once");
+        r.insert((0, 5), Some(2.5));
+        r.forget_through(6);
+        assert!(!r.has((0, 5)));
+        assert!(r.has((1, 7)));
+        assert_eq!(r.unread_from(0, 0), 0, "forgotten: unread again");
+        r.forget_through(6);
+        assert_eq!(r.take((1, 7)), Some(-1.0));
     }
 }
