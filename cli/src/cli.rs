@@ -247,8 +247,10 @@ fn sim(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32>
             .enable_all()
             .build()
         {
-            rt.block_on(crate::supervise::shutdown_signal());
-            crate::sim::STOP.store(true, std::sync::atomic::Ordering::Relaxed);
+            if let Ok(mut shutdown) = rt.block_on(async { crate::supervise::Shutdown::listen() }) {
+                rt.block_on(shutdown.requested());
+                crate::sim::STOP.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
         }
     });
     let summary = match plugins {

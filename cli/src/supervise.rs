@@ -637,6 +637,7 @@ pub async fn run_share(
     plan: Option<&HostPlan>,
 ) -> Result<RunOutcome> {
     let wall = Instant::now();
+    let mut shutdown = Shutdown::listen()?;
     let domain = Domain::new(&mission.mission.name)?;
     let cleaned = clean_domain(&domain)?;
     if cleaned > 0 {
@@ -677,7 +678,7 @@ pub async fn run_share(
     let mut interrupted = false;
     let started = tokio::select! {
         r = set.start_all() => r,
-        _ = shutdown_signal() => { interrupted = true; Ok(()) }
+        _ = shutdown.requested() => { interrupted = true; Ok(()) }
     };
     let startup_s = wall.elapsed().as_secs_f64();
     if let Err(e) = started {
@@ -696,10 +697,19 @@ pub async fn run_share(
     while !interrupted {
         let exit = tokio::select! {
             e = exits.recv() => e,
-            _ = shutdown_signal() => { interrupted = true; None }
+            _ = shutdown.requested() => { interrupted = true; None }
         };
         let Some(exit) = exit else { break };
-        match on_exit(&mut set, &notices, &domain, exit, &mut restarts_done).await {
+        match on_exit(
+            &mut set,
+            &notices,
+            &domain,
+            exit,
+            &mut restarts_done,
+            &mut shutdown,
+        )
+        .await
+        {
             AfterExit::GoOn => {}
             AfterExit::CoordinatorDone => {
                 coordinator_ok = true;
@@ -738,7 +748,7 @@ pub async fn run_share(
                 );
                 tokio::select! {
                     _ = await_for(&mut set, &mut exits, wait) => {}
-                    _ = shutdown_signal() => {}
+                    _ = shutdown.requested() => {}
                 }
             }
         }
@@ -776,6 +786,7 @@ async fn on_exit(
     domain: &Domain,
     exit: Exit,
     restarts_done: &mut u32,
+    shutdown: &mut Shutdown,
 ) -> AfterExit {
     let slot = exit.slot;
     if set.procs[slot].generation != exit.generation {
@@ -823,11 +834,17 @@ async fn on_exit(
     };
     tokio::select! {
         _ = tokio::time::sleep(backoff) => {}
-        _ = shutdown_signal() => { return AfterExit::Interrupted; }
+        _ = shutdown.requested() => { return AfterExit::Interrupted; }
     }
     // Clean the dead node first so the restarted process can take its services.
     domain.cleanup_dead_nodes();
-    match set.start(slot).await {
+    // Ctrl-C while the restarted process starts: it is watched from its spawn, so the
+    // stop that follows ends it too.
+    let started = tokio::select! {
+        r = set.start(slot) => r,
+        _ = shutdown.requested() => { return AfterExit::Interrupted; }
+    };
+    match started {
         Ok(()) => {
             *restarts_done += 1;
             info!(process = %role.name(), restarts_done = *restarts_done, "restarted");
@@ -936,13 +953,38 @@ fn count_agent_rejections(dir: &RunDir) -> u64 {
     n
 }
 
-/// Resolves on SIGINT or SIGTERM.
-pub async fn shutdown_signal() {
-    use tokio::signal::unix::{signal, SignalKind};
-    let mut term = signal(SignalKind::terminate()).expect("installing the SIGTERM handler");
-    let mut int = signal(SignalKind::interrupt()).expect("installing the SIGINT handler");
-    tokio::select! {
-        _ = term.recv() => {},
-        _ = int.recv() => {},
+/// SIGINT and SIGTERM, listened to from [`Shutdown::listen`] for as long as it lives.
+///
+/// One listener for the whole run, never one per wait: tokio drops a signal that arrives
+/// while nobody listens to it (its handler is installed, so the process does not die
+/// either), and a Ctrl-C between two waits, or while a restarted process starts, was lost.
+pub struct Shutdown {
+    term: tokio::signal::unix::Signal,
+    int: tokio::signal::unix::Signal,
+    /// A signal came: every later [`Shutdown::requested`] resolves at once.
+    seen: bool,
+}
+
+impl Shutdown {
+    /// Installs the handlers and starts listening (inside a tokio runtime).
+    pub fn listen() -> Result<Self> {
+        use tokio::signal::unix::{signal, SignalKind};
+        Ok(Self {
+            term: signal(SignalKind::terminate()).context("installing the SIGTERM handler")?,
+            int: signal(SignalKind::interrupt()).context("installing the SIGINT handler")?,
+            seen: false,
+        })
+    }
+
+    /// Resolves once SIGINT or SIGTERM has arrived since [`Shutdown::listen`] (at once when
+    /// one already did). Cancel-safe: a signal is never lost to a wait that lost a race.
+    pub async fn requested(&mut self) {
+        if !self.seen {
+            tokio::select! {
+                _ = self.term.recv() => {},
+                _ = self.int.recv() => {},
+            }
+            self.seen = true;
+        }
     }
 }

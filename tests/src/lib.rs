@@ -163,12 +163,18 @@ impl ChildGuard {
     pub fn wait(&mut self) -> std::process::ExitStatus {
         self.0.take().expect("child").wait().expect("waiting")
     }
-    /// Sends a signal.
+    /// Sends a signal (panics when it could not be sent: a test must not wait for the
+    /// effect of a signal that never left).
     pub fn signal(&self, sig: &str) {
-        let _ = Command::new("kill")
+        let status = Command::new("kill")
             .arg(format!("-{sig}"))
             .arg(self.pid().to_string())
             .status();
+        assert!(
+            status.as_ref().is_ok_and(|s| s.success()),
+            "sending SIG{sig} to {}: {status:?}",
+            self.pid()
+        );
     }
 }
 
@@ -236,6 +242,44 @@ pub fn processes_mentioning(needle: &str) -> Vec<u32> {
         }
     }
     pids
+}
+
+/// What each live process whose command line mentions `needle` is doing, one line each:
+/// pid, state (`/proc/PID/stat`: R, S, D, T, ...), the kernel function it waits in, the
+/// states of its threads and its command line (shortened). For the message of a test
+/// that timed out waiting for processes to end.
+pub fn process_report(needle: &str) -> String {
+    let read = |path: String| std::fs::read_to_string(path).unwrap_or_default();
+    let state = |stat: String| {
+        stat.rsplit_once(") ")
+            .and_then(|(_, rest)| rest.split(' ').next().map(str::to_string))
+            .unwrap_or_else(|| "?".into())
+    };
+    let mut out = String::new();
+    for pid in processes_mentioning(needle) {
+        let threads: Vec<String> = std::fs::read_dir(format!("/proc/{pid}/task"))
+            .map(|d| {
+                d.flatten()
+                    .map(|t| {
+                        let tid = t.file_name().to_string_lossy().to_string();
+                        let wchan = read(format!("/proc/{pid}/task/{tid}/wchan"));
+                        format!(
+                            "{}:{wchan}",
+                            state(read(format!("/proc/{pid}/task/{tid}/stat")))
+                        )
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        let cmd = read(format!("/proc/{pid}/cmdline")).replace('\0', " ");
+        let cmd: String = cmd.chars().take(160).collect();
+        out.push_str(&format!(
+            "{pid} {} threads [{}] {cmd}\n",
+            state(read(format!("/proc/{pid}/stat"))),
+            threads.join(" ")
+        ));
+    }
+    out
 }
 
 /// Reads a file to a string (panics naming the file).
@@ -483,6 +527,29 @@ pub fn uncomment_example(text: &str) -> String {
 #[cfg(test)]
 mod unit {
     use super::*;
+
+    #[test]
+    fn a_dropped_directory_kills_the_processes_that_mention_it() {
+        let tmp = TempDir::new("dropkill");
+        let path = tmp.path.to_string_lossy().to_string();
+        // A process that runs until it is killed, its command line naming a file inside.
+        let file = tmp.join("followed");
+        std::fs::write(&file, "").unwrap();
+        let mut tail = Command::new("tail").arg("-f").arg(&file).spawn().unwrap();
+        wait_until(
+            || !processes_mentioning(&path).is_empty(),
+            Duration::from_secs(10),
+            "tail to start",
+        );
+        let report = process_report(&path);
+        assert!(report.contains(&format!("{} ", tail.id())), "{report}");
+        assert!(report.contains("tail -f"), "{report}");
+        drop(tmp);
+        let status = tail.wait().unwrap();
+        use std::os::unix::process::ExitStatusExt;
+        assert_eq!(status.signal(), Some(9), "{status:?}");
+        assert!(!Path::new(&path).exists());
+    }
 
     #[test]
     fn records_read_alike_from_csv_and_json() {

@@ -47,16 +47,17 @@ fn wait_all(children: Vec<(&str, &mut ChildGuard)>) {
 
 /// The three hosts of a paced (2× real time) rejoin mission of `duration` s, 40 ticks in.
 ///
-/// Fields drop in this order: the hosts' processes first, then the network, then the
-/// directory.
+/// Fields drop in this order: the hosts' processes first, then the directory (which kills
+/// every process still mentioning it: a bridge or agent left inside a namespace), then the
+/// network, with nothing of the test still running in it.
 struct Paced {
     shore: ChildGuard,
     a: ChildGuard,
     b: ChildGuard,
     /// The shore's run directory.
     out: PathBuf,
-    net: Net,
     tmp: TempDir,
+    net: Net,
 }
 
 impl Paced {

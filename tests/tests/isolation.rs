@@ -323,7 +323,21 @@ fn ctrl_c_while_the_agents_start_stops_every_process_and_leaves_nothing() {
         .toml();
     let file = write_mission(&tmp, "m.toml", &text);
     let out = tmp.join("run");
-    let mut run = spawn_run(&file, &out);
+    // Its log (info and up) goes to a file, for the message of a timeout.
+    let log = tmp.join("vbap-run.stderr");
+    let mut run = ChildGuard(Some(
+        vbap()
+            .env("RUST_LOG", "info")
+            .arg("run")
+            .arg(&file)
+            .arg("--out")
+            .arg(&out)
+            .arg("--quiet")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log).unwrap())
+            .spawn()
+            .expect("spawning vbap run"),
+    ));
     // Agent 0 is launched: the other agents are being launched or awaited (48 of them take
     // a while), which is when an interrupted start used to drop the children it had not
     // yet handed to a watcher, and the supervisor then waited for them for ever.
@@ -334,12 +348,20 @@ fn ctrl_c_while_the_agents_start_stops_every_process_and_leaves_nothing() {
         "agent 0 to be launched",
     );
     run.signal("INT");
+    let pid = run.pid();
     let child = run.0.as_mut().expect("vbap run");
-    wait_until(
-        || child.try_wait().expect("polling vbap run").is_some(),
-        Duration::from_secs(60),
-        "vbap run to end on SIGINT while its agents start",
-    );
+    let start = std::time::Instant::now();
+    while child.try_wait().expect("polling vbap run").is_none() {
+        if start.elapsed() > Duration::from_secs(60) {
+            panic!(
+                "vbap run (pid {pid}) did not end within 60 s of SIGINT while its agents start\n\
+                 its processes:\n{}\nits log:\n{}",
+                process_report(&tmp.path.to_string_lossy()),
+                std::fs::read_to_string(&log).unwrap_or_default()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
     wait_until(
         || processes_mentioning(&mission_path).is_empty(),
         Duration::from_secs(30),
