@@ -34,6 +34,11 @@ use vbap_report::analyze;
 const BODY_READ_EVERY: Duration = Duration::from_millis(20);
 /// Grace period between SIGTERM and SIGKILL.
 const GRACE: Duration = Duration::from_secs(5);
+/// How long a process may take to be reaped after its SIGKILL before the supervisor gives
+/// up on it (a process in uninterruptible sleep does not die until it wakes).
+const KILL_WAIT: Duration = Duration::from_secs(10);
+/// How long a watcher reads what an ended process wrote before it ended.
+const OUTPUT_DRAIN: Duration = Duration::from_secs(2);
 /// How long a process may take to print `ready`.
 const READY_TIMEOUT: Duration = Duration::from_secs(60);
 
@@ -502,21 +507,47 @@ impl<'a> ProcessSet<'a> {
         let stopping = self.stopping.clone();
         let (ready_tx, ready_rx) = oneshot::channel();
         tokio::spawn(async move {
-            match await_ready(&role.name(), child.stdout.take()).await {
-                Ok(lines) => {
-                    let _ = ready_tx.send(Ok(()));
-                    if role == Role::Coordinator {
-                        if let Some(summary) = read_handover(lines).await {
-                            *handed.lock().unwrap_or_else(|e| e.into_inner()) = Some(summary);
+            let pid = child.id();
+            let stdout = child.stdout.take();
+            let mut ready_tx = Some(ready_tx);
+            let output = async {
+                match await_ready(&role.name(), stdout).await {
+                    Ok(lines) => {
+                        if let Some(tx) = ready_tx.take() {
+                            let _ = tx.send(Ok(()));
+                        }
+                        if role == Role::Coordinator {
+                            if let Some(summary) = read_handover(lines).await {
+                                *handed.lock().unwrap_or_else(|e| e.into_inner()) = Some(summary);
+                            }
+                        }
+                    }
+                    Err(e) => {
+                        if let Some(tx) = ready_tx.take() {
+                            let _ = tx.send(Err(e));
                         }
                     }
                 }
-                Err(e) => {
-                    let _ = ready_tx.send(Err(e));
+            };
+            // The child is reaped as it ends, not after its output: a death is never
+            // behind a read of a pipe whose other end may stay open. What it wrote before
+            // it ended is in the pipe and is read (for at most OUTPUT_DRAIN) after.
+            let status = {
+                tokio::pin!(output);
+                tokio::select! {
+                    status = child.wait() => {
+                        let _ = tokio::time::timeout(OUTPUT_DRAIN, &mut output).await;
+                        status
+                    }
+                    () = &mut output => child.wait().await,
                 }
+            };
+            if let Some(tx) = ready_tx.take() {
+                let _ = tx.send(Err(anyhow::anyhow!(
+                    "{} exited before it was ready; see its logs",
+                    role.name()
+                )));
             }
-            let pid = child.id();
-            let status = child.wait().await;
             // Told at once: the coordinator acts on a death before any restart of it (not
             // while the supervisor stops everyone: an agent that exits on the stop before
             // the coordinator does would be recorded as lost).
@@ -559,7 +590,8 @@ impl<'a> ProcessSet<'a> {
     }
 }
 
-/// SIGTERM to every running process, a grace period, then SIGKILL; reaps all.
+/// SIGTERM to every running process, a grace period, then SIGKILL; reaps all (waiting at
+/// most [`KILL_WAIT`] after the SIGKILL).
 async fn stop_all(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedReceiver<Exit>) {
     set.stopping
         .store(true, std::sync::atomic::Ordering::SeqCst);
@@ -580,13 +612,22 @@ async fn stop_all(set: &mut ProcessSet<'_>, exits: &mut mpsc::UnboundedReceiver<
                         signal(pid, Signal::SIGKILL);
                     }
                 }
+                // Bounded too: a process in uninterruptible sleep outlives its SIGKILL, and
+                // the run must still end (and say which process it left).
+                let killed = tokio::time::Instant::now() + KILL_WAIT;
                 while set.running() > 0 {
-                    match exits.recv().await {
-                        Some(e) if set.procs[e.slot].generation == e.generation => {
+                    match tokio::time::timeout_at(killed, exits.recv()).await {
+                        Ok(Some(e)) if set.procs[e.slot].generation == e.generation => {
                             set.procs[e.slot].pid = None
                         }
-                        Some(_) => {}
-                        None => break,
+                        Ok(Some(_)) => {}
+                        Ok(None) => break,
+                        Err(_) => {
+                            for p in set.procs.iter().filter(|p| p.pid.is_some()) {
+                                warn!(process = %p.role.name(), pid = p.pid, "still not reaped {KILL_WAIT:?} after SIGKILL: left behind");
+                            }
+                            break;
+                        }
                     }
                 }
             }

@@ -319,16 +319,34 @@ pub fn summary(dir: &Path) -> serde_json::Value {
 /// Starts `vbap run FILE --out OUT --quiet` in the background (stdout discarded).
 pub fn spawn_run(file: &Path, out: &Path) -> ChildGuard {
     ChildGuard(Some(
-        vbap()
-            .arg("run")
-            .arg(file)
-            .arg("--out")
-            .arg(out)
-            .arg("--quiet")
-            .stdout(std::process::Stdio::null())
+        run_command(file, out).spawn().expect("spawning vbap run"),
+    ))
+}
+
+/// [`spawn_run`] with `vbap run`'s own log (info and up) written to `log`, for the message
+/// of a test that fails.
+pub fn spawn_run_logged(file: &Path, out: &Path, log: &Path) -> ChildGuard {
+    let stderr =
+        std::fs::File::create(log).unwrap_or_else(|e| panic!("creating {}: {e}", log.display()));
+    ChildGuard(Some(
+        run_command(file, out)
+            .env("RUST_LOG", "info")
+            .stderr(stderr)
             .spawn()
             .expect("spawning vbap run"),
     ))
+}
+
+/// `vbap run FILE --out OUT --quiet`, its output discarded.
+fn run_command(file: &Path, out: &Path) -> Command {
+    let mut cmd = vbap();
+    cmd.arg("run")
+        .arg(file)
+        .arg("--out")
+        .arg(out)
+        .arg("--quiet")
+        .stdout(std::process::Stdio::null());
+    cmd
 }
 
 /// Lines in a file (0 when it does not exist yet).

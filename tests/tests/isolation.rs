@@ -325,19 +325,7 @@ fn ctrl_c_while_the_agents_start_stops_every_process_and_leaves_nothing() {
     let out = tmp.join("run");
     // Its log (info and up) goes to a file, for the message of a timeout.
     let log = tmp.join("vbap-run.stderr");
-    let mut run = ChildGuard(Some(
-        vbap()
-            .env("RUST_LOG", "info")
-            .arg("run")
-            .arg(&file)
-            .arg("--out")
-            .arg(&out)
-            .arg("--quiet")
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log).unwrap())
-            .spawn()
-            .expect("spawning vbap run"),
-    ));
+    let mut run = spawn_run_logged(&file, &out, &log);
     // Agent 0 is launched: the other agents are being launched or awaited (48 of them take
     // a while), which is when an interrupted start used to drop the children it had not
     // yet handed to a watcher, and the supervisor then waited for them for ever.
