@@ -38,6 +38,61 @@ pub fn simulate(mission: &Mission, dir: &RunDir, progress: Progress<'_>) -> Resu
     simulate_plugins(mission, dir, &Plugins::default(), progress)
 }
 
+/// Wall time of the simulator's tick by the process that does each part in `vbap run`
+/// (summed over the ticks run): what a lockstep tick of the process set cannot do without,
+/// part by part ([`simulate_timed`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TickParts {
+    /// Ticks run.
+    pub ticks: u64,
+    /// The field server's part: the true states' sensor readings, s.
+    pub field_s: f64,
+    /// The coordinator's part: link model, planner, rows of the run directory
+    /// ([`plan_tick`]), membership, s.
+    pub coordinator_s: f64,
+    /// Every agent's part: guidance from the command, control law, motion, s (summed over
+    /// the agents).
+    pub agents_s: f64,
+}
+
+impl TickParts {
+    /// The part of one tick that is serial in lockstep (field server, then coordinator:
+    /// nothing else runs meanwhile) plus the agents' part spread over `cpus` CPUs (at most
+    /// one per agent), s per tick; 0 without ticks.
+    pub fn critical_path_s(&self, cpus: usize, agents: usize) -> f64 {
+        if self.ticks == 0 {
+            return 0.0;
+        }
+        let lanes = cpus.min(agents).max(1) as f64;
+        (self.field_s + self.coordinator_s + self.agents_s / lanes) / self.ticks as f64
+    }
+}
+
+/// [`simulate`], its tick timed part by part ([`TickParts`]; the files it writes are the
+/// same).
+pub fn simulate_timed(
+    mission: &Mission,
+    dir: &RunDir,
+    progress: Progress<'_>,
+) -> Result<(Summary, TickParts)> {
+    let ids: Vec<u32> = (0..mission.vehicles.count as u32).collect();
+    let planner = Planner::new(
+        PlannerParams::from_mission(mission),
+        mission.start_vec(),
+        &ids,
+    )?;
+    let mut parts = TickParts::default();
+    let summary = simulate_parts(
+        mission,
+        dir,
+        planner,
+        &Plugins::default(),
+        progress,
+        &mut parts,
+    )?;
+    Ok((summary, parts))
+}
+
 /// [`simulate`] with a user's own field and control law (`plugins`) and the paper's planner.
 pub fn simulate_plugins(
     mission: &Mission,
@@ -59,9 +114,28 @@ pub fn simulate_plugins(
 pub fn simulate_with(
     mission: &Mission,
     dir: &RunDir,
+    planner: impl Plan,
+    plugins: &Plugins,
+    progress: Progress<'_>,
+) -> Result<Summary> {
+    simulate_parts(
+        mission,
+        dir,
+        planner,
+        plugins,
+        progress,
+        &mut TickParts::default(),
+    )
+}
+
+/// [`simulate_with`], the time of each part of the tick added to `parts`.
+fn simulate_parts(
+    mission: &Mission,
+    dir: &RunDir,
     mut planner: impl Plan,
     plugins: &Plugins,
     progress: Progress<'_>,
+    parts: &mut TickParts,
 ) -> Result<Summary> {
     let wall = Instant::now();
     let field = plugins.field_of(mission);
@@ -122,7 +196,9 @@ pub fn simulate_with(
                 recorder.event(event)?;
             }
         }
+        let sensing = Instant::now();
         let (truth, told) = read_sensors(&vehicles, &fleet, &mut sensors, k, t);
+        let planning = Instant::now();
         let TickOutcome {
             command, snapshot, ..
         } = plan_tick(
@@ -134,6 +210,7 @@ pub fn simulate_with(
             &mut planner,
             &mut recorder,
         )?;
+        let stepping = Instant::now();
         for (&id, veh) in vehicles.iter_mut() {
             let guidance = Guidance::of_command(
                 k,
@@ -148,7 +225,12 @@ pub fn simulate_with(
             .with_plan(command.schedule.clone(), command.body.r, command.body.scale);
             veh.on_command(fleet.model(), guidance, k, dt);
         }
+        let stepped = Instant::now();
         fleet.end_tick();
+        parts.ticks += 1;
+        parts.field_s += (planning - sensing).as_secs_f64();
+        parts.coordinator_s += (stepping - planning).as_secs_f64();
+        parts.agents_s += (stepped - stepping).as_secs_f64();
         if k.is_multiple_of(every) || k + 1 == ticks {
             let distance = field
                 .optimum(t, mission.mission.goal)
@@ -205,4 +287,25 @@ fn read_sensors(
             )
         })
         .unzip()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::TickParts;
+
+    #[test]
+    fn the_critical_path_is_field_and_coordinator_in_series_and_the_agents_over_the_cpus() {
+        let parts = TickParts {
+            ticks: 10,
+            field_s: 0.001,
+            coordinator_s: 0.002,
+            agents_s: 0.008,
+        };
+        // Per tick: 100 µs + 200 µs + 800 µs over 2 CPUs.
+        assert!((parts.critical_path_s(2, 16) - 700e-6).abs() < 1e-15);
+        // One agent keeps its work on one CPU, however many there are.
+        assert!((parts.critical_path_s(8, 1) - 1100e-6).abs() < 1e-15);
+        assert!((parts.critical_path_s(0, 4) - 1100e-6).abs() < 1e-15);
+        assert_eq!(TickParts::default().critical_path_s(2, 4), 0.0);
+    }
 }

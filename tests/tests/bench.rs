@@ -27,6 +27,7 @@ fn quick_bench_measures_every_floor_and_run() {
         "Goals",
         "busy polling",
         "6. lockstep tick against the skeleton floor",
+        "run / (+ serial)",
         "7. state hop p50 (N = 4) / warm raw iceoryx2 p50, 5 interleaved repetitions",
         "8. fan-out of one command",
     ] {
@@ -75,6 +76,18 @@ fn quick_bench_measures_every_floor_and_run() {
     for row in skeleton {
         assert!(row["skeleton_ticks_per_s"].as_f64().unwrap() > 0.0, "{row}");
         assert!(row["ratio"].as_f64().unwrap() > 0.0, "{row}");
+        // The critical-path bound adds vbap sim's work, every part of it measured, to
+        // the skeleton's tick: fewer ticks per second than the skeleton.
+        let parts = row["sim_parts_us"].as_array().unwrap();
+        assert_eq!(parts.len(), 3, "{row}");
+        assert!(parts.iter().all(|p| p.as_f64().unwrap() > 0.0), "{row}");
+        let critical = row["critical_path_ticks_per_s"].as_f64().unwrap();
+        assert!(critical > 0.0, "{row}");
+        assert!(
+            critical < row["skeleton_ticks_per_s"].as_f64().unwrap(),
+            "{row}"
+        );
+        assert!(row["ratio_critical_path"].as_f64().unwrap() > 0.0, "{row}");
     }
     let repeats = o["hop_repeats"].as_array().unwrap();
     assert_eq!(repeats.len(), 5, "{o}");

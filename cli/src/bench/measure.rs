@@ -176,7 +176,14 @@ fn lockstep_scaling(
         let run = system::run(&mission, work, stop, false)?;
         suspect(&run, suspect_runs);
         let cpus = std::thread::available_parallelism().map_or(1, |c| c.get());
-        overhead.skeleton_row(n, skeleton, run.tick_rate, sim.tick_rate, cpus);
+        overhead.skeleton_row(
+            n,
+            skeleton,
+            run.tick_rate,
+            sim.tick_rate,
+            Some(&sim.parts),
+            cpus,
+        );
         let per = |rate: f64| 1e6 / (rate * n as f64);
         if let Some(h) = &run.state_hop {
             hop_system.push(SystemHop {

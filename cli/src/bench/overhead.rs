@@ -46,6 +46,19 @@ pub struct SkeletonRow {
     pub with_work_ticks_per_s: f64,
     /// Lockstep tick / (skeleton tick + in-process tick / CPUs).
     pub ratio_with_work: Option<f64>,
+    /// The skeleton with the tick's work on its critical path: its tick plus the parts of
+    /// `vbap sim`'s tick that are serial in lockstep (the field server's readings, then the
+    /// coordinator's link model, planner and rows: nothing else runs meanwhile) plus the
+    /// agents' part spread over the CPUs, ticks per second (`crate::sim::TickParts`). A
+    /// tighter bound than [`SkeletonRow::with_work_ticks_per_s`], still one no `vbap run`
+    /// of this design beats: what is left between it and the run is what the processes do
+    /// that `vbap sim` does not (message records, checkpoints, checks, bookkeeping).
+    pub critical_path_ticks_per_s: Option<f64>,
+    /// Lockstep tick / (skeleton tick + the critical path's work).
+    pub ratio_critical_path: Option<f64>,
+    /// `vbap sim`'s tick by part, µs per tick: field server's readings, coordinator's
+    /// planner and rows, every agent's law and motion summed.
+    pub sim_parts_us: Option<[f64; 3]>,
 }
 
 /// One repetition of the N = 4 hop against its floors.
@@ -91,15 +104,27 @@ impl Overhead {
     /// Records the skeleton's rate next to the lockstep run's, and the bound with the work
     /// of the tick added: `in_process` is `vbap sim`'s rate on the same mission, spread over
     /// `cpus`.
+    /// `parts`: the in-process tick by part ([`crate::sim::TickParts`]; None when not
+    /// measured).
     pub fn skeleton_row(
         &mut self,
         vehicles: usize,
         skeleton: f64,
         run: Option<f64>,
         in_process: f64,
+        parts: Option<&crate::sim::TickParts>,
         cpus: usize,
     ) {
         let with_work = 1.0 / (1.0 / skeleton + 1.0 / (in_process * cpus.max(1) as f64));
+        let critical = parts.map(|p| 1.0 / (1.0 / skeleton + p.critical_path_s(cpus, vehicles)));
+        let per_tick = |s: f64, p: &crate::sim::TickParts| s / p.ticks.max(1) as f64 * 1e6;
+        let sim_parts_us = parts.map(|p| {
+            [
+                per_tick(p.field_s, p),
+                per_tick(p.coordinator_s, p),
+                per_tick(p.agents_s, p),
+            ]
+        });
         self.skeleton.push(SkeletonRow {
             vehicles,
             skeleton_ticks_per_s: skeleton,
@@ -107,6 +132,9 @@ impl Overhead {
             ratio: run.map(|r| skeleton / r),
             with_work_ticks_per_s: with_work,
             ratio_with_work: run.map(|r| with_work / r),
+            critical_path_ticks_per_s: critical,
+            ratio_critical_path: critical.zip(run).map(|(c, r)| c / r),
+            sim_parts_us,
         });
     }
 
@@ -279,32 +307,50 @@ pub fn render(r: &Report, s: &mut String) {
     );
     let _ = writeln!(
         s,
-        "   {:>4} {:>14} {:>12} {:>20} {:>16} {:>18}",
+        "   {:>4} {:>14} {:>12} {:>20} {:>16} {:>18} {:>18} {:>17}",
         "N",
         "skeleton t/s",
         "vbap run t/s",
         "run tick / skeleton",
         "+ work t/s (*)",
-        "run tick / (+ work)"
+        "run tick / (+ work)",
+        "+ serial t/s (**)",
+        "run / (+ serial)"
     );
     for row in &o.skeleton {
         let _ = writeln!(
             s,
-            "   {:>4} {:>14.1} {:>12} {:>20} {:>16.1} {:>18}",
+            "   {:>4} {:>14.1} {:>12} {:>20} {:>16.1} {:>18} {:>18} {:>17}",
             row.vehicles,
             row.skeleton_ticks_per_s,
             opt(row.run_ticks_per_s, 1),
             opt(row.ratio, 2),
             row.with_work_ticks_per_s,
-            opt(row.ratio_with_work, 2)
+            opt(row.ratio_with_work, 2),
+            opt(row.critical_path_ticks_per_s, 1),
+            opt(row.ratio_critical_path, 2)
         );
     }
     let _ = writeln!(
         s,
         "   (*) the skeleton's tick plus vbap sim's tick of the same mission spread over all {} CPUs:\n       \
-         the work no run can skip (laws, planner, field, rows), perfectly parallel; a bound, not a floor met",
-        r.machine.cpus
+         the work no run can skip (laws, planner, field, rows), perfectly parallel; a bound, not a floor met\n   \
+         (**) the skeleton's tick plus that work as a lockstep tick orders it: the field's readings and the\n       \
+         coordinator's planner and rows one after the other, the agents' laws over min(N, {}) CPUs; what is\n       \
+         left above it is what vbap sim does not do (message records, checkpoints, checks, bookkeeping)",
+        r.machine.cpus, r.machine.cpus
     );
+    for row in &o.skeleton {
+        if let Some([field, coordinator, agents]) = row.sim_parts_us {
+            let _ = writeln!(
+                s,
+                "       N = {:>4}: vbap sim's tick {field:.1} µs field + {coordinator:.1} µs coordinator + {agents:.1} µs agents; \
+                 skeleton tick {:.1} µs",
+                row.vehicles,
+                1e6 / row.skeleton_ticks_per_s
+            );
+        }
+    }
     let _ = writeln!(s);
     render_hop(o, s);
     let _ = writeln!(s);
@@ -532,12 +578,29 @@ mod tests {
     #[test]
     fn the_skeleton_ratio_is_run_tick_over_skeleton_tick() {
         let mut o = Overhead::default();
-        o.skeleton_row(16, 3000.0, Some(1500.0), 1500.0, 2);
-        o.skeleton_row(256, 100.0, None, 50.0, 2);
+        // 1/3000 s a tick on the critical path: 1/6000 s field and coordinator, 1/3000 s
+        // of agents over 2 CPUs.
+        let parts = crate::sim::TickParts {
+            ticks: 3000,
+            field_s: 0.25,
+            coordinator_s: 0.25,
+            agents_s: 1.0,
+        };
+        o.skeleton_row(16, 3000.0, Some(1500.0), 1500.0, Some(&parts), 2);
+        o.skeleton_row(256, 100.0, None, 50.0, None, 2);
         assert_eq!(o.skeleton[0].ratio, Some(2.0));
         // 1 / (1/3000 + 1/3000) = 1500 t/s: the run is at the bound with its work.
         assert!((o.skeleton[0].with_work_ticks_per_s - 1500.0).abs() < 1e-9);
         assert_eq!(o.skeleton[0].ratio_with_work, Some(1.0));
+        // 1 / (1/3000 + 1/3000 s) = 1500 t/s on the critical path too.
+        let critical = o.skeleton[0].critical_path_ticks_per_s.unwrap();
+        assert!((critical - 1500.0).abs() < 1e-9);
+        assert!((o.skeleton[0].ratio_critical_path.unwrap() - 1.0).abs() < 1e-12);
+        assert_eq!(o.skeleton[1].critical_path_ticks_per_s, None);
+        assert_eq!(o.skeleton[1].ratio_critical_path, None);
+        let [field, coordinator, agents] = o.skeleton[0].sim_parts_us.unwrap();
+        assert!((field - 250.0 / 3.0).abs() < 1e-9 && (coordinator - field).abs() < 1e-12);
+        assert!((agents - 1000.0 / 3.0).abs() < 1e-9);
         assert!((o.skeleton[1].with_work_ticks_per_s - 50.0).abs() < 1e-9);
         assert_eq!(o.skeleton[1].ratio_with_work, None);
         let g = goals(&o);

@@ -51,6 +51,8 @@ pub struct SimResult {
     pub tick_rate: f64,
     /// Wall time of the whole simulation (set-up, loop, files, plots), s.
     pub wall_s: f64,
+    /// The loop's time by the process that does each part in `vbap run`.
+    pub parts: crate::sim::TickParts,
 }
 
 /// Runs `mission` in process (the reference simulator) in `work/<name>-sim`.
@@ -60,7 +62,7 @@ pub fn simulate(mission: &Mission, work: &Path) -> Result<SimResult> {
     std::fs::write(dir.mission(), mission.to_toml_string()).context("writing mission.toml")?;
     let mut marks: Vec<(u64, Instant)> = Vec::new();
     let started = Instant::now();
-    crate::sim::simulate(
+    let (_, parts) = crate::sim::simulate_timed(
         mission,
         &dir,
         &mut |k: u64, _: u64, _: f64, _: Option<f64>| marks.push((k, Instant::now())),
@@ -77,7 +79,11 @@ pub fn simulate(mission: &Mission, work: &Path) -> Result<SimResult> {
         }
         _ => ticks as f64 / wall_s,
     };
-    Ok(SimResult { tick_rate, wall_s })
+    Ok(SimResult {
+        tick_rate,
+        wall_s,
+        parts,
+    })
 }
 
 /// PSS of the processes of one run, kB.
