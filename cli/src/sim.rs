@@ -75,17 +75,11 @@ pub fn simulate_timed(
     dir: &RunDir,
     progress: Progress<'_>,
 ) -> Result<(Summary, TickParts)> {
-    let ids: Vec<u32> = (0..mission.vehicles.count as u32).collect();
-    let planner = Planner::new(
-        PlannerParams::from_mission(mission),
-        mission.start_vec(),
-        &ids,
-    )?;
     let mut parts = TickParts::default();
     let summary = simulate_parts(
         mission,
         dir,
-        planner,
+        paper_planner(mission)?,
         &Plugins::default(),
         progress,
         &mut parts,
@@ -100,13 +94,17 @@ pub fn simulate_plugins(
     plugins: &Plugins,
     progress: Progress<'_>,
 ) -> Result<Summary> {
+    simulate_with(mission, dir, paper_planner(mission)?, plugins, progress)
+}
+
+/// The paper's planner for every vehicle of `mission`.
+fn paper_planner(mission: &Mission) -> Result<Planner> {
     let ids: Vec<u32> = (0..mission.vehicles.count as u32).collect();
-    let planner = Planner::new(
+    Ok(Planner::new(
         PlannerParams::from_mission(mission),
         mission.start_vec(),
         &ids,
-    )?;
-    simulate_with(mission, dir, planner, plugins, progress)
+    )?)
 }
 
 /// [`simulate`] with any planner (`planner`: for every vehicle of the mission) and a user's

@@ -338,7 +338,7 @@ pub fn spawn_run_logged(file: &Path, out: &Path, log: &Path) -> ChildGuard {
 }
 
 /// `vbap run FILE --out OUT --quiet`, its output discarded.
-fn run_command(file: &Path, out: &Path) -> Command {
+pub fn run_command(file: &Path, out: &Path) -> Command {
     let mut cmd = vbap();
     cmd.arg("run")
         .arg(file)

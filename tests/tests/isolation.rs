@@ -19,15 +19,10 @@ fn mission(name: &str, duration: f64, pace: &str, extra: &str) -> String {
         .toml()
 }
 
+/// `vbap run FILE --out OUT --quiet`, its errors kept for the test to read.
 fn run_cmd(file: &Path, out: &Path) -> Command {
-    let mut cmd = vbap();
-    cmd.arg("run")
-        .arg(file)
-        .arg("--out")
-        .arg(out)
-        .arg("--quiet")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped());
+    let mut cmd = run_command(file, out);
+    cmd.stderr(Stdio::piped());
     cmd
 }
 
