@@ -355,6 +355,25 @@ async fn await_ready(name: &str, stdout: Option<ChildStdout>) -> Result<StdoutLi
     }
 }
 
+/// Waits for `child` to end while `output` (the reading of its output) runs; returns its
+/// exit status. The child is reaped as it ends, not after its output: a death is never
+/// behind a read of a pipe whose write end another process may keep open. What it wrote
+/// before it ended is in the pipe, and is read for at most `drain` after.
+async fn reap_while_reading(
+    child: &mut Child,
+    output: impl std::future::Future<Output = ()>,
+    drain: Duration,
+) -> std::io::Result<std::process::ExitStatus> {
+    tokio::pin!(output);
+    tokio::select! {
+        status = child.wait() => {
+            let _ = tokio::time::timeout(drain, &mut output).await;
+            status
+        }
+        () = &mut output => child.wait().await,
+    }
+}
+
 /// The summary a coordinator hands over on its output (`coordinator::handover`), read
 /// until the output ends (the coordinator exits).
 async fn read_handover(mut lines: StdoutLines) -> Option<Summary> {
@@ -529,19 +548,7 @@ impl<'a> ProcessSet<'a> {
                     }
                 }
             };
-            // The child is reaped as it ends, not after its output: a death is never
-            // behind a read of a pipe whose other end may stay open. What it wrote before
-            // it ended is in the pipe and is read (for at most OUTPUT_DRAIN) after.
-            let status = {
-                tokio::pin!(output);
-                tokio::select! {
-                    status = child.wait() => {
-                        let _ = tokio::time::timeout(OUTPUT_DRAIN, &mut output).await;
-                        status
-                    }
-                    () = &mut output => child.wait().await,
-                }
-            };
+            let status = reap_while_reading(&mut child, output, OUTPUT_DRAIN).await;
             if let Some(tx) = ready_tx.take() {
                 let _ = tx.send(Err(anyhow::anyhow!(
                     "{} exited before it was ready; see its logs",
@@ -1027,5 +1034,45 @@ impl Shutdown {
             }
             self.seen = true;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test]
+    async fn a_process_is_reaped_as_it_ends_though_another_keeps_its_output_open() {
+        // The shell prints its background sleep's pid and exits 3; the sleep keeps the
+        // write end of the shell's stdout open for a minute.
+        let mut child = Command::new("sh")
+            .args(["-c", "sleep 60 & echo $!; exit 3"])
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .kill_on_drop(true)
+            .spawn()
+            .expect("spawning sh");
+        let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+        let mut printed = Vec::new();
+        let output = async {
+            while let Ok(Some(line)) = lines.next_line().await {
+                printed.push(line);
+            }
+        };
+        let status = tokio::time::timeout(
+            Duration::from_secs(30),
+            reap_while_reading(&mut child, output, Duration::from_millis(200)),
+        )
+        .await;
+        let holder: Option<i32> = printed.first().and_then(|l| l.trim().parse().ok());
+        if let Some(pid) = holder {
+            signal(pid as u32, Signal::SIGKILL);
+        }
+        let status = status
+            .expect("the exit waited for the output's end (a minute away)")
+            .expect("waiting for sh");
+        assert_eq!(status.code(), Some(3));
+        // What it wrote before it ended was read.
+        assert!(holder.is_some(), "{printed:?}");
     }
 }
