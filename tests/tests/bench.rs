@@ -112,6 +112,9 @@ fn quick_bench_measures_every_floor_and_run() {
         "lockstep tick / skeleton tick (N = 16)",
         "hop p50 / warm raw iceoryx2 (N = 4, median of 5)",
         "fan-out CPU, UDP / iceoryx2 (N = 256)",
+        "proposed: lockstep tick / (+ serial) (N = 16)",
+        "proposed: fan-out copy, UDP sends / our write (N = 256)",
+        "proposed: hop p50 / skeleton hop p50 (N = 4, median of 5)",
     ] {
         assert!(
             goals.iter().any(|g| g == name),
