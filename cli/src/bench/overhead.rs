@@ -455,12 +455,9 @@ pub fn goals(o: &Overhead) -> Vec<Goal> {
     let mut goal = |g: String, value: Option<f64>, target: &str, met: Option<bool>| {
         out.push(Goal::new(g, value, target, met))
     };
+    let row = |n: usize| o.skeleton.iter().find(|r| r.vehicles == n);
     for n in [16, 256] {
-        let v = o
-            .skeleton
-            .iter()
-            .find(|r| r.vehicles == n)
-            .and_then(|r| r.ratio);
+        let v = row(n).and_then(|r| r.ratio);
         goal(
             format!("lockstep tick / skeleton tick (N = {n})"),
             v,
@@ -495,11 +492,7 @@ pub fn goals(o: &Overhead) -> Vec<Goal> {
     // The restatements proposed where the goals above proved out of reach
     // (BENCHMARKS.md, issue 17 round 6), measured in the same run.
     for n in [16, 256] {
-        let v = o
-            .skeleton
-            .iter()
-            .find(|r| r.vehicles == n)
-            .and_then(|r| r.ratio_critical_path);
+        let v = row(n).and_then(|r| r.ratio_critical_path);
         goal(
             format!("proposed: lockstep tick / (+ serial) (N = {n})"),
             v,
@@ -507,12 +500,11 @@ pub fn goals(o: &Overhead) -> Vec<Goal> {
             v.map(|v| v <= 1.3),
         );
     }
-    let over_skeleton = |n: usize| o.skeleton.iter().find(|r| r.vehicles == n)?.ratio;
     for n in [256, 1024] {
-        if let Some(row) = o.skeleton.iter().find(|r| r.vehicles == n) {
-            let v = row
+        if let Some(big) = row(n) {
+            let v = big
                 .ratio
-                .zip(over_skeleton(16))
+                .zip(row(16).and_then(|r| r.ratio))
                 .map(|(big, small)| big / small);
             goal(
                 format!("proposed: run / skeleton at N = {n}, over that at N = 16"),
