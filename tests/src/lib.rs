@@ -188,10 +188,21 @@ impl Drop for ChildGuard {
 }
 
 /// Waits until `cond` holds, checking every 50 ms, panicking with `what` after `timeout`.
-pub fn wait_until(mut cond: impl FnMut() -> bool, timeout: Duration, what: &str) {
+pub fn wait_until(cond: impl FnMut() -> bool, timeout: Duration, what: &str) {
+    wait_until_or(cond, timeout, || format!("timed out waiting for {what}"));
+}
+
+/// [`wait_until`], panicking with `report()` on a timeout (what the test can say of why).
+pub fn wait_until_or(
+    mut cond: impl FnMut() -> bool,
+    timeout: Duration,
+    report: impl FnOnce() -> String,
+) {
     let start = Instant::now();
     while !cond() {
-        assert!(start.elapsed() < timeout, "timed out waiting for {what}");
+        if start.elapsed() >= timeout {
+            panic!("{}", report());
+        }
         std::thread::sleep(Duration::from_millis(50));
     }
 }

@@ -333,18 +333,18 @@ fn ctrl_c_while_the_agents_start_stops_every_process_and_leaves_nothing() {
     run.signal("INT");
     let pid = run.pid();
     let child = run.0.as_mut().expect("vbap run");
-    let start = std::time::Instant::now();
-    while child.try_wait().expect("polling vbap run").is_none() {
-        if start.elapsed() > Duration::from_secs(60) {
-            panic!(
+    wait_until_or(
+        || child.try_wait().expect("polling vbap run").is_some(),
+        Duration::from_secs(60),
+        || {
+            format!(
                 "vbap run (pid {pid}) did not end within 60 s of SIGINT while its agents start\n\
                  its processes:\n{}\nits log:\n{}",
                 process_report(&tmp.path.to_string_lossy()),
                 std::fs::read_to_string(&log).unwrap_or_default()
-            );
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
+            )
+        },
+    );
     wait_until(
         || processes_mentioning(&mission_path).is_empty(),
         Duration::from_secs(30),

@@ -103,9 +103,8 @@ pub struct Overhead {
 impl Overhead {
     /// Records the skeleton's rate next to the lockstep run's, and the bound with the work
     /// of the tick added: `in_process` is `vbap sim`'s rate on the same mission, spread over
-    /// `cpus`.
-    /// `parts`: the in-process tick by part ([`crate::sim::TickParts`]; None when not
-    /// measured).
+    /// `cpus`; and the tighter bound of `parts`, the in-process tick by part
+    /// ([`crate::sim::TickParts`]; None when not measured).
     pub fn skeleton_row(
         &mut self,
         vehicles: usize,
@@ -500,19 +499,21 @@ pub fn goals(o: &Overhead) -> Vec<Goal> {
             v.map(|v| v <= 1.3),
         );
     }
+    // N = 256 always (not measured in a quick run), N = 1024 when it was run (--large).
     for n in [256, 1024] {
-        if let Some(big) = row(n) {
-            let v = big
-                .ratio
-                .zip(row(16).and_then(|r| r.ratio))
-                .map(|(big, small)| big / small);
-            goal(
-                format!("proposed: run / skeleton at N = {n}, over that at N = 16"),
-                v,
-                "≤ 1.2",
-                v.map(|v| v <= 1.2),
-            );
+        if n > 256 && row(n).is_none() {
+            continue;
         }
+        let v = row(n)
+            .and_then(|r| r.ratio)
+            .zip(row(16).and_then(|r| r.ratio))
+            .map(|(big, small)| big / small);
+        goal(
+            format!("proposed: run / skeleton at N = {n}, over that at N = 16"),
+            v,
+            "≤ 1.2",
+            v.map(|v| v <= 1.2),
+        );
     }
     let copy = o
         .fanout
