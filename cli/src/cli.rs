@@ -181,6 +181,9 @@ fn check(mission: &Path, sets: &[KeySet]) -> Result<i32> {
     if let Some(w) = m.stiffness_warning() {
         eprintln!("vbap: warning: {w}");
     }
+    for line in m.envelope_lines() {
+        println!("{line}");
+    }
     println!(
         "{}: valid ({} vehicles, {} ticks, dim {})",
         mission.display(),

@@ -5,7 +5,7 @@
 
 use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
 use vbap_ipc::msg::from_vec3;
-use vbap_math::fit::fit_slots;
+use vbap_math::fit::held_slots;
 use vbap_math::formation::FormationDesign;
 use vbap_math::Vec3;
 
@@ -24,9 +24,12 @@ pub fn annotate(snapshot: &mut [SnapshotEntry], k: u64, dt: f64, members: &[Repo
 
 /// Every member's slot at the tick of `command` (inertial, length unit), by id: a
 /// rejoining member's is the slot it flies to (`command.rejoining`); the others' are the
-/// slots of `design`, moved by the command's body, fitted to the members' positions as the
-/// coordinator knows them (`vbap_math::fit::fit_slots`: each vehicle to a distinct slot
-/// and, for central designs, free to turn about the centre, the turn that fits them best).
+/// slots of `design`, moved by the command's body in the body's own orientation, assigned
+/// to the members' positions as the coordinator knows them (`vbap_math::fit::held_slots`:
+/// each vehicle to a distinct slot). The frame does not turn to fit those positions: they
+/// are a round trip old, and a frame turned by them closes a delayed loop on the
+/// formation's rotation (s² + K s + κ_s (1 − e^{−sτ}) = 0, unstable once the round trip τ
+/// passes about π/√(2 κ_s); docs/ENVELOPE.md).
 /// A member left without a slot (more members than slots) has none.
 pub fn member_slots(
     design: &FormationDesign,
@@ -35,7 +38,7 @@ pub fn member_slots(
 ) -> Vec<(u32, Vec3)> {
     let body = &command.body;
     let positions: Vec<Vec3> = members.iter().map(|r| r.position).collect();
-    let fit = fit_slots(&positions, design, body, design.dim);
+    let fit = held_slots(&positions, design, body, design.dim);
     members
         .iter()
         .zip(&fit.slot)
@@ -87,7 +90,7 @@ mod tests {
     }
 
     #[test]
-    fn members_in_a_turned_polygon_get_the_turned_slots() {
+    fn members_in_a_turned_polygon_get_the_slots_of_the_bodys_own_frame() {
         // A hexagon turned by 0.2 rad about its centre, vehicles a little off their slots:
         // each gets its own vertex of the turned hexagon.
         let design = design_regular(6, 2, 1.5, 1.0, 1.0).unwrap();
@@ -128,9 +131,11 @@ mod tests {
         };
         let slots = member_slots(&design, &command, &members);
         assert_eq!(slots.len(), 6);
+        // The frame is the body's own: turning it to fit the (stale) positions would feed
+        // the formation's rotation back through the links' delay.
         for (id, slot) in &slots[..5] {
-            let e = (slot - truth[*id as usize]).norm();
-            assert!(e < 0.1, "vehicle {id}: {e} from its turned slot");
+            let own = body.r + design.slots[*id as usize];
+            assert_eq!(*slot, own, "vehicle {id}: its slot in the body's frame");
         }
         assert_eq!(
             slots[5],

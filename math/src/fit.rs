@@ -80,6 +80,32 @@ pub fn fit_slots(
     body: &VirtualBody,
     dim: usize,
 ) -> SlotFit {
+    fit_slots_turning(positions, design, body, dim, is_central(design))
+}
+
+/// The slots of `design` moved by `body` in the body's own orientation `R` (no turn
+/// about the centre, whatever the design), assigned to the vehicle `positions` as
+/// [`fit_slots`] assigns them. This is the frame the robust law's slot spring holds
+/// (`vbap_math::robust`): a frame turned to fit positions that are seconds old would feed
+/// the formation's rotation back to itself through the links' delay, a loop that
+/// oscillates once the delay passes about π/√(2 κ_s) (docs: the stability envelope).
+pub fn held_slots(
+    positions: &[Vec3],
+    design: &FormationDesign,
+    body: &VirtualBody,
+    dim: usize,
+) -> SlotFit {
+    fit_slots_turning(positions, design, body, dim, false)
+}
+
+/// [`fit_slots`], free to turn about the centre only when `turn`.
+fn fit_slots_turning(
+    positions: &[Vec3],
+    design: &FormationDesign,
+    body: &VirtualBody,
+    dim: usize,
+    turn: bool,
+) -> SlotFit {
     let centre = body.r;
     let q = Centred::new(positions, centre);
     let base: Vec<Vec3> = design.slots.iter().map(|p| body.scale * p).collect();
@@ -93,7 +119,7 @@ pub fn fit_slots(
     }
     let trim = 0.5 * spacing(design, body);
     let mut rotation = own;
-    if is_central(design) && !q.x.is_empty() {
+    if turn && !q.x.is_empty() {
         let mut best = (robust_cost(&q, &rotate(&own, &base), trim), own);
         for r in candidates(&q.x, &base, dim) {
             let c = robust_cost(&q, &rotate(&r, &base), trim);

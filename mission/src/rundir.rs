@@ -523,6 +523,10 @@ pub struct Summary {
     pub optimum: Option<[f64; 3]>,
     pub estimated_sigma_m: Option<f64>,
     pub holding_ticks: u64,
+    /// Ticks whose scale the planner held at the stability envelope's floor
+    /// (`Mission::held_min_scale`, above `formation.min_scale`; docs/ENVELOPE.md).
+    #[serde(default)]
+    pub scale_held_ticks: u64,
     /// For every vehicle process found dead: wall time from its last message to the
     /// coordinator's verdict, ms.
     pub detection_latency_ms: Vec<f64>,

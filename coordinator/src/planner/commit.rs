@@ -150,7 +150,14 @@ impl Planner {
         let end_scale = self.decision_scale(k, dt);
         let sched = self.schedule.as_mut()?;
         let span = sched.seg_ticks as f64 * dt;
-        let rate = (rates.dk_ds * sdot).clamp(
+        let mut rate = rates.dk_ds * sdot;
+        if let Some((times_k, speed)) = self.params.scale_rate_bound {
+            // The envelope's bound (`vbap_math::envelope`): the slots move no faster than
+            // the vehicles can follow them, nor than the slot spring's lag allows.
+            let bound = (times_k / end_scale.max(f64::MIN_POSITIVE)).min(speed);
+            rate = rate.clamp(-bound, bound);
+        }
+        let rate = rate.clamp(
             ((min_scale - end_scale) / span).min(0.0),
             ((max_scale - end_scale) / span).max(0.0),
         );

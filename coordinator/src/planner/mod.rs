@@ -96,6 +96,10 @@ pub struct PlannerParams {
     /// `[land]`: the body centre never enters it (beyond the paper; none by default).
     #[serde(default)]
     pub land: Option<vbap_mission::land::AnalyticLand>,
+    /// The envelope's bound on the adaptation rate (`vbap_math::envelope`): |dk/dt| ≤
+    /// `.0 / k` and ≤ `.1` (None: unbounded; only the robust law over impaired links).
+    #[serde(default)]
+    pub scale_rate_bound: Option<(f64, f64)>,
     /// The land of a gridded field (loaded with the mission; not in the checkpoint:
     /// [`Planner::attach_land`] gives it back to a restored plan). Wins over `land`.
     #[serde(skip)]
@@ -109,6 +113,9 @@ fn default_curvature_memory() -> f64 {
 impl PlannerParams {
     /// The planner's view of a mission (no ground truth in here).
     pub fn from_mission(m: &Mission) -> Self {
+        let held = m.held_envelope();
+        // Every slot of a regular design is at the formation's radius (scale 1).
+        let radius = m.formation.radius;
         Self {
             dim: m.formation_dim(),
             goal: m.mission.goal,
@@ -117,7 +124,7 @@ impl PlannerParams {
             damping: m.vehicles.damping,
             adapt: m.formation.adapt,
             adapt_gain: m.formation.adapt_gain,
-            min_scale: m.formation.min_scale,
+            min_scale: m.scale_floor(held.as_ref()),
             max_scale: m.formation.max_scale,
             sigma_h: m.formation.sigma_h,
             hessian_guess: m.hessian_guess_mat(),
@@ -135,6 +142,9 @@ impl PlannerParams {
             curvature: m.control.curvature,
             curvature_memory: m.control.curvature_memory,
             land: vbap_mission::land::analytic_land(&m.land, f64::INFINITY),
+            scale_rate_bound: held
+                .as_ref()
+                .map(|e| (e.scale_rate_times_k, e.slot_speed / radius)),
             grid_land: vbap_mission::loaded::Loaded(m.land()),
         }
     }

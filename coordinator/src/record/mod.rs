@@ -21,6 +21,18 @@ use crate::fleet::Fleet;
 use crate::planner::{Command, Report, Told};
 use crate::truth::{self, TruthStats};
 
+/// The envelope's floor of the scale of `mission` when the planner is held above
+/// `formation.min_scale` (`Mission::held_min_scale`), and what sets it.
+fn scale_floor(mission: &Mission) -> Option<(f64, &'static str)> {
+    let env = mission.held_envelope()?;
+    let floor = mission.scale_floor(Some(&env));
+    let by = match env.limit {
+        vbap_math::envelope::ScaleLimit::Links => "the links",
+        _ => "the time step",
+    };
+    (floor > mission.formation.min_scale).then_some((floor, by))
+}
+
 /// The running figures of `summary.json` (checkpointed with the coordinator).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RecorderStats {
@@ -39,6 +51,13 @@ pub struct RecorderStats {
     pub was_holding: bool,
     /// The running figures of the true formation.
     pub truth: TruthStats,
+    /// Ticks whose body scale sat at the envelope's floor (`Mission::held_min_scale`,
+    /// above `formation.min_scale`): the planner held the scale there.
+    #[serde(default)]
+    pub scale_held_ticks: u64,
+    /// Whether the last tick's scale was held (for the `scale_held` event).
+    #[serde(default)]
+    pub was_scale_held: bool,
 }
 
 /// Records ticks, accumulates the figures of `summary.json`.
@@ -50,6 +69,9 @@ pub struct Recorder {
     truth_files: TruthWriter,
     events: EventLog,
     stats: RecorderStats,
+    /// The envelope's floor of the scale when it is above `formation.min_scale`, and what
+    /// set it ("the links", "the time step").
+    scale_floor: Option<(f64, &'static str)>,
 }
 
 impl Recorder {
@@ -78,6 +100,8 @@ impl Recorder {
             vehicles_rejoined: 0,
             was_holding: false,
             truth: TruthStats::new(mission),
+            scale_held_ticks: 0,
+            was_scale_held: false,
         };
         Self::resume_with(mission, dir, stats, field)
     }
@@ -98,7 +122,35 @@ impl Recorder {
             truth_files: TruthWriter::open(dir)?,
             events: EventLog::open(dir)?,
             stats,
+            scale_floor: scale_floor(mission),
         })
+    }
+
+    /// Counts a tick whose `scale` sits at the envelope's floor, and writes a
+    /// `scale_held` event when it comes to sit there.
+    fn scale_held(&mut self, t: f64, k: u64, scale: f64) -> io::Result<()> {
+        let held = self
+            .scale_floor
+            .is_some_and(|(floor, _)| scale <= floor * (1.0 + 1e-9));
+        if held {
+            self.stats.scale_held_ticks += 1;
+        }
+        if held && !self.stats.was_scale_held {
+            self.events.push(&Event {
+                t,
+                k,
+                kind: "scale_held".into(),
+                vehicle: None,
+                detail: serde_json::json!({
+                    "scale": scale,
+                    "min_scale": self.mission.formation.min_scale,
+                    "by": self.scale_floor.map_or("", |(_, by)| by),
+                    "links": self.mission.links_in_words(),
+                }),
+            })?;
+        }
+        self.stats.was_scale_held = held;
+        Ok(())
     }
 
     /// The running figures.
@@ -265,6 +317,7 @@ impl Recorder {
         if command.holding {
             self.stats.holding_ticks += 1;
         }
+        self.scale_held(t, k, b.scale)?;
         self.stats.max_v_over_vu = self
             .stats
             .max_v_over_vu

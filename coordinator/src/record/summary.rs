@@ -17,7 +17,7 @@ impl Recorder {
         let r = self.stats.last_r;
         let optimum = self.optimum(t);
         let distance = optimum.map(|o| (r - o).norm());
-        let (verdict, reasons) = truth::verdict(
+        let (verdict, mut reasons) = truth::verdict(
             &self.stats.truth,
             &BodyOutcome {
                 ticks: self.stats.ticks,
@@ -51,6 +51,17 @@ impl Recorder {
             .ok()?;
             Some(eps + m.estimator.delta_m.unwrap_or_else(|| default_delta_m(eps)))
         });
+        if let (Some((floor, by)), held) = (self.scale_floor, self.stats.scale_held_ticks) {
+            if held > 0 {
+                reasons.push(format!(
+                    "the scale was held at k = {floor:.3} by the stability envelope (set by \
+                     {by}; links {}; formation.min_scale = {}) for {:.1}% of ticks",
+                    m.links_in_words(),
+                    m.formation.min_scale,
+                    100.0 * held as f64 / self.stats.ticks.max(1) as f64
+                ));
+            }
+        }
         Summary {
             mission: m.mission.name.clone(),
             mode: mode.to_string(),
@@ -75,6 +86,7 @@ impl Recorder {
             optimum: optimum.map(|o| [o.x, o.y, o.z]),
             estimated_sigma_m: Some(planner.sigma_m()),
             holding_ticks: self.stats.holding_ticks,
+            scale_held_ticks: self.stats.scale_held_ticks,
             verdict,
             reasons,
             formation: Some(truth::summary(&self.stats.truth)),

@@ -19,6 +19,7 @@
 //! formation's stiffness (`stiffness.rs`) and numbers as TOML writes them (`toml_text.rs`).
 
 mod control;
+mod envelope;
 mod error;
 mod failure_sections;
 mod motion;
@@ -27,6 +28,7 @@ mod parse;
 mod sections;
 mod sets;
 mod stiffness;
+pub use envelope::MAX_ENVELOPE_VEHICLES;
 mod toml_text;
 mod validate;
 

@@ -38,6 +38,7 @@ impl Mission {
         motion::current(&c, &self.current, dim)?;
         motion::land(&c, &self.land, dim, &self.vehicles.start)?;
         self.check_stability(&c)?;
+        self.check_envelope(&c)?;
         faults::check(&c, self)
     }
 }
