@@ -422,7 +422,11 @@ impl Draw {
         let f = &self.field;
         let noise = self.noise_fraction * f.range;
         let radius = self.radius();
-        let v_u = self.alpha / 6.0 + self.n as f64 * self.v0 * self.v0;
+        // V of (II.2) sums a potential over every pair: V_U per pair as the paper's (10 at
+        // N = 4, α = 60), plus the cruise's kinetic energy. Theorem 4.1 needs V(0) ≤ V_U; α/6
+        // alone put V(0) up to 3.8 V_U at N ≥ 13 (start_spread 0.2 L).
+        let pairs = (self.n * (self.n - 1)) as f64 / 2.0;
+        let v_u = self.alpha / 6.0 * pairs / 6.0 + self.n as f64 * self.v0 * self.v0;
         let mut s = String::new();
         let _ = writeln!(
             s,

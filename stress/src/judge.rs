@@ -132,7 +132,7 @@ pub fn judge(summary: &Summary, truth_csv: Option<&str>, v_bound: f64) -> Judgem
     if v > v_bound {
         failed.push("v_bound".to_string());
         why.push(format!(
-            "V/V_U {} after first contact (t ≥ {from} s), bound {v_bound}",
+            "V/V_U {} after first contact (t ≥ {from:.2} s), bound {v_bound}",
             if v.is_finite() {
                 format!("{v:.3}")
             } else {

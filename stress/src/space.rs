@@ -286,7 +286,7 @@ impl fmt::Display for Space {
             (
                 "derived",
                 "radius 1.229·(N/4)^(1/dim); hessian_guess = |curvature at the optimum|·I; \
-                 v_u = α/6 + N·v0²; grad_saturation, kalman_b from the field's gradient scale"
+                 v_u = α/6 · (N(N−1)/2)/6 + N·v0²; grad_saturation, kalman_b from the field's gradient scale"
                     .into(),
             ),
         ];
