@@ -252,9 +252,9 @@ impl Outcome {
     }
 }
 
-/// Makes `out` ready for `plan`: a new directory gets it, one with the same plan is resumed,
-/// one with another is refused.
-fn prepare(out: &Path, plan: &Plan) -> Result<(), BadInput> {
+/// Checks `out` for `plan`, writing nothing: `Ok(true)` when it holds the same plan (a
+/// resumed campaign), `Ok(false)` when it holds none; another plan is refused.
+fn check_plan(out: &Path, plan: &Plan) -> Result<bool, BadInput> {
     let shown = out.display();
     let file = out.join(PLAN_FILE);
     if file.exists() {
@@ -267,14 +267,20 @@ fn prepare(out: &Path, plan: &Plan) -> Result<(), BadInput> {
                 "--out {shown}: holds another stress campaign (its {PLAN_FILE} differs: missions, seed, laws, v-bound, shrink, --set or the space); resume it with the same arguments or choose another directory"
             )));
         }
-        return Ok(());
+        return Ok(true);
     }
     if out.join(RESULTS_FILE).exists() {
         return Err(BadInput(format!(
             "--out {shown}: holds {RESULTS_FILE} without {PLAN_FILE}; choose an empty directory"
         )));
     }
-    std::fs::create_dir_all(out).map_err(|e| BadInput(format!("--out {shown}: {e}")))?;
+    Ok(false)
+}
+
+/// Writes `plan` into `out`.
+fn write_plan(out: &Path, plan: &Plan) -> Result<(), BadInput> {
+    let shown = out.display();
+    let file = out.join(PLAN_FILE);
     let text = serde_json::to_string_pretty(plan).map_err(|e| BadInput(e.to_string()))? + "\n";
     let tmp = out.join(".plan.json.tmp");
     std::fs::write(&tmp, text)
@@ -412,7 +418,9 @@ pub fn run(config: &Config, flyer: Flyer<'_>) -> Result<Outcome> {
         return Err(BadInput(format!("--v-bound {}: must be > 0", config.v_bound)).into());
     }
     let plan = Plan::of(config);
-    prepare(&config.out, &plan)?;
+    let resumed = check_plan(&config.out, &plan)?;
+    std::fs::create_dir_all(&config.out)
+        .map_err(|e| BadInput(format!("--out {}: {e}", config.out.display())))?;
     let out = std::fs::canonicalize(&config.out)
         .with_context(|| format!("--out {}", config.out.display()))?;
     let grid = out.join(GRID_FILE);
@@ -426,6 +434,8 @@ pub fn run(config: &Config, flyer: Flyer<'_>) -> Result<Outcome> {
         out: out.clone(),
         ..config.clone()
     };
+    // Every mission is sampled (and validated) before the plan is written: bad input (a
+    // --set the missions refuse) leaves no campaign behind.
     let sampled: Vec<Sampled> = (0..config.missions)
         .map(|i| {
             sample(
@@ -438,6 +448,9 @@ pub fn run(config: &Config, flyer: Flyer<'_>) -> Result<Outcome> {
             )
         })
         .collect::<Result<_, _>>()?;
+    if !resumed {
+        write_plan(&out, &plan)?;
+    }
     let done: BTreeSet<(u64, String)> = read_results(&out)
         .into_iter()
         .map(|r| (r.mission, r.law))

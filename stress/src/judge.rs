@@ -11,7 +11,9 @@
 //!    vehicle heard from at least once; a vehicle that has not surfaced yet flies its
 //!    deployment plan). Never all in contact: every row counts. Without `truth.csv` the
 //!    summary's whole-run maximum `formation.max_V_true_over_VU` is used (conservative).
-//! 4. `body`: the body did not get where it should. It passes when `converged`; or the
+//! 4. `body`: the body did not get where it should. It passes when `converged`, or the
+//!    verdict begins with "converged" (the body ended within the tolerance: `converged,
+//!    formation broken` and `converged, near collisions` fail criteria 1–2 instead); or the
 //!    field has no optimum (verdict `formation kept` / `formation broken`: a front, which
 //!    the body crosses for ever); or the verdict is `converged to a stationary point`; or
 //!    the verdict is `stalled` and the stall's reason (`why: …` in `reasons`) is not V
@@ -142,6 +144,7 @@ pub fn judge(summary: &Summary, truth_csv: Option<&str>, v_bound: f64) -> Judgem
     }
     let stall = stall_why(summary);
     let body_ok = summary.converged
+        || summary.verdict.starts_with("converged")
         || summary.verdict == "formation kept"
         || summary.verdict == "formation broken"
         || summary.verdict == "converged to a stationary point"
@@ -152,10 +155,15 @@ pub fn judge(summary: &Summary, truth_csv: Option<&str>, v_bound: f64) -> Judgem
     if !body_ok {
         failed.push("body".to_string());
         why.push(format!(
-            "verdict {:?}{}, {:.3} from the optimum",
+            "verdict {:?}{}, {:.3} from the optimum{}",
             summary.verdict,
             stall.map_or(String::new(), |w| format!(" (stall: {w})")),
-            summary.final_distance_to_optimum.unwrap_or(f64::NAN)
+            summary.final_distance_to_optimum.unwrap_or(f64::NAN),
+            if summary.in_set_m == Some(true) {
+                " (inside the set M of Theorem 5.1)"
+            } else {
+                ""
+            }
         ));
     }
     Judgement {

@@ -116,6 +116,7 @@ fn the_judge_names_each_criterion() {
         ("not converged", false),
         ("diverged", false),
         ("converged to a stationary point", true),
+        ("converged, formation broken", true),
         ("formation kept", true),
     ] {
         let mut s = passing();
