@@ -300,19 +300,15 @@ impl Draw {
                     .map(|_| draw(rng, &space.hessian_eigenvalue))
                     .collect();
                 let r = rotation(rng, dim);
-                // H = Rᵀ diag(eig) R, symmetric by construction.
-                let mut h = vec![vec![0.0; dim]; dim];
-                for (i, row) in h.iter_mut().enumerate() {
-                    for (j, x) in row.iter_mut().enumerate() {
-                        *x = (0..dim).map(|k| r[k][i] * eig[k] * r[k][j]).sum();
-                    }
-                }
-                for i in 0..dim {
-                    for j in 0..i {
-                        h[i][j] = h[j][i];
-                    }
-                }
-                f.hessian = h;
+                // H = Rᵀ diag(eig) R; the upper triangle is computed and mirrored, so H is
+                // symmetric to the bit (the validator checks it).
+                let entry = |i: usize, j: usize| -> f64 {
+                    let (a, b) = (i.min(j), i.max(j));
+                    (0..dim).map(|k| r[k][a] * eig[k] * r[k][b]).sum()
+                };
+                f.hessian = (0..dim)
+                    .map(|i| (0..dim).map(|j| entry(i, j)).collect())
+                    .collect();
                 let mean = eig.iter().sum::<f64>() / dim as f64;
                 let max = eig.iter().cloned().fold(0.0, f64::max);
                 f.range = 0.5 * mean * distance * distance;

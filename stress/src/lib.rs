@@ -14,7 +14,7 @@
 //! - [`table`]: pass rates overall, by law and by each dimension of the space;
 //! - [`grid`]: the campaign's small synthetic grid file for `field.kind = "grid"`.
 //!
-//! Pure of IPC: no iceoryx2, no process is started here.
+//! Pure of IPC: no inter-process transport, and no process is started here (`.ci/run` checks).
 
 pub mod campaign;
 pub mod draw;

@@ -94,6 +94,17 @@ fn bin(x: f64, edges: &[(f64, &str)], last: &str) -> String {
         .to_string()
 }
 
+/// The order of a bin: by its leading number (`3-4` before `9-16`, `0` before
+/// `0.01-0.05`), then by its label.
+fn bin_order(label: &str) -> (u64, String) {
+    let lead: String = label
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || *c == '.')
+        .collect();
+    let n = lead.parse::<f64>().map_or(u64::MAX, |x| (x * 1e6) as u64);
+    (n, label.to_string())
+}
+
 /// The dimensions of the table, each with its binning of a flight.
 #[allow(clippy::type_complexity)]
 pub fn dimensions() -> Vec<(&'static str, Box<dyn Fn(&Dims) -> String>)> {
@@ -202,7 +213,9 @@ impl Table {
                     row.by_law[i].add(r.pass);
                 }
             }
-            dims.push((name.to_string(), rows.into_values().collect()));
+            let mut rows: Vec<Row> = rows.into_values().collect();
+            rows.sort_by(|a, b| bin_order(&a.bin).cmp(&bin_order(&b.bin)));
+            dims.push((name.to_string(), rows));
         }
         Table {
             missions: plan.missions,
