@@ -37,7 +37,13 @@ fn a_small_campaign_writes_a_consistent_table_and_resumes_to_the_same() {
         String::from_utf8_lossy(&first.stderr)
     );
     let printed = String::from_utf8_lossy(&first.stdout).to_string();
-    for f in ["plan.json", "results.jsonl", "stress.json", "stress.md", "grid.nc"] {
+    for f in [
+        "plan.json",
+        "results.jsonl",
+        "stress.json",
+        "stress.md",
+        "grid.nc",
+    ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
     // One line per flight: 6 missions × 2 laws.
@@ -57,7 +63,10 @@ fn a_small_campaign_writes_a_consistent_table_and_resumes_to_the_same() {
     }
     for dim in table["dimensions"].as_array().expect("dimensions") {
         let rows = dim[1].as_array().expect("rows");
-        let sum: u64 = rows.iter().map(|r| r["all"]["flights"].as_u64().unwrap()).sum();
+        let sum: u64 = rows
+            .iter()
+            .map(|r| r["all"]["flights"].as_u64().unwrap())
+            .sum();
         assert_eq!(sum, 12, "{}", dim[0]);
     }
     // A failure keeps its run directory and a mission file that `vbap check` accepts; a
@@ -75,7 +84,11 @@ fn a_small_campaign_writes_a_consistent_table_and_resumes_to_the_same() {
             assert!(dir.join("summary.json").is_file(), "{name}: summary kept");
             let file = out.join(l["file"].as_str().expect("a failure's file"));
             let check = vbap().arg("check").arg(&file).output().unwrap();
-            assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
+            assert!(
+                check.status.success(),
+                "{}",
+                String::from_utf8_lossy(&check.stderr)
+            );
         }
     }
     assert!(read(&out.join("stress.md")).contains("| overall |"));
