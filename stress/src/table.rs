@@ -214,7 +214,7 @@ impl Table {
                 }
             }
             let mut rows: Vec<Row> = rows.into_values().collect();
-            rows.sort_by(|a, b| bin_order(&a.bin).cmp(&bin_order(&b.bin)));
+            rows.sort_by_key(|r| bin_order(&r.bin));
             dims.push((name.to_string(), rows));
         }
         Table {
