@@ -40,6 +40,9 @@ enum Cmd {
     Replay(crate::replay::ReplayArgs),
     /// Run a mission for many seeds; table, aggregate, pass/fail.
     Batch(crate::batch::BatchArgs),
+    /// Seeded random-mission stress campaign over a declared space of missions: pass rates
+    /// by law and by dimension, failures shrunk (exit 1 if any mission failed).
+    Stress(crate::stress::StressArgs),
     /// Fault campaign: real SIGKILLs and SIGSTOPs at random times; a table of detections,
     /// recoveries and leftovers (exit 1 if any kill went undetected or unrecovered).
     Chaos(crate::chaos::ChaosArgs),
@@ -146,11 +149,13 @@ pub fn main_with(plugins: Option<&crate::plugins::Plugins>) -> i32 {
 }
 
 fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> {
-    if let (Some(_), Cmd::Replay(_) | Cmd::Batch(_) | Cmd::Chaos(_) | Cmd::Bench(_)) =
-        (plugins, &cmd)
+    if let (
+        Some(_),
+        Cmd::Replay(_) | Cmd::Batch(_) | Cmd::Chaos(_) | Cmd::Bench(_) | Cmd::Stress(_),
+    ) = (plugins, &cmd)
     {
         return Err(InvalidInput(
-            "replay, batch, chaos and bench run the shipped field and control law: use `vbap`"
+            "replay, batch, chaos, bench and stress run the shipped field and control law: use `vbap`"
                 .into(),
         )
         .into());
@@ -163,6 +168,7 @@ fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> 
         Cmd::Replay(args) => crate::replay::main(&args),
         Cmd::Batch(args) => crate::batch::main(&args),
         Cmd::Chaos(args) => crate::chaos::main(&args),
+        Cmd::Stress(args) => crate::stress::main(&args),
         Cmd::Bench(args) => crate::bench::main(&args),
         Cmd::Compare(args) => crate::compare::main(&args),
         Cmd::Services(args) => crate::introspect::services(&args),

@@ -6,6 +6,7 @@
 //! - [`replay`], [`batch`], [`bench`]: study a run, many runs, the speed; [`compare`]: are
 //!   two run directories the same run?
 //! - [`chaos`]: a campaign of real SIGKILLs and SIGSTOPs, judged (`vbap chaos`).
+//! - [`stress`]: a seeded random-mission stress campaign (`vbap stress`, crate `vbap-stress`).
 //! - [`custom`]: a user's own vbap, over its own field and control law ([`plugins`]).
 //! - [`cli`]: the command line ([`formation`]: `vbap formation`; [`summary_text`]: the
 //!   terminal summary of a run); [`errors`]: the user's errors and the exit codes;
@@ -39,5 +40,6 @@ pub mod progress;
 pub mod replay;
 pub mod rundirs;
 pub mod sim;
+pub mod stress;
 pub mod summary_text;
 pub mod supervise;
