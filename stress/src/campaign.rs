@@ -124,6 +124,9 @@ pub struct Dims {
     pub v0: f64,
     pub alpha: f64,
     pub damping: f64,
+    /// `formation.min_scale` (absent in result lines written before it was drawn).
+    #[serde(default)]
+    pub min_scale: f64,
 }
 
 impl Dims {
@@ -146,6 +149,7 @@ impl Dims {
             v0: d.v0,
             alpha: d.alpha,
             damping: d.damping,
+            min_scale: d.min_scale,
         }
     }
 }

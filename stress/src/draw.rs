@@ -93,6 +93,8 @@ pub struct Draw {
     pub faults: Vec<FaultDraw>,
     /// `formation.adapt`.
     pub adapt: bool,
+    /// `formation.min_scale`.
+    pub min_scale: f64,
     /// `formation.alpha`, L²/s².
     pub alpha: f64,
     /// `vehicles.damping`, 1/s.
@@ -231,6 +233,7 @@ impl Draw {
         });
         // A TOML integer holds at most 2⁶³ − 1.
         let seed_of_mission = rng.random::<u64>() >> 1;
+        let min_scale = draw(rng, &space.min_scale);
         Draw {
             index,
             seed: seed_of_mission,
@@ -253,6 +256,7 @@ impl Draw {
             glider,
             current,
             duration,
+            min_scale,
         }
     }
 
@@ -484,7 +488,7 @@ impl Draw {
         let _ = writeln!(s, "adapt = {}", self.adapt);
         let _ = writeln!(s, "adapt_gain = 0.5");
         let _ = writeln!(s, "alpha = {:?}", self.alpha);
-        let _ = writeln!(s, "min_scale = 0.7");
+        let _ = writeln!(s, "min_scale = {}", self.min_scale);
         let _ = writeln!(s, "max_scale = 3.0");
         let _ = writeln!(s, "sigma_h = 1.0");
         let c = f.curvature;

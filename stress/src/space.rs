@@ -145,6 +145,10 @@ pub struct Space {
     pub duration_margin: f64,
     /// Added to every duration, s.
     pub duration_extra: f64,
+    /// `formation.min_scale`: how far adaptation may shrink the formation (every stiffness
+    /// grows as 1/k², (III.3); what broke `lossy_kill` at half its noise). Drawn after
+    /// every other key, so the rest of a mission does not depend on it.
+    pub min_scale: Range,
 }
 
 impl Default for Space {
@@ -195,8 +199,9 @@ impl Default for Space {
             p_current: 0.5,
             current_speed: Range::uniform(0.1, 0.3),
             dt: 0.05,
-            duration_margin: 2.5,
-            duration_extra: 20.0,
+            duration_margin: 4.0,
+            duration_extra: 40.0,
+            min_scale: Range::log(0.15, 0.7),
         }
     }
 }
@@ -276,6 +281,7 @@ impl fmt::Display for Space {
                 ),
             ),
             ("mission.dt, s", format!("{}", self.dt)),
+            ("formation.min_scale", format!("{}", self.min_scale)),
             (
                 "mission.duration, s",
                 format!(

@@ -164,6 +164,16 @@ pub fn dimensions() -> Vec<(&'static str, Box<dyn Fn(&Dims) -> String>)> {
             "damping, 1/s",
             Box::new(|d: &Dims| bin(d.damping, &[(4.5, "2-4.5")], "4.5-10")),
         ),
+        (
+            "min_scale (adaptation on)",
+            Box::new(|d: &Dims| {
+                if d.adapt {
+                    bin(d.min_scale, &[(0.3, "0.15-0.3")], "0.3-0.7")
+                } else {
+                    "off".to_string()
+                }
+            }),
+        ),
     ]
 }
 

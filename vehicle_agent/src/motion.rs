@@ -93,7 +93,7 @@ impl Kinematics {
                 distance: avoid_distance(mission),
                 gain: avoid_gain(mission),
             },
-            estimate_current: v.current_estimate,
+            estimate_current: v.estimates_current(),
             dim: mission.mission.dim,
             dive,
         }))

@@ -278,10 +278,11 @@ pub struct VehiclesSection {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fix_period: Option<f64>,
     /// Glider: estimate the current from the drift found at each fix and dead-reckon with
-    /// it (as real gliders estimate the depth-averaged current); default false: dead
-    /// reckoning with the water velocity alone.
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
-    pub current_estimate: bool,
+    /// it (as real gliders estimate the depth-averaged current); absent = true for the
+    /// glider model ([`VehiclesSection::estimates_current`]); false: dead reckoning with
+    /// the water velocity alone.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub current_estimate: Option<bool>,
     /// Glider, 3-D: z at the bottom of a sawtooth dive (length unit, ≠ 0; positive on a
     /// depth axis pointing down); absent = no dive profile (z is the law's, as before).
     /// The glider's z then follows the profile (readings along the dive), its GPS fix
@@ -292,6 +293,15 @@ pub struct VehiclesSection {
     /// < the largest speed; absent = [`super::motion::DEFAULT_DIVE_RATE`] (0.1 m/s).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dive_rate: Option<f64>,
+}
+
+impl VehiclesSection {
+    /// Whether the vehicles estimate the current at each fix: `current_estimate`, by
+    /// default true for a glider (as real gliders do) and false for the paper's vehicle
+    /// (which always knows where it is).
+    pub fn estimates_current(&self) -> bool {
+        self.current_estimate.unwrap_or(!self.model.is_ideal())
+    }
 }
 
 impl Default for VehiclesSection {
@@ -306,7 +316,7 @@ impl Default for VehiclesSection {
             max_accel: None,
             max_turn_rate: None,
             fix_period: None,
-            current_estimate: false,
+            current_estimate: None,
             dive_depth: None,
             dive_rate: None,
         }

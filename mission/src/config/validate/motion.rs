@@ -24,7 +24,7 @@ pub(super) fn model(c: &Check, v: &VehiclesSection) -> Checked {
         }
     }
     c.ensure(
-        !v.current_estimate || !v.model.is_ideal(),
+        v.current_estimate != Some(true) || !v.model.is_ideal(),
         "vehicles.current_estimate",
         "true",
         "only used by vehicles.model = \"glider\"; remove it or set the model",
