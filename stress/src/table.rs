@@ -242,6 +242,11 @@ impl Table {
         }
     }
 
+    /// The campaign's `--set`s joined as `A=1 --set B=2` (None without any).
+    fn sets_joined(&self) -> Option<String> {
+        (!self.sets.is_empty()).then(|| self.sets.join(" --set "))
+    }
+
     /// The table as plain text (what `vbap stress` prints).
     pub fn text(&self) -> String {
         let mut s = String::new();
@@ -252,11 +257,8 @@ impl Table {
             self.seed,
             self.laws.join(", "),
             self.v_bound,
-            if self.sets.is_empty() {
-                String::new()
-            } else {
-                format!(", --set {}", self.sets.join(" --set "))
-            }
+            self.sets_joined()
+                .map_or(String::new(), |j| format!(", --set {j}"))
         );
         let _ = writeln!(s, "pass overall: {}", self.overall.text());
         for (l, c) in self.laws.iter().zip(&self.by_law) {
@@ -317,11 +319,8 @@ impl Table {
             self.seed,
             self.laws.join(", "),
             self.v_bound,
-            if self.sets.is_empty() {
-                String::new()
-            } else {
-                format!("; `--set {}`", self.sets.join(" --set "))
-            }
+            self.sets_joined()
+                .map_or(String::new(), |j| format!("; `--set {j}`"))
         );
         let _ = writeln!(s, "| | pass |\n|---|---|");
         let _ = writeln!(s, "| overall | {} |", self.overall.text());
