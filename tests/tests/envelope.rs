@@ -31,7 +31,7 @@ fn lossy_kill_holds_its_formation_when_one_key_moves() {
         &["links.delay=1.0"],
     ];
     for (i, sets) in rows.iter().enumerate() {
-        let s = sim(sets, &tmp.join(format!("row{i}")));
+        let s = sim(sets, &tmp.join(&format!("row{i}")));
         let f = &s["formation"];
         let v = f["max_V_true_over_VU"].as_f64().unwrap();
         assert_eq!(s["converged"], true, "{sets:?}: {s:#}");
