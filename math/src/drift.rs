@@ -257,7 +257,8 @@ impl DriftEstimator {
         }
         let inv = hb.try_inverse()?;
         let step = planar(inv * planar(s.grad, dim), dim);
-        if !(step.norm() <= self.params.reach) {
+        let reach = step.norm();
+        if reach.is_nan() || reach > self.params.reach {
             return None;
         }
         let cov = inv * planar_cov(&s.grad_cov, dim) * inv.transpose();
