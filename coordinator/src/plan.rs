@@ -46,6 +46,11 @@ pub trait Plan {
     fn restored(&mut self, mission: &Mission) {
         let _ = mission;
     }
+    /// The planner's estimate of the field's drift, length unit/s, and whether it is
+    /// significant (`vbap_math::drift`, (D.3)); None when it makes none (the default).
+    fn drift(&self) -> Option<(vbap_math::Vec3, bool)> {
+        None
+    }
 }
 
 impl Plan for Planner {
@@ -80,6 +85,9 @@ impl Plan for Planner {
     fn restored(&mut self, mission: &Mission) {
         self.attach_land(mission);
     }
+    fn drift(&self) -> Option<(vbap_math::Vec3, bool)> {
+        Planner::drift(self)
+    }
 }
 
 impl<P: Plan + ?Sized> Plan for Box<P> {
@@ -110,6 +118,9 @@ impl<P: Plan + ?Sized> Plan for Box<P> {
     }
     fn law(&self) -> LawKind {
         (**self).law()
+    }
+    fn drift(&self) -> Option<(vbap_math::Vec3, bool)> {
+        (**self).drift()
     }
 }
 

@@ -32,6 +32,7 @@ pub mod bumpless;
 pub mod control;
 pub mod convergence;
 pub mod curvature;
+pub mod drift;
 pub mod envelope;
 pub mod estimate;
 pub mod fit;

@@ -23,6 +23,19 @@ impl Mission {
         Some(Arc::clone(grid) as Arc<dyn crate::land::LandMask>)
     }
 
+    /// True when the mission's field kind lets the field move with time: an `eddy` (it
+    /// drifts at `field.velocity`), a `front` (it moves at `field.speed`) or a gridded field
+    /// with more than one time. Decided from the kind alone (a still eddy, velocity zero,
+    /// still counts): the planner's drift estimate (`body.track_drift`) runs on these only,
+    /// so on every other field it is the paper's planner bit for bit.
+    pub fn field_may_move(&self) -> bool {
+        match self.field.kind {
+            FieldKind::Eddy | FieldKind::Front => true,
+            FieldKind::Grid => self.grid().is_some_and(|g| g.times.len() > 1),
+            _ => false,
+        }
+    }
+
     /// The grid of a `kind = "grid"` field, if loaded.
     pub fn grid(&self) -> Option<&Arc<GridField>> {
         self.field.grid.0.as_ref()

@@ -134,8 +134,9 @@ impl Planner {
         information_confidence(beyond as f64 * dt, self.params.damping)
     }
 
-    /// Tick `k` under a schedule: at a segment boundary the decision (`rates`, `sdot`)
-    /// goes to the far end — its scale rate limited so the planned scale stays within
+    /// Tick `k` under a schedule: at a segment boundary the decision (`rates`, `sdot`, and
+    /// the drift's feed-forward `drift`, length unit/s, added to its velocity) goes to the
+    /// far end — its scale rate limited so the planned scale stays within
     /// [min_scale, max_scale] — and the marks older than the `oldest` report in use are
     /// forgotten. Returns the segment in force now (None without a schedule).
     pub(super) fn commit(
@@ -143,6 +144,7 @@ impl Planner {
         k: u64,
         rates: &BodyRates,
         sdot: f64,
+        drift: Option<Vec3>,
         oldest: u64,
         dt: f64,
     ) -> Option<Segment> {
@@ -161,8 +163,9 @@ impl Planner {
             ((min_scale - end_scale) / span).min(0.0),
             ((max_scale - end_scale) / span).max(0.0),
         );
+        let climb = rates.dr_ds * sdot;
         let decision = Segment {
-            velocity: rates.dr_ds * sdot,
+            velocity: drift.map_or(climb, |d| climb + d),
             scale_rate: rate,
             sdot,
         };

@@ -7,6 +7,7 @@ use std::collections::BTreeMap;
 use vbap_math::adapt::NoiseEstimator;
 use vbap_math::body::{BodyRates, VirtualBody};
 use vbap_math::curvature::CurvatureEstimator;
+use vbap_math::drift::DriftEstimator;
 use vbap_math::formation::{design_regular, FormationDesign, FormationError};
 use vbap_math::kalman::GradientFilter;
 use vbap_math::lyapunov::LyapunovTerms;
@@ -18,6 +19,7 @@ use vbap_mission::config::{CurvatureSource, Goal, LawKind, Mission};
 
 mod commit;
 mod direction;
+mod drift;
 mod estimate;
 mod redesign;
 mod speed;
@@ -104,6 +106,14 @@ pub struct PlannerParams {
     /// [`Planner::attach_land`] gives it back to a restored plan). Wins over `land`.
     #[serde(skip)]
     pub grid_land: vbap_mission::land::LandRef,
+    /// `body.track_drift` in force: the robust law on a field that may move
+    /// (`Mission::field_may_move`); the drift estimate and its feed-forward ([`drift`]).
+    #[serde(default)]
+    pub track_drift: bool,
+    /// The body's speed budget, length unit/s: v0, and for gliders at most
+    /// `Mission::speed_budget` (only the drift's feed-forward is bounded by it).
+    #[serde(default)]
+    pub speed_budget: f64,
 }
 
 fn default_curvature_memory() -> f64 {
@@ -146,6 +156,10 @@ impl PlannerParams {
                 .as_ref()
                 .map(|e| (e.scale_rate_times_k, e.slot_speed / radius)),
             grid_land: vbap_mission::loaded::Loaded(m.land()),
+            track_drift: m.body.track_drift
+                && m.control.law == LawKind::Robust
+                && m.field_may_move(),
+            speed_budget: m.body.v0.min(m.speed_budget().unwrap_or(f64::INFINITY)),
         }
     }
 }
@@ -237,6 +251,9 @@ pub struct Planner {
     /// The online curvature estimate (law robust, `control.curvature = "estimated"`).
     #[serde(default)]
     curvature: Option<CurvatureEstimator>,
+    /// The field's drift estimate (`body.track_drift` in force; None otherwise).
+    #[serde(default)]
+    drift: Option<DriftEstimator>,
 }
 
 impl Planner {
@@ -280,6 +297,7 @@ impl Planner {
             committed,
             settling: false,
             curvature: None,
+            drift: None,
         })
     }
 
@@ -356,6 +374,7 @@ impl Planner {
             &kept[..]
         };
         let (grad_est, estimate_failed) = self.estimate(k, fresh, dt);
+        self.observe_drift(k, dt);
         let p = &self.params;
         let rates = BodyRates {
             dr_ds: direction(
@@ -376,10 +395,12 @@ impl Planner {
             waiting * formation_speed_informed(&terms, p.v0, p.v_u, p.delta, confidence)
         };
         let sdot = self.hold_until_settled(terms.v, sdot);
-        let in_force = self.commit(k, &rates, sdot, oldest, dt);
-        let (sdot_now, velocity) = match in_force {
-            Some(seg) => (seg.sdot, seg.velocity),
-            None => (sdot, rates.dr_ds * sdot),
+        let drift = self.drift_feed_forward(&(rates.dr_ds * sdot), holding);
+        let in_force = self.commit(k, &rates, sdot, drift, oldest, dt);
+        let (sdot_now, velocity) = match (in_force, drift) {
+            (Some(seg), _) => (seg.sdot, seg.velocity),
+            (None, None) => (sdot, rates.dr_ds * sdot),
+            (None, Some(d)) => (sdot, rates.dr_ds * sdot + d),
         };
         let p = &self.params;
 
@@ -404,7 +425,7 @@ impl Planner {
         self.last_velocity = command.velocity;
         let next = match in_force {
             Some(seg) => self.advanced_committed(&seg, dt),
-            None => self.advanced(&rates, sdot * dt),
+            None => self.advanced(&rates, sdot * dt, drift.map(|d| d * dt)),
         };
         self.body = self.off_land(next);
         Ok(command)
@@ -437,11 +458,15 @@ impl Planner {
         self.params.grid_land = vbap_mission::loaded::Loaded(mission.land());
     }
 
-    /// The body of the next tick: moved by `ds` along `rates` ((III.4), (V.7)), its scale
-    /// kept within [min_scale, max_scale], its centre in the plane z = 0 in 2-D.
-    fn advanced(&self, rates: &BodyRates, ds: f64) -> VirtualBody {
+    /// The body of the next tick: moved by `ds` along `rates` ((III.4), (V.7)) and by
+    /// `carried` (the drift's feed-forward over the tick, length unit), its scale kept
+    /// within [min_scale, max_scale], its centre in the plane z = 0 in 2-D.
+    fn advanced(&self, rates: &BodyRates, ds: f64, carried: Option<Vec3>) -> VirtualBody {
         let p = &self.params;
         let mut next = self.body.advance(rates, ds);
+        if let Some(c) = carried {
+            next.r += c;
+        }
         next.scale = next.scale.clamp(p.min_scale, p.max_scale);
         if p.dim == 2 {
             next.r.z = 0.0;

@@ -58,6 +58,27 @@ pub struct RecorderStats {
     /// Whether the last tick's scale was held (for the `scale_held` event).
     #[serde(default)]
     pub was_scale_held: bool,
+    /// The body's distance from the optimum over the last quarter of the planned ticks
+    /// (the tracking rule of the verdict, `truth::verdict`).
+    #[serde(default)]
+    pub tail: TailStats,
+    /// The optimum at the first tick, and whether it has moved since (by more than 1e-9
+    /// of the tolerance): a moving field's optimum is tracked, not converged to.
+    #[serde(default)]
+    pub first_optimum: Option<Vec3>,
+    #[serde(default)]
+    pub optimum_moved: bool,
+}
+
+/// The body's distance from the optimum over the last quarter of a run, length unit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TailStats {
+    /// Mission time of the first tick counted, s.
+    pub from_t: Option<f64>,
+    /// Ticks counted, their summed and largest distance.
+    pub ticks: u64,
+    pub sum: f64,
+    pub max: f64,
 }
 
 /// Records ticks, accumulates the figures of `summary.json`.
@@ -102,6 +123,9 @@ impl Recorder {
             truth: TruthStats::new(mission),
             scale_held_ticks: 0,
             was_scale_held: false,
+            tail: TailStats::default(),
+            first_optimum: None,
+            optimum_moved: false,
         };
         Self::resume_with(mission, dir, stats, field)
     }
@@ -323,6 +347,19 @@ impl Recorder {
             .max_v_over_vu
             .max(command.terms.v / self.mission.body.v_u);
         if let Some(opt) = self.optimum(t) {
+            let first = *self.stats.first_optimum.get_or_insert(opt);
+            if (opt - first).norm() > 1e-9 * self.mission.mission.tolerance {
+                self.stats.optimum_moved = true;
+            }
+            // The last quarter of the planned ticks.
+            if 4 * k >= 3 * self.mission.ticks() {
+                let d = (b.r - opt).norm();
+                let tail = &mut self.stats.tail;
+                tail.from_t.get_or_insert(t);
+                tail.ticks += 1;
+                tail.sum += d;
+                tail.max = tail.max.max(d);
+            }
             if (b.r - opt).norm() <= self.mission.mission.tolerance {
                 if !self.stats.ever_inside {
                     self.stats.ever_inside = true;

@@ -6,7 +6,7 @@ use vbap_mission::rundir::Summary;
 
 use super::Recorder;
 use crate::plan::Plan;
-use crate::truth::{self, BodyOutcome};
+use crate::truth::{self, BodyOutcome, Tracking};
 
 impl Recorder {
     /// The mission figures of `summary.json` (message counts, latency and wall time are
@@ -17,6 +17,19 @@ impl Recorder {
         let r = self.stats.last_r;
         let optimum = self.optimum(t);
         let distance = optimum.map(|o| (r - o).norm());
+        let dt = m.mission.dt;
+        let tail = &self.stats.tail;
+        let moving = match (optimum, self.optimum(t - dt)) {
+            (Some(now), Some(before)) if self.stats.optimum_moved => Some(Tracking {
+                from_t: tail.from_t.unwrap_or(t),
+                ticks: tail.ticks,
+                mean_lag: tail.sum / tail.ticks.max(1) as f64,
+                max_lag: tail.max,
+                true_drift: (now - before) / dt,
+                estimated: planner.drift(),
+            }),
+            _ => None,
+        };
         let (verdict, mut reasons) = truth::verdict(
             &self.stats.truth,
             &BodyOutcome {
@@ -27,6 +40,7 @@ impl Recorder {
                 t,
                 unit: m.mission.length_unit.clone(),
                 local_optima: m.grid().map_or(0, |g| g.local_optima(m.mission.goal)),
+                moving,
             },
         );
         // Converged: the body within tolerance AND every live vehicle in formation.

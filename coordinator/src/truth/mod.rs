@@ -37,7 +37,7 @@ mod verdict;
 use running::At;
 use slots::Scene;
 pub use summary::summary;
-pub use verdict::{choose, verdict, BodyOutcome, Facts};
+pub use verdict::{choose, verdict, BodyOutcome, Facts, Tracking};
 
 /// ṡ below this fraction of v0 counts as slow (a stall once it lasts).
 pub const STALL_FRACTION: f64 = 0.1;
@@ -244,9 +244,13 @@ fn true_lyapunov(
 }
 
 /// True for the verdicts that mean converged: the body within tolerance of the optimum AND
-/// every live vehicle in formation at the end ([`verdict`]).
+/// every live vehicle in formation at the end ([`verdict`]); for a moving optimum, tracked
+/// over the last quarter of the run.
 pub fn is_converged(verdict: &str) -> bool {
-    verdict == "converged" || verdict == "converged, near collisions"
+    matches!(
+        verdict,
+        "converged" | "converged, near collisions" | "tracking" | "tracking, near collisions"
+    )
 }
 
 /// A figure for a sentence: 4 significant digits (exponent form below 1e-3 and from 1e6).

@@ -2,6 +2,7 @@
 //! summary.
 
 use vbap_math::fit::{IN_FORMATION, NEAR_COLLISION};
+use vbap_math::Vec3;
 use vbap_mission::rundir::FormationSummary;
 
 use super::summary::summary;
@@ -22,6 +23,26 @@ pub struct BodyOutcome {
     /// The number of local optima of the goal's kind when the field has several (a gridded
     /// field), else 0.
     pub local_optima: usize,
+    /// When the field's optimum moved during the run: how the body followed it.
+    pub moving: Option<Tracking>,
+}
+
+/// How the body followed a moving optimum (lengths in the length unit, velocities in
+/// length unit/s).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tracking {
+    /// Mission time from which the last quarter of the planned ticks was counted, s.
+    pub from_t: f64,
+    /// Ticks of the last quarter counted, the mean and the largest distance of the body
+    /// centre from the optimum over them (the lag).
+    pub ticks: u64,
+    pub mean_lag: f64,
+    pub max_lag: f64,
+    /// The optimum's velocity over the last tick (the truth).
+    pub true_drift: Vec3,
+    /// The planner's estimate of the drift and whether it was significant (None: the
+    /// planner makes none: `body.track_drift = false`, the paper's law, a still kind).
+    pub estimated: Option<(Vec3, bool)>,
 }
 
 /// The facts a verdict is chosen from.
@@ -44,10 +65,17 @@ pub struct Facts {
     /// The field has several local optima of the goal's kind (beyond the paper: a gridded
     /// field), so a stall away from the global one is a stop at a local one.
     pub several_optima: bool,
+    /// The optimum moved during the run, and the body was within the tolerance of it at
+    /// every tick of the last quarter of the run.
+    pub moving: bool,
+    pub tracked: bool,
 }
 
 /// The verdict and its reasons. In order:
 /// - `interrupted`: fewer ticks recorded than planned (Ctrl-C, SIGTERM, a stop);
+/// - `tracking` (`, near collisions`, `, formation broken` as below): the optimum moves,
+///   and the body centre was within tolerance of it at the end and at every tick of the
+///   last quarter of the planned run (ticks k ≥ ¾ of them);
 /// - `converged`: body within tolerance of the optimum and every live vehicle in formation;
 /// - `converged, near collisions`: the same, but two vehicles came closer than
 ///   [`NEAR_COLLISION`] spacing at some tick (a collision, at sea): still converged;
@@ -78,6 +106,11 @@ pub fn verdict(stats: &TruthStats, body: &BodyOutcome) -> (String, Vec<String>) 
             _ => false,
         },
         several_optima: body.local_optima > 1,
+        moving: body.moving.is_some(),
+        tracked: body
+            .moving
+            .as_ref()
+            .is_some_and(|m| m.ticks > 0 && m.max_lag <= body.tolerance),
     };
     let mut reasons = Vec::new();
     if facts.interrupted {
@@ -89,6 +122,9 @@ pub fn verdict(stats: &TruthStats, body: &BodyOutcome) -> (String, Vec<String>) 
         ));
     }
     reasons.push(distance_reason(stats, body, &unit));
+    if let Some(m) = &body.moving {
+        reasons.push(tracking_reason(m, body.tolerance, &unit));
+    }
     reasons.push(formation_reason(stats, &f));
     if facts.several_optima && stats.stalled && !facts.within {
         reasons.push(format!(
@@ -113,9 +149,17 @@ pub fn choose(facts: &Facts) -> &'static str {
         stalled,
         diverged,
         several_optima,
+        moving,
+        tracked,
     } = *facts;
     if interrupted {
         "interrupted"
+    } else if moving && tracked && within && !broken && near_collisions {
+        "tracking, near collisions"
+    } else if moving && tracked && within && !broken {
+        "tracking"
+    } else if moving && tracked && within {
+        "tracking, formation broken"
     } else if !has_optimum {
         if broken {
             "formation broken"
@@ -161,6 +205,33 @@ fn distance_reason(stats: &TruthStats, body: &BodyOutcome, unit: &str) -> String
         ),
         None => "the field has no optimum to converge to".into(),
     }
+}
+
+/// How the body followed the moving optimum: its lag over the last quarter against the
+/// tolerance, and the drift the planner estimated against the optimum's true velocity.
+fn tracking_reason(m: &Tracking, tolerance: f64, unit: &str) -> String {
+    let v = |x: &Vec3| format!("({}, {}, {})", fmt(x.x), fmt(x.y), fmt(x.z));
+    let estimated = match &m.estimated {
+        Some((e, true)) => format!("estimated {}", v(e)),
+        Some((e, false)) => format!("estimated {} (not significant, not fed forward)", v(e)),
+        None => "not estimated (body.track_drift off, or the paper's law)".into(),
+    };
+    format!(
+        "the optimum moves at {}{unit}/s: over the last quarter (from t = {} s) the body \
+         centre lagged {}{unit} on average behind it (at most {}{unit}; {} the tolerance \
+         {}{unit}); drift {estimated}, true {}{unit}/s",
+        fmt(m.true_drift.norm()),
+        fmt(m.from_t),
+        fmt(m.mean_lag),
+        fmt(m.max_lag),
+        if m.max_lag <= tolerance {
+            "within"
+        } else {
+            "outside"
+        },
+        fmt(tolerance),
+        v(&m.true_drift)
+    )
 }
 
 /// Whether every live vehicle ended in formation (within [`IN_FORMATION`] spacing of a
@@ -364,7 +435,52 @@ mod tests {
             t: 5.0,
             unit: "m".into(),
             local_optima: 0,
+            moving: None,
         }
+    }
+
+    #[test]
+    fn a_moving_optimum_tracked_over_the_last_quarter_is_tracking() {
+        let c = Facts {
+            moving: true,
+            tracked: true,
+            ..converged()
+        };
+        assert_eq!(choose(&c), "tracking");
+        let f = |g: fn(&mut Facts)| {
+            let mut x = c;
+            g(&mut x);
+            choose(&x)
+        };
+        assert_eq!(f(|x| x.near_collisions = true), "tracking, near collisions");
+        assert_eq!(f(|x| x.broken = true), "tracking, formation broken");
+        // Within at the end but not over the whole last quarter: the rules of a still field.
+        assert_eq!(f(|x| x.tracked = false), "converged");
+        assert_eq!(
+            f(|x| {
+                x.tracked = false;
+                x.within = false
+            }),
+            "not converged"
+        );
+        assert!(crate::truth::is_converged("tracking"));
+        let mut b = body(Some(0.5), 100);
+        b.moving = Some(Tracking {
+            from_t: 3.75,
+            ticks: 25,
+            mean_lag: 0.25,
+            max_lag: 0.5,
+            true_drift: Vec3::new(0.3, 0.4, 0.0),
+            estimated: Some((Vec3::new(0.29, 0.41, 0.0), true)),
+        });
+        let (v, reasons) = verdict(&stats(&[Some(0.1)]), &b);
+        assert_eq!(v, "tracking");
+        assert_eq!(
+            reasons[1],
+            "the optimum moves at 0.5000 m/s: over the last quarter (from t = 3.750 s) the body \
+             centre lagged 0.2500 m on average behind it (at most 0.5000 m; within the tolerance \
+             1.000 m); drift estimated (0.2900, 0.4100, 0), true (0.3000, 0.4000, 0) m/s"
+        );
     }
 
     #[test]

@@ -374,6 +374,11 @@ pub struct BodySection {
     pub delta: f64,
     /// dr/ds = ±∇T_est / max(‖∇T_est‖, grad_saturation) (field unit per length unit), > 0.
     pub grad_saturation: f64,
+    /// Beyond the paper: under `control.law = "robust"`, on a field that may move
+    /// ([`crate::config::Mission::field_may_move`]), estimate the field's drift from the
+    /// planner's own estimates (`vbap_math::drift`) and add it to the body's velocity once
+    /// it is significant, so a moving optimum is tracked rather than trailed. Default true.
+    pub track_drift: bool,
 }
 
 impl Default for BodySection {
@@ -383,6 +388,7 @@ impl Default for BodySection {
             v_u: 1.0,
             delta: 0.01,
             grad_saturation: 1.0,
+            track_drift: true,
         }
     }
 }

@@ -78,6 +78,7 @@ const BAD: &[(&str, &str)] = &[
     ("[vehicles]\ndamping = 0", "vehicles.damping"),
     ("[formation]\nradius = 0", "formation.radius"),
     ("[formation]\nadapt = \"yes\"", "formation.adapt"),
+    ("[body]\ntrack_drift = 1", "body.track_drift"),
     ("[formation]\nadapt_gain = 0", "formation.adapt_gain"),
     ("[formation]\nadapt_gain = -1\nadapt = false", "formation.adapt_gain"),
     ("[formation]\nalpha = -1", "formation.alpha"),
