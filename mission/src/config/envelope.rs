@@ -221,14 +221,18 @@ impl Mission {
                 num(self.formation.radius),
                 format!(
                     "the formation cannot be held over these links ({links}): {}; raise \
-                     formation.radius or vehicles.damping, lower formation.alpha, or set \
-                     mission.allow_unstable = true to fly it anyway",
+                     formation.radius or vehicles.damping, lower formation.alpha or \
+                     mission.dt, or set mission.allow_unstable = true to fly it anyway",
                     if env.empty {
                         "no scale up to formation.max_scale is held".to_string()
                     } else {
                         format!(
-                            "the smallest scale held is k = {} > 1",
-                            num(round3(env.min_scale))
+                            "the smallest scale held is k = {} > 1 (set by {})",
+                            num(round3(env.min_scale)),
+                            match env.limit {
+                                ScaleLimit::Links => "the links",
+                                _ => "mission.dt: √μ_max·dt ≤ 1",
+                            }
                         )
                     }
                 ),

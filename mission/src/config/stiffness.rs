@@ -12,8 +12,10 @@ pub struct Stiffness {
     pub omega_dt: f64,
     /// vehicles.damping · mission.dt.
     pub damping_dt: f64,
-    /// Neighbour spacing at formation.min_scale (length unit).
+    /// Neighbour spacing at the smallest scale flown (length unit).
     pub spacing: f64,
+    /// The smallest scale flown ([`Mission::held_min_scale`]).
+    pub scale: f64,
 }
 
 impl Stiffness {
@@ -27,7 +29,8 @@ impl Mission {
     /// How stiff the formation is for the time step: ω·dt and damping·dt. The semi-implicit
     /// Euler integration of (II.1) is stable for ω·dt < 2 and damping·dt < 2, and accurate
     /// only well below. ω² ≈ 2 α/d0² + α/h0² (two neighbours and the central leader at their
-    /// equilibrium distances, f'(d0) = α/d0²), at the smallest formation scale. None when the
+    /// equilibrium distances, f'(d0) = α/d0²), at the smallest formation scale flown
+    /// ([`Mission::held_min_scale`]). None when the
     /// formation cannot be designed (validation says why).
     pub fn stiffness(&self) -> Option<Stiffness> {
         let design = vbap_math::formation::design_regular(
@@ -38,7 +41,10 @@ impl Mission {
             self.formation.alpha,
         )
         .ok()?;
-        let k = self.formation.min_scale;
+        // The smallest scale flown: min_scale, or the stability envelope's when the planner
+        // is held to it (robust law over impaired links; docs/ENVELOPE.md), which keeps
+        // the step accurate by construction.
+        let k = self.held_min_scale();
         let (d0, h0) = (design.inter.d0 * k, design.leader.d0 * k);
         let alpha = self.formation.alpha;
         let omega = (2.0 * alpha / (d0 * d0) + alpha / (h0 * h0)).sqrt();
@@ -47,6 +53,7 @@ impl Mission {
             omega_dt: omega * dt,
             damping_dt: self.vehicles.damping * dt,
             spacing: d0,
+            scale: k,
         })
     }
 
@@ -56,11 +63,11 @@ impl Mission {
     pub fn stiffness_warning(&self) -> Option<String> {
         let st = self.stiffness()?;
         let dt = self.mission.dt;
-        let k = self.formation.min_scale;
+        let at = self.smallest_scale_words(&st);
         (st.omega_dt > 1.0 || st.damping_dt > 1.0).then(|| {
             format!(
                 "{}: the formation is stiff for mission.dt = {dt}: ω·dt = {:.2}, damping·dt = {:.2} \
-                 (neighbour spacing {:.4} at formation.min_scale = {k}); above 1 the integration is \
+                 (neighbour spacing {:.4} at {at}); above 1 the integration is \
                  inaccurate, above 2 unstable{}: lower formation.alpha or mission.dt, or raise \
                  formation.radius",
                 self.origin,
@@ -76,11 +83,24 @@ impl Mission {
         })
     }
 
+    /// "formation.min_scale = 0.2", or "the envelope's smallest scale k = 0.34" when the
+    /// planner is held above `min_scale`.
+    fn smallest_scale_words(&self, st: &Stiffness) -> String {
+        if st.scale == self.formation.min_scale {
+            format!("formation.min_scale = {}", num(st.scale))
+        } else {
+            format!(
+                "the envelope's smallest scale k = {} (formation.min_scale = {})",
+                num(st.scale),
+                num(self.formation.min_scale)
+            )
+        }
+    }
+
     /// Refuses a time step that makes the integration unstable, unless
     /// `mission.allow_unstable`.
     pub(super) fn check_stability(&self, c: &Check) -> Checked {
         let m = &self.mission;
-        let fo = &self.formation;
         if let Some(st) = self.stiffness() {
             if !m.allow_unstable && st.unstable() {
                 return Err(c.fail(
@@ -88,13 +108,13 @@ impl Mission {
                     num(m.dt),
                     format!(
                         "unstable: ω·dt = {:.2}, damping·dt = {:.2}; above {UNSTABLE_STEP} the integration of \
-                         (II.1) diverges (neighbour spacing {} at formation.min_scale = {}): lower \
+                         (II.1) diverges (neighbour spacing {} at {}): lower \
                          mission.dt or formation.alpha, raise formation.radius, or set \
                          mission.allow_unstable = true to run it anyway",
                         st.omega_dt,
                         st.damping_dt,
                         num(st.spacing),
-                        num(fo.min_scale)
+                        self.smallest_scale_words(&st)
                     ),
                 ));
             }
