@@ -257,6 +257,42 @@ mod tests {
         }
     }
 
+    /// The envelope's bounds (`vbap_math::envelope`): over impaired links the scale never
+    /// goes below the envelope's floor nor changes faster than its rate bound allows.
+    #[test]
+    fn the_robust_scale_stays_within_the_envelopes_floor_and_rate() {
+        // Tiny noise: adaptation wants the smallest scale. dt = 0.3 s puts the envelope's
+        // step limit above min_scale = 0.1.
+        let m = Mission::from_toml_str(
+            "[mission]\nname = \"t\"\ndt = 0.3\nallow_unstable = true\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\nnoise_std = 0.001\n[vehicles]\ncount = 4\n[formation]\nadapt = true\nmin_scale = 0.1\n[links]\ndelay = 0.5\njitter = 0.2\nloss = 0.1\n[control]\nlaw = \"robust\"\n",
+            "<test>",
+        )
+        .unwrap();
+        let params = PlannerParams::from_mission(&m);
+        let floor = params.min_scale;
+        assert!(floor > 0.1, "the envelope raises the floor: {floor}");
+        let (times_k, speed) = params.scale_rate_bound.expect("a rate bound");
+        let ids = [0, 1, 2, 3];
+        let mut p = Planner::new(params, m.start_vec(), &ids).unwrap();
+        let mut last = p.body().scale;
+        let mut shrank = false;
+        for k in 0..600 {
+            let q = reports(k, 5, p.body().r);
+            let c = p.step(k, &q, &q, &[], 0.3).unwrap();
+            let scale = c.body.scale;
+            assert!(scale >= floor - 1e-12, "tick {k}: {scale} below {floor}");
+            let rate = (scale - last).abs() / 0.3;
+            let bound = (times_k / last.min(scale)).min(speed);
+            assert!(
+                rate <= bound * (1.0 + 1e-9),
+                "tick {k}: |dk/dt| {rate} > {bound}"
+            );
+            shrank |= scale < last;
+            last = scale;
+        }
+        assert!(shrank, "adaptation never shrank the formation");
+    }
+
     #[test]
     fn the_robust_body_moves_only_as_committed_a_horizon_ahead() {
         let m = mission(

@@ -72,7 +72,7 @@ impl Mission {
                 memory: self.control.neighbour_memory,
             },
         };
-        Some(envelope(&EnvelopeInputs {
+        let inputs = EnvelopeInputs {
             design: &design,
             dim,
             damping: self.vehicles.damping,
@@ -82,7 +82,8 @@ impl Mission {
             speed_budget: self.speed_budget(),
             max_scale: fo.max_scale,
             v0: self.body.v0,
-        }))
+        };
+        Some(memo(&inputs))
     }
 
     /// True when the planner is held to the envelope: the robust law over links that are
@@ -251,6 +252,67 @@ impl Mission {
         }
         Ok(())
     }
+}
+
+/// What an envelope is computed from, as bits: the key of [`memo`].
+type MemoKey = Vec<u64>;
+
+fn memo_key(i: &EnvelopeInputs<'_>) -> MemoKey {
+    let mut key: Vec<u64> = vec![i.design.slots.len() as u64, i.dim as u64];
+    let (memory, paper) = match i.law {
+        EnvelopeLaw::Paper => (None, 1),
+        EnvelopeLaw::Robust { memory } => (memory, 0),
+    };
+    key.push(paper);
+    for x in [
+        i.design.inter.alpha,
+        i.design.inter.d0,
+        i.design.inter.d1,
+        i.design.leader.alpha,
+        i.design.leader.d0,
+        i.design.leader.d1,
+        i.damping,
+        i.dt,
+        i.ages.map_or(-1.0, |a| a.0),
+        i.ages.map_or(-1.0, |a| a.1),
+        memory.unwrap_or(-1.0),
+        i.speed_budget.unwrap_or(-1.0),
+        i.max_scale,
+        i.v0,
+    ] {
+        key.push(x.to_bits());
+    }
+    key
+}
+
+thread_local! {
+    /// The envelopes this thread computed last: validation, the planner and the recorder
+    /// of one run all ask for the same one (a few tens of ms each at N = 16).
+    static MEMO: std::cell::RefCell<Vec<(MemoKey, Envelope)>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// [`envelope`] of `inputs`, remembered per thread for the last few inputs (the same
+/// inputs give the same envelope: it is a pure function of them).
+fn memo(inputs: &EnvelopeInputs<'_>) -> Envelope {
+    let key = memo_key(inputs);
+    if let Some(env) = MEMO.with(|m| {
+        m.borrow()
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, e)| e.clone())
+    }) {
+        return env;
+    }
+    let env = envelope(inputs);
+    MEMO.with(|m| {
+        let mut m = m.borrow_mut();
+        if m.len() >= 4 {
+            m.remove(0);
+        }
+        m.push((key, env.clone()));
+    });
+    env
 }
 
 /// `x` to 3 significant digits, for messages.
