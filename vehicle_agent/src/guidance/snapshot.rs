@@ -14,10 +14,11 @@ impl Guidance {
     /// The per-neighbour vectors a law may receive empty
     /// ([`ControlInputs`](crate::ControlInputs)) stay empty when they would hold nothing
     /// else: `neighbour_sigmas` and `neighbour_slots` while no neighbour rejoins (every
-    /// σ_j = 0, every slot its position), `neighbour_ages` while every age is exactly +0 s. Every law reads them with those defaults, so u_i is the
-    /// same bit for bit (test `compact_guidance_flies_as_the_full_one`); the vehicle copies
-    /// two vectors per command instead of five (each agent reads the whole snapshot every
-    /// tick: this copy was its largest cost at N = 1024).
+    /// σ_j = 0, every slot its position), `neighbour_ages` while every age is exactly +0 s.
+    /// Every law reads them with those defaults, so u_i is the same bit for bit (test
+    /// `compact_guidance_flies_as_the_full_one`); the vehicle copies two vectors per command
+    /// instead of five (each agent reads the whole snapshot every tick: this copy was its
+    /// largest cost at N = 1024).
     pub fn with_neighbours(
         self,
         id: u32,
