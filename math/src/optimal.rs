@@ -401,72 +401,21 @@ pub fn optimal_formation_with(
         ));
     }
     let cost = Cost::new(dim, &h, sigma_h, sigma_m, unit);
-
-    // Stretch by (H/h̄)^{-1/2} on the dim block.
-    let block = DMatrix::from_fn(dim, dim, |i, j| h[(i, j)] / hbar);
-    let eig = block.clone().symmetric_eigen();
-    let isotropic = eig.eigenvalues.iter().all(|l| (l - 1.0).abs() < 1e-12);
-    let inv_sqrt = &eig.eigenvectors
-        * DMatrix::from_diagonal(&eig.eigenvalues.map(|l| 1.0 / l.sqrt()))
-        * eig.eigenvectors.transpose();
-    let stretch = |p: &Vec3| {
-        let mut q = Vec3::zeros();
-        for i in 0..dim {
-            for j in 0..dim {
-                q[i] += inv_sqrt[(i, j)] * p[j];
-            }
-        }
-        q
+    let search = Search {
+        n,
+        dim,
+        h,
+        hbar,
+        sigma_h,
+        sigma_m,
+        unit,
+        opts,
     };
-
-    let mut starts: Vec<Vec<Vec3>> = Vec::new();
-    // Regular starts at their optimal physical scale, expressed in the working unit.
-    let push_scaled = |shape: Vec<Vec3>, starts: &mut Vec<Vec<Vec3>>| {
-        let k = optimal_scale(&shape, dim, &h, sigma_h, sigma_m)
-            .map(|(k, _)| k / unit)
-            .unwrap_or(1.0);
-        starts.push(shape.iter().map(|p| p * k).collect());
-    };
-    let regular = regular_shape(n, dim);
-    if opts.regular_starts {
-        push_scaled(regular.clone(), &mut starts);
-    }
-    if opts.regular_starts && !isotropic {
-        push_scaled(regular.iter().map(&stretch).collect(), &mut starts);
-    }
-    if opts.regular_starts && n > dim + 1 {
-        let mut centred = regular_shape(n - 1, dim);
-        centred.push(Vec3::zeros());
-        if !isotropic {
-            push_scaled(centred.iter().map(&stretch).collect(), &mut starts);
-        }
-        push_scaled(centred, &mut starts);
-    }
+    let mut starts = search.regular_starts();
     for k in 0..opts.random_starts {
-        let mut rng = keyed(seed, Stream::FormationSearch, k as u64, 0);
-        let pts: Vec<Vec3> = (0..n)
-            .map(|_| loop {
-                let mut p = Vec3::zeros();
-                for j in 0..dim {
-                    p[j] = rng.random_range(-1.5..1.5);
-                }
-                if p.norm() <= 1.5 {
-                    break p;
-                }
-            })
-            .collect();
-        starts.push(pts);
+        starts.push(search.random_start(seed, k));
     }
-
-    let mut best: Option<(f64, Vec<Vec3>)> = None;
-    for start in &starts {
-        if let Some((g, pos)) = bfgs(&cost, dim, start, opts) {
-            if best.as_ref().is_none_or(|(bg, _)| g < *bg) {
-                best = Some((g, pos));
-            }
-        }
-    }
-    let (_, pos) = best.ok_or(EstimateError::Numerical("every start of the search failed"))?;
+    let pos = search.best_minimum(&cost, &starts)?;
     let positions: Vec<Vec3> = pos.iter().map(|p| project(dim, &(p * unit))).collect();
     let g = super::estimate::expected_error(dim, &positions, &h, sigma_h, sigma_m)?;
     let radius = positions.iter().map(|p| p.norm()).sum::<f64>() / n as f64;
@@ -480,6 +429,114 @@ pub fn optimal_formation_with(
         radius,
         second_moments,
     })
+}
+
+/// Problem (V.7) as the multi-start search of [`optimal_formation_with`] sees it.
+struct Search<'a> {
+    /// Number of vehicles N.
+    n: usize,
+    /// 2 or 3.
+    dim: usize,
+    /// The Hessian H, checked symmetric positive definite on the dim block (field unit per
+    /// length unit²).
+    h: Mat3,
+    /// h̄ = tr H / dim, the mean eigenvalue of H.
+    hbar: f64,
+    /// σ_H (dimensionless).
+    sigma_h: f64,
+    /// σ_M (field unit).
+    sigma_m: f64,
+    /// The natural length unit L of the search (length unit).
+    unit: f64,
+    opts: &'a SearchOptions,
+}
+
+impl Search<'_> {
+    /// The regular starts (when `opts.regular_starts`), each at its optimal physical scale
+    /// expressed in the working unit: the regular shape, stretched by (H/h̄)^{-1/2} unless H
+    /// is isotropic, and (for N > dim + 1) the regular shape of N − 1 with a vehicle at the
+    /// centre, stretched and plain.
+    fn regular_starts(&self) -> Vec<Vec<Vec3>> {
+        let (n, dim, opts) = (self.n, self.dim, self.opts);
+        // Stretch by (H/h̄)^{-1/2} on the dim block.
+        let block = DMatrix::from_fn(dim, dim, |i, j| self.h[(i, j)] / self.hbar);
+        let eig = block.clone().symmetric_eigen();
+        let isotropic = eig.eigenvalues.iter().all(|l| (l - 1.0).abs() < 1e-12);
+        let inv_sqrt = &eig.eigenvectors
+            * DMatrix::from_diagonal(&eig.eigenvalues.map(|l| 1.0 / l.sqrt()))
+            * eig.eigenvectors.transpose();
+        let stretch = |p: &Vec3| stretched(dim, &inv_sqrt, p);
+
+        let mut starts: Vec<Vec<Vec3>> = Vec::new();
+        let regular = regular_shape(n, dim);
+        if opts.regular_starts {
+            starts.push(self.scaled(regular.clone()));
+        }
+        if opts.regular_starts && !isotropic {
+            starts.push(self.scaled(regular.iter().map(&stretch).collect()));
+        }
+        if opts.regular_starts && n > dim + 1 {
+            let mut centred = regular_shape(n - 1, dim);
+            centred.push(Vec3::zeros());
+            if !isotropic {
+                starts.push(self.scaled(centred.iter().map(&stretch).collect()));
+            }
+            starts.push(self.scaled(centred));
+        }
+        starts
+    }
+
+    /// `shape` at its optimal physical scale ([`optimal_scale`]), expressed in the working
+    /// unit (unscaled if it has none).
+    fn scaled(&self, shape: Vec<Vec3>) -> Vec<Vec3> {
+        let k = optimal_scale(&shape, self.dim, &self.h, self.sigma_h, self.sigma_m)
+            .map(|(k, _)| k / self.unit)
+            .unwrap_or(1.0);
+        shape.iter().map(|p| p * k).collect()
+    }
+
+    /// Random start `k`: N points uniform in the ball of radius 1.5 (working unit, by
+    /// rejection), from `keyed(seed, Stream::FormationSearch, k, 0)`.
+    fn random_start(&self, seed: u64, k: usize) -> Vec<Vec3> {
+        let mut rng = keyed(seed, Stream::FormationSearch, k as u64, 0);
+        (0..self.n)
+            .map(|_| loop {
+                let mut p = Vec3::zeros();
+                for j in 0..self.dim {
+                    p[j] = rng.random_range(-1.5..1.5);
+                }
+                if p.norm() <= 1.5 {
+                    break p;
+                }
+            })
+            .collect()
+    }
+
+    /// The lowest local minimum of `cost` that BFGS reaches from `starts` (the first one on
+    /// ties), positions in the working unit.
+    fn best_minimum(&self, cost: &Cost, starts: &[Vec<Vec3>]) -> Result<Vec<Vec3>, EstimateError> {
+        let mut best: Option<(f64, Vec<Vec3>)> = None;
+        for start in starts {
+            if let Some((g, pos)) = bfgs(cost, self.dim, start, self.opts) {
+                if best.as_ref().is_none_or(|(bg, _)| g < *bg) {
+                    best = Some((g, pos));
+                }
+            }
+        }
+        let (_, pos) = best.ok_or(EstimateError::Numerical("every start of the search failed"))?;
+        Ok(pos)
+    }
+}
+
+/// `inv_sqrt` (dim × dim) applied to the dim block of `p`; zero elsewhere.
+fn stretched(dim: usize, inv_sqrt: &DMatrix<f64>, p: &Vec3) -> Vec3 {
+    let mut q = Vec3::zeros();
+    for i in 0..dim {
+        for j in 0..dim {
+            q[i] += inv_sqrt[(i, j)] * p[j];
+        }
+    }
+    q
 }
 
 /// The eight vertices (±1, ±1, ±1) of the cube, in a fixed order.

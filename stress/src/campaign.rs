@@ -415,25 +415,10 @@ fn run_job(config: &Config, grid: &Path, job: &Job<'_>, flyer: Flyer<'_>) -> Res
 
 /// Runs (or resumes) the campaign `config`, flying each mission with `flyer`.
 pub fn run(config: &Config, flyer: Flyer<'_>) -> Result<Outcome> {
-    if config.laws.is_empty() || config.jobs == 0 || config.missions == 0 {
-        return Err(BadInput("--missions, --jobs and the laws must not be empty".into()).into());
-    }
-    if !(config.v_bound > 0.0 && config.v_bound.is_finite()) {
-        return Err(BadInput(format!("--v-bound {}: must be > 0", config.v_bound)).into());
-    }
+    check_config(config)?;
     let plan = Plan::of(config);
     let resumed = check_plan(&config.out, &plan)?;
-    std::fs::create_dir_all(&config.out)
-        .map_err(|e| BadInput(format!("--out {}: {e}", config.out.display())))?;
-    let out = std::fs::canonicalize(&config.out)
-        .with_context(|| format!("--out {}", config.out.display()))?;
-    let grid = out.join(GRID_FILE);
-    if !grid.exists() {
-        let tmp = out.join(".grid.nc.tmp");
-        write_grid(&tmp)
-            .and_then(|()| std::fs::rename(&tmp, &grid))
-            .with_context(|| format!("writing {}", grid.display()))?;
-    }
+    let (out, grid) = prepare_out(&config.out)?;
     let config = Config {
         out: out.clone(),
         ..config.clone()
@@ -455,83 +440,10 @@ pub fn run(config: &Config, flyer: Flyer<'_>) -> Result<Outcome> {
     if !resumed {
         write_plan(&out, &plan)?;
     }
-    let done: BTreeSet<(u64, String)> = read_results(&out)
-        .into_iter()
-        .map(|r| (r.mission, r.law))
-        .collect();
-    let jobs: Vec<Job<'_>> = sampled
-        .iter()
-        .flat_map(|s| config.laws.iter().map(move |l| (s, l)))
-        .filter(|(s, l)| !done.contains(&(s.draw.index, l.to_string())))
-        .map(|(s, l)| Job {
-            sampled: s,
-            law: l.as_str(),
-        })
-        .collect();
-    let results_path = out.join(RESULTS_FILE);
-    let mut file = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .read(true)
-        .open(&results_path)
-        .with_context(|| format!("opening {}", results_path.display()))?;
-    // A torn last line (an interrupted campaign) must not swallow the next one.
-    let existing = std::fs::read(&results_path).unwrap_or_default();
-    if existing.last().is_some_and(|b| *b != b'\n') {
-        file.write_all(b"\n")?;
-    }
-    let file = Mutex::new(file);
-    let next = AtomicUsize::new(0);
-    let finished = AtomicUsize::new(0);
+    let jobs = pending_jobs(&sampled, &config.laws, &out);
     let total = jobs.len();
-    let errors: Mutex<Vec<String>> = Mutex::new(Vec::new());
-    std::thread::scope(|scope| {
-        for _ in 0..config.jobs.min(total.max(1)) {
-            scope.spawn(|| loop {
-                let k = next.fetch_add(1, Ordering::Relaxed);
-                let Some(job) = jobs.get(k) else { break };
-                match run_job(&config, &grid, job, flyer) {
-                    Ok(r) => {
-                        let line = match serde_json::to_string(&r) {
-                            Ok(l) => l + "\n",
-                            Err(e) => {
-                                if let Ok(mut errs) = errors.lock() {
-                                    errs.push(e.to_string());
-                                }
-                                continue;
-                            }
-                        };
-                        if let Ok(mut f) = file.lock() {
-                            if let Err(e) = f.write_all(line.as_bytes()).and_then(|()| f.flush()) {
-                                if let Ok(mut errs) = errors.lock() {
-                                    errs.push(format!("{}: {e}", results_path.display()));
-                                }
-                            }
-                        }
-                        let n = finished.fetch_add(1, Ordering::Relaxed) + 1;
-                        if config.verbose {
-                            eprintln!(
-                                "[{n}/{total}] {} {}{}",
-                                flight_name(r.mission, &r.law),
-                                if r.pass { "pass" } else { "FAIL " },
-                                if r.pass {
-                                    String::new()
-                                } else {
-                                    format!("{}: {}", r.judgement.failed.join(","), r.judgement.why)
-                                }
-                            );
-                        }
-                    }
-                    Err(e) => {
-                        if let Ok(mut errs) = errors.lock() {
-                            errs.push(format!("{e:#}"));
-                        }
-                    }
-                }
-            });
-        }
-    });
-    let errors = errors.into_inner().unwrap_or_default();
+    let ledger = Ledger::open(out.join(RESULTS_FILE), total, config.verbose)?;
+    let errors = fly_jobs(&config, &grid, &jobs, flyer, ledger);
     if let Some(first) = errors.first() {
         anyhow::bail!(
             "{} flights could not be recorded; the first: {first}",
@@ -540,13 +452,180 @@ pub fn run(config: &Config, flyer: Flyer<'_>) -> Result<Outcome> {
     }
     let _ = std::fs::remove_dir(out.join("shrinking"));
     let _ = std::fs::remove_dir(out.join("runs"));
-    // The table is made from the results file alone, so a resumed campaign gives the same.
+    let (results, table) = tabulate(&out, &plan, &sampled, &config.laws)?;
+    Ok(Outcome {
+        results,
+        table,
+        flown: total,
+    })
+}
+
+/// Refuses a campaign without missions, jobs or laws, or with a speed bound that is not
+/// finite and > 0.
+fn check_config(config: &Config) -> Result<()> {
+    if config.laws.is_empty() || config.jobs == 0 || config.missions == 0 {
+        return Err(BadInput("--missions, --jobs and the laws must not be empty".into()).into());
+    }
+    if !(config.v_bound > 0.0 && config.v_bound.is_finite()) {
+        return Err(BadInput(format!("--v-bound {}: must be > 0", config.v_bound)).into());
+    }
+    Ok(())
+}
+
+/// Creates the campaign directory `out` and its grid file (once): returns the directory,
+/// canonical, and the grid file's path.
+fn prepare_out(out: &Path) -> Result<(PathBuf, PathBuf)> {
+    std::fs::create_dir_all(out).map_err(|e| BadInput(format!("--out {}: {e}", out.display())))?;
+    let out = std::fs::canonicalize(out).with_context(|| format!("--out {}", out.display()))?;
+    let grid = out.join(GRID_FILE);
+    if !grid.exists() {
+        let tmp = out.join(".grid.nc.tmp");
+        write_grid(&tmp)
+            .and_then(|()| std::fs::rename(&tmp, &grid))
+            .with_context(|| format!("writing {}", grid.display()))?;
+    }
+    Ok((out, grid))
+}
+
+/// The flights of `sampled` under each of `laws` that `out`'s results file has no whole
+/// line of yet, in (mission, law) order.
+fn pending_jobs<'a>(sampled: &'a [Sampled], laws: &'a [String], out: &Path) -> Vec<Job<'a>> {
+    let done: BTreeSet<(u64, String)> = read_results(out)
+        .into_iter()
+        .map(|r| (r.mission, r.law))
+        .collect();
+    sampled
+        .iter()
+        .flat_map(|s| laws.iter().map(move |l| (s, l)))
+        .filter(|(s, l)| !done.contains(&(s.draw.index, l.to_string())))
+        .map(|(s, l)| Job {
+            sampled: s,
+            law: l.as_str(),
+        })
+        .collect()
+}
+
+/// The results file as the worker threads share it: result lines appended as flights end,
+/// the errors met on the way, the progress count.
+struct Ledger {
+    /// `OUT/results.jsonl`.
+    path: PathBuf,
+    file: Mutex<std::fs::File>,
+    errors: Mutex<Vec<String>>,
+    finished: AtomicUsize,
+    /// Flights to fly now.
+    total: usize,
+    /// Print a line per finished flight.
+    verbose: bool,
+}
+
+impl Ledger {
+    /// Opens the results file `path` to append (created if absent); a torn last line (an
+    /// interrupted campaign) is ended first so that it does not swallow the next one.
+    fn open(path: PathBuf, total: usize, verbose: bool) -> Result<Ledger> {
+        let mut file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .read(true)
+            .open(&path)
+            .with_context(|| format!("opening {}", path.display()))?;
+        let existing = std::fs::read(&path).unwrap_or_default();
+        if existing.last().is_some_and(|b| *b != b'\n') {
+            file.write_all(b"\n")?;
+        }
+        Ok(Ledger {
+            path,
+            file: Mutex::new(file),
+            errors: Mutex::new(Vec::new()),
+            finished: AtomicUsize::new(0),
+            total,
+            verbose,
+        })
+    }
+
+    /// Keeps `error` for the end of the campaign.
+    fn error(&self, error: String) {
+        if let Ok(mut errs) = self.errors.lock() {
+            errs.push(error);
+        }
+    }
+
+    /// Appends the line of `r` (and counts and shows it).
+    fn record(&self, r: &FlightResult) {
+        let line = match serde_json::to_string(r) {
+            Ok(l) => l + "\n",
+            Err(e) => {
+                self.error(e.to_string());
+                return;
+            }
+        };
+        if let Ok(mut f) = self.file.lock() {
+            if let Err(e) = f.write_all(line.as_bytes()).and_then(|()| f.flush()) {
+                self.error(format!("{}: {e}", self.path.display()));
+            }
+        }
+        let n = self.finished.fetch_add(1, Ordering::Relaxed) + 1;
+        if self.verbose {
+            eprintln!(
+                "[{n}/{}] {} {}{}",
+                self.total,
+                flight_name(r.mission, &r.law),
+                if r.pass { "pass" } else { "FAIL " },
+                if r.pass {
+                    String::new()
+                } else {
+                    format!("{}: {}", r.judgement.failed.join(","), r.judgement.why)
+                }
+            );
+        }
+    }
+
+    /// The errors kept.
+    fn into_errors(self) -> Vec<String> {
+        self.errors.into_inner().unwrap_or_default()
+    }
+}
+
+/// Flies `jobs` on `config.jobs` worker threads, each taking the next job not taken yet,
+/// recording each result in `ledger`; returns the errors met.
+fn fly_jobs(
+    config: &Config,
+    grid: &Path,
+    jobs: &[Job<'_>],
+    flyer: Flyer<'_>,
+    ledger: Ledger,
+) -> Vec<String> {
+    let next = AtomicUsize::new(0);
+    std::thread::scope(|scope| {
+        for _ in 0..config.jobs.min(jobs.len().max(1)) {
+            scope.spawn(|| loop {
+                let k = next.fetch_add(1, Ordering::Relaxed);
+                let Some(job) = jobs.get(k) else { break };
+                match run_job(config, grid, job, flyer) {
+                    Ok(r) => ledger.record(&r),
+                    Err(e) => ledger.error(format!("{e:#}")),
+                }
+            });
+        }
+    });
+    ledger.into_errors()
+}
+
+/// The table of the campaign in `out`, made from its results file alone (so a resumed
+/// campaign gives the same), written to `stress.json` and `stress.md`; with the results of
+/// the planned flights (`sampled` under each of `laws`), ordered by (mission, law).
+fn tabulate(
+    out: &Path,
+    plan: &Plan,
+    sampled: &[Sampled],
+    laws: &[String],
+) -> Result<(Vec<FlightResult>, Table)> {
     let wanted: BTreeSet<(u64, String)> = sampled
         .iter()
-        .flat_map(|s| config.laws.iter().map(move |l| (s.draw.index, l.clone())))
+        .flat_map(|s| laws.iter().map(move |l| (s.draw.index, l.clone())))
         .collect();
     let mut by_flight: BTreeMap<(u64, String), FlightResult> = BTreeMap::new();
-    for r in read_results(&out) {
+    for r in read_results(out) {
         let key = (r.mission, r.law.clone());
         if wanted.contains(&key) {
             by_flight.entry(key).or_insert(r);
@@ -554,20 +633,16 @@ pub fn run(config: &Config, flyer: Flyer<'_>) -> Result<Outcome> {
     }
     let results: Vec<FlightResult> = by_flight.into_values().collect();
     let mut redraws: BTreeMap<String, usize> = BTreeMap::new();
-    for s in &sampled {
+    for s in sampled {
         for k in &s.redraws {
             *redraws.entry(k.clone()).or_default() += 1;
         }
     }
-    let table = Table::of(&plan, &results, redraws);
+    let table = Table::of(plan, &results, redraws);
     write_atomic(
         &out.join("stress.json"),
         &(serde_json::to_string_pretty(&table)? + "\n"),
     )?;
     write_atomic(&out.join("stress.md"), &table.markdown())?;
-    Ok(Outcome {
-        results,
-        table,
-        flown: total,
-    })
+    Ok((results, table))
 }

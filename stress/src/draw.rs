@@ -5,6 +5,7 @@
 //! and renders it again, so an original and its shrunk mission differ only where a
 //! simplification applied.
 
+use std::fmt::Write;
 use std::path::Path;
 
 use rand::{Rng, SeedableRng};
@@ -410,24 +411,20 @@ impl Draw {
     /// The mission file of this draw flying `law`; `grid`: the campaign's grid file
     /// (absolute, for `field.kind = "grid"`).
     pub fn toml(&self, law: &str, grid: &Path) -> String {
-        use std::fmt::Write;
-        let v = |x: &[f64]| {
-            let items: Vec<String> = x.iter().map(|a| format!("{a:?}")).collect();
-            format!("[{}]", items.join(", "))
-        };
-        let m = |x: &[Vec<f64>]| {
-            let rows: Vec<String> = x.iter().map(|r| v(r)).collect();
-            format!("[{}]", rows.join(", "))
-        };
-        let f = &self.field;
-        let noise = self.noise_fraction * f.range;
-        let radius = self.radius();
-        // V of (II.2) sums a potential over every pair: V_U per pair as the paper's (10 at
-        // N = 4, α = 60), plus the cruise's kinetic energy. Theorem 4.1 needs V(0) ≤ V_U; α/6
-        // alone put V(0) up to 3.8 V_U at N ≥ 13 (start_spread 0.2 L).
-        let pairs = (self.n * (self.n - 1)) as f64 / 2.0;
-        let v_u = self.alpha / 6.0 * pairs / 6.0 + self.n as f64 * self.v0 * self.v0;
         let mut s = String::new();
+        self.write_mission(&mut s, law);
+        self.write_field(&mut s, grid);
+        self.write_vehicles(&mut s);
+        self.write_formation(&mut s);
+        self.write_body_and_estimator(&mut s);
+        self.write_links(&mut s);
+        self.write_control_and_faults(&mut s, law);
+        s
+    }
+
+    /// The header comment and the `[mission]` section.
+    fn write_mission(&self, s: &mut String, law: &str) {
+        let f = &self.field;
         let _ = writeln!(
             s,
             "# vbap stress: mission {} ({} field, N = {}, dim {}), law {law}",
@@ -441,6 +438,12 @@ impl Draw {
         let _ = writeln!(s, "goal = \"{}\"", f.goal);
         let _ = writeln!(s, "dim = {}", self.dim);
         let _ = writeln!(s, "tolerance = 1.0");
+    }
+
+    /// The `[field]` section and its bumps; `grid`: the campaign's grid file.
+    fn write_field(&self, s: &mut String, grid: &Path) {
+        let f = &self.field;
+        let noise = self.noise_fraction * f.range;
         let _ = writeln!(s, "\n[field]");
         let _ = writeln!(s, "kind = \"{}\"", f.kind);
         if f.kind == "grid" {
@@ -448,30 +451,38 @@ impl Draw {
             let _ = writeln!(s, "variable = \"value\"");
         }
         if !f.center.is_empty() {
-            let _ = writeln!(s, "center = {}", v(&f.center));
+            let _ = writeln!(s, "center = {}", toml_vector(&f.center));
         }
         if f.kind != "grid" && f.kind != "gaussian_sum" && f.kind != "quadratic" {
             let _ = writeln!(s, "amplitude = {:?}", f.amplitude);
             let _ = writeln!(s, "width = {:?}", f.width);
         }
         if !f.hessian.is_empty() {
-            let _ = writeln!(s, "hessian = {}", m(&f.hessian));
+            let _ = writeln!(s, "hessian = {}", toml_matrix(&f.hessian));
         }
         if !f.velocity.is_empty() {
-            let _ = writeln!(s, "velocity = {}", v(&f.velocity));
+            let _ = writeln!(s, "velocity = {}", toml_vector(&f.velocity));
         }
         if !f.normal.is_empty() {
-            let _ = writeln!(s, "normal = {}", v(&f.normal));
+            let _ = writeln!(s, "normal = {}", toml_vector(&f.normal));
             let _ = writeln!(s, "offset = {:?}", f.offset);
         }
         let _ = writeln!(s, "noise_std = {noise:?}");
         for (c, a, w) in &f.bumps {
             let _ = writeln!(s, "[[field.bumps]]");
-            let _ = writeln!(s, "center = {}\namplitude = {a:?}\nwidth = {w:?}", v(c));
+            let _ = writeln!(
+                s,
+                "center = {}\namplitude = {a:?}\nwidth = {w:?}",
+                toml_vector(c)
+            );
         }
+    }
+
+    /// The `[vehicles]` section.
+    fn write_vehicles(&self, s: &mut String) {
         let _ = writeln!(s, "\n[vehicles]");
         let _ = writeln!(s, "count = {}", self.n);
-        let _ = writeln!(s, "start = {}", v(&self.start));
+        let _ = writeln!(s, "start = {}", toml_vector(&self.start));
         let _ = writeln!(s, "start_spread = 0.2");
         let _ = writeln!(s, "damping = {:?}", self.damping);
         if let Some((speed, accel, turn)) = self.glider {
@@ -483,6 +494,11 @@ impl Draw {
                 let _ = writeln!(s, "current_estimate = true");
             }
         }
+    }
+
+    /// The `[formation]` section (its Hessian guess: the field's curvature on the diagonal).
+    fn write_formation(&self, s: &mut String) {
+        let radius = self.radius();
         let _ = writeln!(s, "\n[formation]");
         let _ = writeln!(s, "radius = {radius:?}");
         let _ = writeln!(s, "adapt = {}", self.adapt);
@@ -491,7 +507,7 @@ impl Draw {
         let _ = writeln!(s, "min_scale = {}", self.min_scale);
         let _ = writeln!(s, "max_scale = 3.0");
         let _ = writeln!(s, "sigma_h = 1.0");
-        let c = f.curvature;
+        let c = self.field.curvature;
         let guess: Vec<Vec<f64>> = (0..self.dim)
             .map(|i| {
                 (0..self.dim)
@@ -499,7 +515,17 @@ impl Draw {
                     .collect()
             })
             .collect();
-        let _ = writeln!(s, "hessian_guess = {}", m(&guess));
+        let _ = writeln!(s, "hessian_guess = {}", toml_matrix(&guess));
+    }
+
+    /// The `[body]` and `[estimator]` sections.
+    fn write_body_and_estimator(&self, s: &mut String) {
+        let f = &self.field;
+        // V of (II.2) sums a potential over every pair: V_U per pair as the paper's (10 at
+        // N = 4, α = 60), plus the cruise's kinetic energy. Theorem 4.1 needs V(0) ≤ V_U; α/6
+        // alone put V(0) up to 3.8 V_U at N ≥ 13 (start_spread 0.2 L).
+        let pairs = (self.n * (self.n - 1)) as f64 / 2.0;
+        let v_u = self.alpha / 6.0 * pairs / 6.0 + self.n as f64 * self.v0 * self.v0;
         let _ = writeln!(s, "\n[body]");
         let _ = writeln!(s, "v0 = {:?}", self.v0);
         let _ = writeln!(s, "v_u = {v_u:?}");
@@ -507,6 +533,10 @@ impl Draw {
         let _ = writeln!(s, "grad_saturation = {:?}", 0.3 * f.gradient);
         let _ = writeln!(s, "\n[estimator]");
         let _ = writeln!(s, "kalman_b = {:?}", 0.05 * f.gradient);
+    }
+
+    /// The `[links]` section.
+    fn write_links(&self, s: &mut String) {
         let _ = writeln!(s, "\n[links]");
         let _ = writeln!(s, "delay = {:?}", self.delay);
         let _ = writeln!(s, "jitter = {:?}", self.jitter);
@@ -523,9 +553,18 @@ impl Draw {
                 "surfacing_period = {period:?}\nsurfacing_window = {window:?}"
             );
         }
+    }
+
+    /// The `[control]` section (flying `law`), the `[current]`, and the faults with the
+    /// `[restart]` their rejoins need.
+    fn write_control_and_faults(&self, s: &mut String, law: &str) {
         let _ = writeln!(s, "\n[control]\nlaw = \"{law}\"");
         if let Some(c) = &self.current {
-            let _ = writeln!(s, "\n[current]\nkind = \"uniform\"\nvelocity = {}", v(c));
+            let _ = writeln!(
+                s,
+                "\n[current]\nkind = \"uniform\"\nvelocity = {}",
+                toml_vector(c)
+            );
         }
         if self.faults.iter().any(|f| f.until.is_some()) {
             let _ = writeln!(s, "\n[restart]\nvehicles = \"on-failure\"");
@@ -540,6 +579,17 @@ impl Draw {
                 let _ = writeln!(s, "until = {u:?}");
             }
         }
-        s
     }
+}
+
+/// `x` as a TOML array, each number in Rust's shortest round-trip form (`{:?}`).
+fn toml_vector(x: &[f64]) -> String {
+    let items: Vec<String> = x.iter().map(|a| format!("{a:?}")).collect();
+    format!("[{}]", items.join(", "))
+}
+
+/// The rows of `x` as a TOML array of arrays ([`toml_vector`]).
+fn toml_matrix(x: &[Vec<f64>]) -> String {
+    let rows: Vec<String> = x.iter().map(|r| toml_vector(r)).collect();
+    format!("[{}]", rows.join(", "))
 }

@@ -206,9 +206,10 @@ impl Default for Space {
     }
 }
 
-impl fmt::Display for Space {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let rows: Vec<(&str, String)> = vec![
+impl Space {
+    /// The rows of the table of [`Space`]'s `Display` about the fleet and the field.
+    fn fleet_and_field_rows(&self) -> Vec<(&'static str, String)> {
+        vec![
             (
                 "vehicles N",
                 format!("{} ..= {} (uniform)", self.vehicles.0, self.vehicles.1),
@@ -220,11 +221,23 @@ impl fmt::Display for Space {
             ),
             ("start → optimum, L", self.distance.to_string()),
             ("gaussian amplitude, F", self.amplitude.to_string()),
-            ("gaussian width ÷ distance", self.width_over_distance.to_string()),
-            ("quadratic eigenvalues, F/L²", self.hessian_eigenvalue.to_string()),
+            (
+                "gaussian width ÷ distance",
+                self.width_over_distance.to_string(),
+            ),
+            (
+                "quadratic eigenvalues, F/L²",
+                self.hessian_eigenvalue.to_string(),
+            ),
             ("front width, L", self.front_width.to_string()),
             ("eddy drift, × v0", self.eddy_drift.to_string()),
             ("noise σ_M ÷ field range", self.noise_fraction.to_string()),
+        ]
+    }
+
+    /// The rows about the links and the faults.
+    fn link_and_fault_rows(&self) -> Vec<(&'static str, String)> {
+        vec![
             (
                 "links.delay, s",
                 format!("0 with p = {}, else {}", self.p_no_delay, self.delay),
@@ -258,6 +271,13 @@ impl fmt::Display for Space {
                     self.fault_counts, self.p_rejoin, self.fault_at, self.rejoin_outage
                 ),
             ),
+        ]
+    }
+
+    /// The rows about the formation, the vehicles, the body and the mission's time, and what
+    /// is derived from the draws.
+    fn flight_rows(&self) -> Vec<(&'static str, String)> {
+        vec![
             ("formation.adapt", format!("on with p = {}", self.p_adapt)),
             ("formation.alpha, L²/s²", self.alpha.to_string()),
             ("vehicles.damping, 1/s", self.damping.to_string()),
@@ -295,7 +315,15 @@ impl fmt::Display for Space {
                  v_u = α/6 · (N(N−1)/2)/6 + N·v0²; grad_saturation, kalman_b from the field's gradient scale"
                     .into(),
             ),
-        ];
+        ]
+    }
+}
+
+impl fmt::Display for Space {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut rows = self.fleet_and_field_rows();
+        rows.extend(self.link_and_fault_rows());
+        rows.extend(self.flight_rows());
         let width = rows
             .iter()
             .map(|(k, _)| k.chars().count())

@@ -283,6 +283,26 @@ impl Recorder {
         command: &Command,
     ) -> io::Result<()> {
         let t = k as f64 * self.mission.mission.dt;
+        self.vehicle_rows(t, k, truth, told)?;
+        let b = &command.body;
+        self.body_row(t, k, command)?;
+        self.formation_events(t, k, command)?;
+        self.scale_held(t, k, b.scale)?;
+        self.stats.max_v_over_vu = self
+            .stats
+            .max_v_over_vu
+            .max(command.terms.v / self.mission.body.v_u);
+        self.against_optimum(t, k, &b.r)?;
+        self.stats.ticks = k + 1;
+        self.stats.last_t = t;
+        self.stats.last_r = b.r;
+        self.stats.last_scale = b.scale;
+        Ok(())
+    }
+
+    /// The rows of tick `k` (time `t`, s) of `vehicles.csv`: each vehicle's truth, and what
+    /// it says of itself (`told`) when the mission moves beyond the ideal vehicle.
+    fn vehicle_rows(&mut self, t: f64, k: u64, truth: &[Report], told: &[Told]) -> io::Result<()> {
         let motion = self.mission.moves_beyond_ideal();
         for q in truth {
             let said = told.iter().find(|s| s.id == q.id);
@@ -300,6 +320,12 @@ impl Recorder {
                 }),
             })?;
         }
+        Ok(())
+    }
+
+    /// The row of tick `k` (time `t`, s) of `body.csv`, with the true gradient at the
+    /// body's centre.
+    fn body_row(&mut self, t: f64, k: u64, command: &Command) -> io::Result<()> {
         let b = &command.body;
         self.tracks.body(&BodyRow {
             t,
@@ -313,7 +339,12 @@ impl Recorder {
             n_vehicles: command.members.len(),
             p_trace: command.p_trace,
             true_grad: self.field.gradient(&b.r, t),
-        })?;
+        })
+    }
+
+    /// The `reconfigured`, `holding` and `resumed` events of tick `k` (time `t`, s), and the
+    /// count of holding ticks.
+    fn formation_events(&mut self, t: f64, k: u64, command: &Command) -> io::Result<()> {
         if command.reconfigured && k > 0 {
             self.events.push(&Event {
                 t,
@@ -341,44 +372,44 @@ impl Recorder {
         if command.holding {
             self.stats.holding_ticks += 1;
         }
-        self.scale_held(t, k, b.scale)?;
-        self.stats.max_v_over_vu = self
-            .stats
-            .max_v_over_vu
-            .max(command.terms.v / self.mission.body.v_u);
-        if let Some(opt) = self.optimum(t) {
-            let first = *self.stats.first_optimum.get_or_insert(opt);
-            if (opt - first).norm() > 1e-9 * self.mission.mission.tolerance {
-                self.stats.optimum_moved = true;
-            }
-            // The last quarter of the planned ticks.
-            if 4 * k >= 3 * self.mission.ticks() {
-                let d = (b.r - opt).norm();
-                let tail = &mut self.stats.tail;
-                tail.from_t.get_or_insert(t);
-                tail.ticks += 1;
-                tail.sum += d;
-                tail.max = tail.max.max(d);
-            }
-            if (b.r - opt).norm() <= self.mission.mission.tolerance {
-                if !self.stats.ever_inside {
-                    self.stats.ever_inside = true;
-                    self.events.push(&Event {
-                        t,
-                        k,
-                        kind: "converged".into(),
-                        vehicle: None,
-                        detail: serde_json::json!({ "distance": (b.r - opt).norm() }),
-                    })?;
-                }
-            } else {
-                self.stats.last_outside = Some(t);
-            }
+        Ok(())
+    }
+
+    /// The body's centre `r` of tick `k` (time `t`, s) against the true optimum, when the
+    /// field has one: whether the optimum moved, the distance over the last quarter of the
+    /// planned ticks, the `converged` event (the first tick within tolerance) and the last
+    /// time outside it.
+    fn against_optimum(&mut self, t: f64, k: u64, r: &Vec3) -> io::Result<()> {
+        let Some(opt) = self.optimum(t) else {
+            return Ok(());
+        };
+        let first = *self.stats.first_optimum.get_or_insert(opt);
+        if (opt - first).norm() > 1e-9 * self.mission.mission.tolerance {
+            self.stats.optimum_moved = true;
         }
-        self.stats.ticks = k + 1;
-        self.stats.last_t = t;
-        self.stats.last_r = b.r;
-        self.stats.last_scale = b.scale;
+        // The last quarter of the planned ticks.
+        if 4 * k >= 3 * self.mission.ticks() {
+            let d = (r - opt).norm();
+            let tail = &mut self.stats.tail;
+            tail.from_t.get_or_insert(t);
+            tail.ticks += 1;
+            tail.sum += d;
+            tail.max = tail.max.max(d);
+        }
+        if (r - opt).norm() <= self.mission.mission.tolerance {
+            if !self.stats.ever_inside {
+                self.stats.ever_inside = true;
+                self.events.push(&Event {
+                    t,
+                    k,
+                    kind: "converged".into(),
+                    vehicle: None,
+                    detail: serde_json::json!({ "distance": (r - opt).norm() }),
+                })?;
+            }
+        } else {
+            self.stats.last_outside = Some(t);
+        }
         Ok(())
     }
 

@@ -1,0 +1,327 @@
+//! One vehicle with its side of the link ([`Vehicle`]): the per-tick logic of an agent,
+//! pure (the process around it is `run`).
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use vbap_math::law::{ControlLaw, PaperLaw};
+use vbap_math::rejoin::Homing;
+use vbap_math::Vec3;
+use vbap_mission::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
+
+use crate::{motion, Agent, AgentInputs, Guidance};
+
+/// Counters of a vehicle's downlink.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DownlinkCounts {
+    /// Commands delivered by the link model.
+    pub delivered: u64,
+    /// Commands dropped by the link model.
+    pub dropped: u64,
+}
+
+/// One vehicle with its side of the link: the per-tick logic of an agent, pure. The
+/// command of every tick arrives (it is the lockstep clock); the link model decides when
+/// its content becomes visible; the vehicle steers by the newest visible guidance.
+///
+/// The fates of commands are drawn in command order, from the key (seed, vehicle, tick)
+/// alone, so a vehicle can know before a command arrives that it will not be visible
+/// for a while (under water, or a long delay): [`Vehicle::ready_to_step`] says whether
+/// every command the next step needs is in. This is the conservative lookahead that lets
+/// a submerged glider run ahead of the coordinator and still move exactly as in the
+/// in-process simulator.
+#[derive(Clone, Debug)]
+pub struct Vehicle {
+    /// The vehicle's dynamics.
+    pub agent: Agent,
+    link: LinkState,
+    inbox: DelayQueue<Guidance>,
+    current: Guidance,
+    /// The next command whose fate is to be drawn.
+    next_fate: u64,
+    /// Fates drawn for commands not received yet (command tick → fate).
+    ahead: BTreeMap<u64, Fate>,
+    /// Fates drawn since [`Vehicle::take_drawn`] was last called (for the logs).
+    drawn: Vec<(u64, Fate)>,
+    /// Downlink counters.
+    pub counts: DownlinkCounts,
+    /// The control law it flies ([`PaperLaw`] unless [`Vehicle::with_law`]).
+    law: Arc<dyn ControlLaw>,
+    /// Beyond the ideal vehicle (glider, current, land; [`Vehicle::with_motion`]): what it
+    /// believes and feels. None: the paper's vehicle, `agent` is all.
+    pub moving: Option<motion::Moving>,
+}
+
+/// What a vehicle reports of itself: its believed position and its velocity through the
+/// water (the truth for the ideal vehicle), and the current at its true position (zero in
+/// still water), all at the tick of its state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reported {
+    /// Believed position, length unit.
+    pub position: Vec3,
+    /// Velocity through the water, length unit/s.
+    pub water: Vec3,
+    /// Current at the true position, length unit/s.
+    pub current: Vec3,
+}
+
+impl Vehicle {
+    /// A vehicle starting with `initial` guidance, whose first command is that of tick
+    /// `first_command` (0 at the start of a mission, the tick of admission for a vehicle
+    /// admitted back).
+    pub fn new(agent: Agent, initial: Guidance, first_command: u64) -> Self {
+        Self {
+            agent,
+            link: LinkState::default(),
+            inbox: DelayQueue::default(),
+            current: initial,
+            next_fate: first_command,
+            ahead: BTreeMap::new(),
+            drawn: Vec::new(),
+            counts: DownlinkCounts::default(),
+            law: Arc::new(PaperLaw),
+            moving: None,
+        }
+    }
+
+    /// This vehicle moving by `kin` (None: the paper's ideal vehicle). Its state is that of
+    /// its first command's tick (tick length `dt`, s).
+    pub fn with_motion(mut self, kin: Option<Arc<motion::Kinematics>>, dt: f64) -> Self {
+        self.moving =
+            kin.map(|kin| motion::Moving::start(kin, &mut self.agent, self.next_fate, dt));
+        self
+    }
+
+    /// What this vehicle reports of itself ([`Reported`]).
+    pub fn reported(&self) -> Reported {
+        match &self.moving {
+            Some(m) => Reported {
+                position: m.belief,
+                water: m.water,
+                current: m.current,
+            },
+            None => Reported {
+                position: self.agent.position,
+                water: self.agent.velocity,
+                current: Vec3::zeros(),
+            },
+        }
+    }
+
+    /// This vehicle flying `law` instead of the paper's.
+    pub fn with_law(mut self, law: Arc<dyn ControlLaw>) -> Self {
+        self.law = law;
+        self
+    }
+
+    /// The control law this vehicle flies.
+    pub fn law(&self) -> &Arc<dyn ControlLaw> {
+        &self.law
+    }
+
+    /// Nothing heard from the coordinator: hold station around the last visible leaders
+    /// (damping and leader forces only, docs/ARCHITECTURE.md §7).
+    /// `k` is the tick the step starts from.
+    pub fn hold_station(&mut self, k: u64, dt: f64) {
+        let g = self.current.clone();
+        if self.moving.is_none() {
+            self.agent
+                .hold_station_with(self.law.as_ref(), &g.leaders, &g.leader, g.damping, dt);
+            return;
+        }
+        let inputs = Agent::hold_inputs(&g.leaders, &g.leader, g.damping);
+        fly(
+            &mut self.agent,
+            &mut self.moving,
+            self.law.as_ref(),
+            &inputs,
+            k,
+            dt,
+        );
+    }
+
+    /// Draws the fates of the commands up to tick `c` that have none yet, in order.
+    fn draw_fates(&mut self, model: &LinkModel, c: u64, dt: f64) {
+        while self.next_fate <= c {
+            let k = self.next_fate;
+            let t = k as f64 * dt;
+            let fate = model.fate(&mut self.link, self.agent.id, Direction::Downlink, k, t);
+            match fate {
+                Fate::Deliver { .. } => self.counts.delivered += 1,
+                Fate::Drop(_) => self.counts.dropped += 1,
+            }
+            self.ahead.insert(k, fate);
+            self.drawn.push((k, fate));
+            self.next_fate += 1;
+        }
+    }
+
+    /// The command of tick `c` arrives with `guidance`: held until the link delivers it.
+    /// Returns its fate (None: a command from before this vehicle's first, or one already
+    /// received).
+    pub fn receive(
+        &mut self,
+        model: &LinkModel,
+        guidance: Guidance,
+        c: u64,
+        dt: f64,
+    ) -> Option<Fate> {
+        self.draw_fates(model, c, dt);
+        let fate = self.ahead.remove(&c)?;
+        if let Fate::Deliver { at, .. } = fate {
+            self.inbox.push(at, guidance);
+        }
+        Some(fate)
+    }
+
+    /// True when the step from tick `j` has every command it needs: no command of a tick
+    /// up to `j` that has not arrived yet is delivered by t_j.
+    pub fn ready_to_step(&mut self, model: &LinkModel, j: u64, dt: f64) -> bool {
+        self.draw_fates(model, j, dt);
+        let t = j as f64 * dt;
+        !self
+            .ahead
+            .range(..=j)
+            .any(|(_, f)| matches!(f, Fate::Deliver { at, .. } if *at <= t))
+    }
+
+    /// Stops waiting for the commands before tick `c` that never came (a paced run skips
+    /// late commands; in lockstep every command comes).
+    pub fn forget_before(&mut self, c: u64) {
+        self.ahead = self.ahead.split_off(&c);
+    }
+
+    /// The fates drawn since the last call, as (command tick, fate).
+    pub fn take_drawn(&mut self) -> Vec<(u64, Fate)> {
+        std::mem::take(&mut self.drawn)
+    }
+
+    /// The command of tick `k` arrives, then the vehicle steps from tick k to k + 1 (the
+    /// in-process simulator's tick). Returns the fate of the command ([`Vehicle::receive`]).
+    pub fn on_command(
+        &mut self,
+        model: &LinkModel,
+        guidance: Guidance,
+        k: u64,
+        dt: f64,
+    ) -> Option<Fate> {
+        let fate = self.receive(model, guidance, k, dt);
+        self.step(k, dt);
+        fate
+    }
+
+    /// Steps from tick `k` to k + 1 with the newest guidance visible at t_k (callers make
+    /// sure every command it may need has arrived: [`Vehicle::ready_to_step`]).
+    pub fn step(&mut self, k: u64, dt: f64) {
+        let t = k as f64 * dt;
+        if let Some(newest) = self.inbox.pop_due(t).into_iter().last() {
+            self.current = newest;
+        }
+        let g = &self.current;
+        let age = k.saturating_sub(g.tick) as f64 * dt;
+        // Out of contact: dead-reckon the virtual body (leaders, neighbours, own slot) from
+        // the last command: along its committed path when it carries one (robust law:
+        // centre, scale and the scaled potentials of (III.3)), else at its velocity.
+        let planned = g.plan.as_ref().filter(|_| age > 0.0).map(|p| p.at(k, dt));
+        let shift = g.velocity * age;
+        let moved = |p: &Vec3| match &planned {
+            Some(body) => body.carry(p),
+            None if age > 0.0 => p + shift,
+            None => *p,
+        };
+        let (inter, leader, body_velocity) = match &planned {
+            Some(b) => (
+                g.inter.scaled(b.ratio),
+                g.leader.scaled(b.ratio),
+                b.velocity,
+            ),
+            None => (g.inter, g.leader, g.velocity),
+        };
+        let homing = g.target.map(|t| {
+            Homing::towards(
+                &self.reported().position,
+                &moved(&t),
+                inter.d0,
+                &body_velocity,
+                g.damping,
+                g.rejoin_speed,
+            )
+        });
+        if age > 0.0 {
+            let leaders: Vec<Vec3> = g.leaders.iter().map(moved).collect();
+            let neighbours: Vec<Vec3> = g.neighbours.iter().map(moved).collect();
+            let slots: Vec<Vec3> = g.neighbour_slots.iter().map(moved).collect();
+            // Empty ages are all +0 s ([`Guidance::with_neighbours`]): each is then `age`.
+            let ages: Vec<f64> = if g.neighbour_ages.is_empty() {
+                vec![age; g.neighbours.len()]
+            } else {
+                g.neighbour_ages.iter().map(|a| a + age).collect()
+            };
+            let inputs = AgentInputs {
+                leaders: &leaders,
+                neighbours: &neighbours,
+                inter,
+                leader,
+                damping: g.damping,
+                neighbour_sigmas: &g.neighbour_sigmas,
+                neighbour_slots: &slots,
+                homing,
+                neighbour_velocities: &g.neighbour_velocities,
+                neighbour_ages: &ages,
+                slot: g.slot.as_ref().map(moved),
+                body_velocity,
+            };
+            fly(
+                &mut self.agent,
+                &mut self.moving,
+                self.law.as_ref(),
+                &inputs,
+                k,
+                dt,
+            );
+        } else {
+            let inputs = AgentInputs {
+                leaders: &g.leaders,
+                neighbours: &g.neighbours,
+                inter: g.inter,
+                leader: g.leader,
+                damping: g.damping,
+                neighbour_sigmas: &g.neighbour_sigmas,
+                neighbour_slots: &g.neighbour_slots,
+                homing,
+                neighbour_velocities: &g.neighbour_velocities,
+                neighbour_ages: &g.neighbour_ages,
+                slot: g.slot,
+                body_velocity: g.velocity,
+            };
+            fly(
+                &mut self.agent,
+                &mut self.moving,
+                self.law.as_ref(),
+                &inputs,
+                k,
+                dt,
+            );
+        }
+    }
+}
+
+/// One step of `agent` from tick `k` under `law` with `inputs`: the paper's
+/// ([`Agent::step_with`]) or, beyond it (`moving`), [`motion::Moving::step`].
+fn fly(
+    agent: &mut Agent,
+    moving: &mut Option<motion::Moving>,
+    law: &dyn ControlLaw,
+    inputs: &AgentInputs<'_>,
+    k: u64,
+    dt: f64,
+) {
+    match moving {
+        Some(m) => {
+            m.step(agent, law, inputs, k, dt);
+        }
+        None => {
+            agent.step_with(law, inputs, dt);
+        }
+    }
+}
