@@ -99,24 +99,12 @@ impl Agent {
         leader: &PairPotential,
         damping: f64,
     ) -> AgentInputs<'a> {
-        AgentInputs {
-            leaders: last_leaders,
-            neighbours: &[],
-            inter: PairPotential {
-                alpha: 0.0,
-                d0: 1.0,
-                d1: 0.0,
-            },
-            leader: *leader,
-            damping,
-            neighbour_sigmas: &[],
-            neighbour_slots: &[],
-            homing: None,
-            neighbour_velocities: &[],
-            neighbour_ages: &[],
-            slot: None,
-            body_velocity: Vec3::zeros(),
-        }
+        let no_neighbours = PairPotential {
+            alpha: 0.0,
+            d0: 1.0,
+            d1: 0.0,
+        };
+        AgentInputs::paper(last_leaders, &[], no_neighbours, *leader, damping)
     }
 }
 
@@ -648,11 +636,6 @@ impl Vehicle {
                 g.neighbour_ages.iter().map(|a| a + age).collect()
             };
             let inputs = AgentInputs {
-                leaders: &leaders,
-                neighbours: &neighbours,
-                inter,
-                leader,
-                damping: g.damping,
                 neighbour_sigmas: &g.neighbour_sigmas,
                 neighbour_slots: &slots,
                 homing,
@@ -660,6 +643,7 @@ impl Vehicle {
                 neighbour_ages: &ages,
                 slot: g.slot.as_ref().map(moved),
                 body_velocity,
+                ..AgentInputs::paper(&leaders, &neighbours, inter, leader, g.damping)
             };
             fly(
                 &mut self.agent,
@@ -671,11 +655,6 @@ impl Vehicle {
             );
         } else {
             let inputs = AgentInputs {
-                leaders: &g.leaders,
-                neighbours: &g.neighbours,
-                inter: g.inter,
-                leader: g.leader,
-                damping: g.damping,
                 neighbour_sigmas: &g.neighbour_sigmas,
                 neighbour_slots: &g.neighbour_slots,
                 homing,
@@ -683,6 +662,7 @@ impl Vehicle {
                 neighbour_ages: &g.neighbour_ages,
                 slot: g.slot,
                 body_velocity: g.velocity,
+                ..AgentInputs::paper(&g.leaders, &g.neighbours, g.inter, g.leader, g.damping)
             };
             fly(
                 &mut self.agent,
