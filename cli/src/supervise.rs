@@ -25,8 +25,9 @@ use vbap_ipc::wait::Event;
 use vbap_mission::config::{Mission, RestartPolicy};
 use vbap_mission::rundir::{RunDir, Summary};
 
-use crate::domain::clean_domain;
 use crate::progress::ProgressView;
+use vbap_ipc::domain::clean_domain;
+use vbap_ipc::process::bin_dir;
 use vbap_report::analyze;
 
 /// How often the supervisor reads the body service while the mission runs (to see its
@@ -290,7 +291,7 @@ impl Executables {
         let exe = std::env::current_exe().context("locating this executable")?;
         let role = |name: &str| Executable {
             program: exe.clone(),
-            args: vec![crate::plugins::ROLE_COMMAND.to_string(), name.to_string()],
+            args: vec![ROLE_COMMAND.to_string(), name.to_string()],
         };
         Ok(Self {
             field_server: role("field-server"),
@@ -300,14 +301,9 @@ impl Executables {
     }
 }
 
-/// The directory of the vbap binaries (the one holding this executable).
-pub fn bin_dir() -> Result<PathBuf> {
-    let exe = std::env::current_exe().context("locating the vbap executable")?;
-    Ok(exe
-        .parent()
-        .context("vbap executable has no parent directory")?
-        .to_path_buf())
-}
+/// The first argument of a user's own executable started in a role by its own supervisor
+/// ([`Executables::this_exe_as_roles`], `crate::custom`).
+pub const ROLE_COMMAND: &str = "role";
 
 /// Sends `sig` to a child that has not been reaped yet (its exit not seen, so its pid is
 /// still its own); a pid that is no process any more is ignored.

@@ -1,15 +1,12 @@
 //! A user's own parts for the simulator and the process set: [`Plugins`] (a field, a
-//! control law) and the role command a user's executable is started with. A leaf: it
-//! uses no other module of this crate (`crate::custom` runs them).
+//! control law). A leaf: it uses no other module of this crate (`vbap_cli::custom` runs
+//! them).
 
 use std::sync::Arc;
 
 use vbap_math::law::ControlLaw;
 use vbap_mission::config::Mission;
 use vbap_mission::field::ScalarField;
-
-/// The first argument of this executable started in a role by its own supervisor.
-pub const ROLE_COMMAND: &str = "role";
 
 /// A user's own parts; `None`: the shipped one (the mission's `[field]`, the mission's
 /// `control.law`).

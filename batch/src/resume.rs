@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use vbap_mission::rundir::{RunDir, Summary};
 
 use super::sweep::SweptKey;
-use crate::errors::InvalidInput;
+use vbap_ipc::process::InvalidInput;
 
 /// The file of the plan in `OUT`.
 pub const PLAN_FILE: &str = "plan.json";

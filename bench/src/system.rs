@@ -39,7 +39,7 @@ use vbap_mission::config::Mission;
 use vbap_mission::rundir::{RunDir, Summary};
 
 use super::StopFlag;
-use crate::domain::{clean_domain, leftover_files};
+use vbap_ipc::domain::clean_domain;
 use vbap_report::analyze::{analyze, HopReport};
 
 /// The longest a single `vbap run` of the bench may take.
@@ -52,7 +52,7 @@ pub struct SimResult {
     /// Wall time of the whole simulation (set-up, loop, files, plots), s.
     pub wall_s: f64,
     /// The loop's time by the process that does each part in `vbap run`.
-    pub parts: crate::sim::TickParts,
+    pub parts: vbap_sim::TickParts,
 }
 
 /// Runs `mission` in process (the reference simulator) in `work/<name>-sim`.
@@ -62,7 +62,7 @@ pub fn simulate(mission: &Mission, work: &Path) -> Result<SimResult> {
     std::fs::write(dir.mission(), mission.to_toml_string()).context("writing mission.toml")?;
     let mut marks: Vec<(u64, Instant)> = Vec::new();
     let started = Instant::now();
-    let (_, parts) = crate::sim::simulate_timed(
+    let (_, parts) = vbap_sim::simulate_timed(
         mission,
         &dir,
         &mut |k: u64, _: u64, _: f64, _: Option<f64>| marks.push((k, Instant::now())),
@@ -301,7 +301,7 @@ pub fn run(mission: &Mission, work: &Path, stop: &StopFlag, sample_pss: bool) ->
     guard.child = None;
     let domain = guard.domain.clone();
     drop(guard);
-    if !leftover_files(&domain).is_empty() {
+    if !domain.files().is_empty() {
         let _ = clean_domain(&domain);
     }
     if !status.success() {

@@ -34,8 +34,8 @@ use vbap_ipc::wait::{Event, Waiter, Wake, WakeListener};
 use vbap_mission::rundir::Percentiles;
 
 use super::{unique_name, BenchArgs, Interrupted, StopFlag};
-use crate::domain::clean_domain;
-use crate::errors::InvalidInput;
+use vbap_ipc::domain::clean_domain;
+use vbap_ipc::process::InvalidInput;
 
 /// Helper roles (hidden from `--help`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

@@ -52,7 +52,7 @@
 //!   one that was not detected and recovered anyway is listed as unjudged and fails
 //!   nothing.
 //! - **Leftovers**: after each run, any file of the run's iceoryx2 domain left in
-//!   /dev/shm or under /tmp/iceoryx2 ([`crate::domain::leftover_files`]) and any live
+//!   /dev/shm or under /tmp/iceoryx2 ([`vbap_ipc::topics::Domain::files`]) and any live
 //!   process started with the run's mission file is a leftover; the campaign reports it,
 //!   then removes it (SIGKILL by pid, file by file).
 //! - The run's **verdict**: `summary.json` `verdict` (and `reasons`) when present, else
@@ -87,10 +87,10 @@ pub use output::{table, CSV_HEADER};
 pub use procs::{slot_of, Slot, Target};
 pub use report::{Action, Campaign, RunReport, Totals};
 
-use crate::errors::InvalidInput;
 use args::{policy_name, run_mission, target_name};
 use procs::json_lines;
 use run::{run_one, RunSpec};
+use vbap_ipc::process::InvalidInput;
 
 /// Wall time a paced run lasts after the action window, s: room to detect, restart and
 /// readmit the last action's target.
@@ -177,7 +177,7 @@ pub fn main(args: &ChaosArgs) -> Result<i32> {
     campaign.max_detection_ms = args.max_detection_ms;
     report::judge(&mut campaign);
     write_outputs(&campaign, &out)?;
-    Ok(crate::child_run::pass_or_fail(
+    Ok(vbap_ipc::process::pass_or_fail(
         campaign.passed,
         &campaign.failures,
     ))
@@ -188,7 +188,7 @@ pub fn main(args: &ChaosArgs) -> Result<i32> {
 fn output_dir(args: &ChaosArgs, base: &Mission) -> Result<PathBuf> {
     let out = match &args.out {
         Some(p) => p.clone(),
-        None => crate::rundirs::default_run_dir(&format!("{}-chaos", base.mission.name))?,
+        None => vbap_mission::rundir::default_run_dir(&format!("{}-chaos", base.mission.name))?,
     };
     if out.join("chaos.json").exists() {
         return Err(InvalidInput(format!(

@@ -22,7 +22,7 @@ use vbap_report::analyze::analyze;
 
 use super::netns::{Net, HOSTS};
 use super::{unique_name, BenchArgs};
-use crate::supervise::bin_dir;
+use vbap_ipc::process::bin_dir;
 
 const N: usize = 16;
 

@@ -83,8 +83,8 @@ pub use row::{csv_row, header, SeedResult, BATCH_HEADER};
 pub use run::seed_name;
 pub use sweep::SweepArg;
 
-use crate::errors::InvalidInput;
 use run::{Job, Outcome};
+use vbap_ipc::process::InvalidInput;
 
 /// Arguments.
 #[derive(clap::Args, Debug)]
@@ -223,7 +223,7 @@ pub fn main(args: &BatchArgs) -> Result<i32> {
         out.join("batch.csv").display(),
         out.join("batch.json").display()
     );
-    Ok(crate::child_run::pass_or_fail(agg.passed, &agg.failures))
+    Ok(vbap_ipc::process::pass_or_fail(agg.passed, &agg.failures))
 }
 
 /// What `vbap check` checks of `mission`'s `[batch]` table (the file at `path` with `sets`):
@@ -315,5 +315,7 @@ fn describe(r: &SeedResult, at: &str) -> String {
 }
 
 fn default_batch_dir(name: &str) -> Result<PathBuf> {
-    crate::rundirs::default_run_dir(&format!("{name}-batch"))
+    Ok(vbap_mission::rundir::default_run_dir(&format!(
+        "{name}-batch"
+    ))?)
 }

@@ -49,7 +49,7 @@ pub struct SkeletonRow {
     /// The skeleton with the tick's work on its critical path: its tick plus the parts of
     /// `vbap sim`'s tick that are serial in lockstep (the field server's readings, then the
     /// coordinator's link model, planner and rows: nothing else runs meanwhile) plus the
-    /// agents' part spread over the CPUs, ticks per second (`crate::sim::TickParts`). A
+    /// agents' part spread over the CPUs, ticks per second (`vbap_sim::TickParts`). A
     /// tighter bound than [`SkeletonRow::with_work_ticks_per_s`], still one no `vbap run`
     /// of this design beats: what is left between it and the run is what the processes do
     /// that `vbap sim` does not (message records, checkpoints, checks, bookkeeping).
@@ -104,19 +104,19 @@ impl Overhead {
     /// Records the skeleton's rate next to the lockstep run's, and the bound with the work
     /// of the tick added: `in_process` is `vbap sim`'s rate on the same mission, spread over
     /// `cpus`; and the tighter bound of `parts`, the in-process tick by part
-    /// ([`crate::sim::TickParts`]; None when not measured).
+    /// ([`vbap_sim::TickParts`]; None when not measured).
     pub fn skeleton_row(
         &mut self,
         vehicles: usize,
         skeleton: f64,
         run: Option<f64>,
         in_process: f64,
-        parts: Option<&crate::sim::TickParts>,
+        parts: Option<&vbap_sim::TickParts>,
         cpus: usize,
     ) {
         let with_work = 1.0 / (1.0 / skeleton + 1.0 / (in_process * cpus.max(1) as f64));
         let critical = parts.map(|p| 1.0 / (1.0 / skeleton + p.critical_path_s(cpus, vehicles)));
-        let per_tick = |s: f64, p: &crate::sim::TickParts| s / p.ticks.max(1) as f64 * 1e6;
+        let per_tick = |s: f64, p: &vbap_sim::TickParts| s / p.ticks.max(1) as f64 * 1e6;
         let sim_parts_us = parts.map(|p| {
             [
                 per_tick(p.field_s, p),
@@ -620,7 +620,7 @@ mod tests {
         let mut o = Overhead::default();
         // 1/3000 s a tick on the critical path: 1/6000 s field and coordinator, 1/3000 s
         // of agents over 2 CPUs.
-        let parts = crate::sim::TickParts {
+        let parts = vbap_sim::TickParts {
             ticks: 3000,
             field_s: 0.25,
             coordinator_s: 0.25,

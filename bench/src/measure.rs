@@ -27,7 +27,7 @@ fn phase(what: &str) {
 /// edge is that of the paper's optimal square (radius 1.229 for N = 4), so neighbours
 /// keep the paper's spacing at every N.
 pub(super) fn paper_mission(n: usize, duration: f64, dt: f64, pace: Pace) -> Result<Mission> {
-    const PAPER: &str = include_str!("../../../deploy/missions/paper.toml");
+    const PAPER: &str = include_str!("../../deploy/missions/paper.toml");
     let mut m = Mission::from_toml_str(PAPER, "deploy/missions/paper.toml (embedded)")?;
     let edge = 2.0 * m.formation.radius * (std::f64::consts::PI / 4.0).sin();
     m.mission.name = unique_name("p");
@@ -42,7 +42,7 @@ pub(super) fn paper_mission(n: usize, duration: f64, dt: f64, pace: Pace) -> Res
 
 /// The glider mission (deploy/missions/glider.toml), `n` gliders, lockstep, surfacing.
 fn glider_mission(n: usize, duration: f64, period: f64, window: f64) -> Result<Mission> {
-    const GLIDER: &str = include_str!("../../../deploy/missions/glider.toml");
+    const GLIDER: &str = include_str!("../../deploy/missions/glider.toml");
     let mut m = Mission::from_toml_str(GLIDER, "deploy/missions/glider.toml (embedded)")?;
     m.mission.name = unique_name("g");
     m.vehicles.count = n;

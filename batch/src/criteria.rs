@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 use vbap_mission::config::Mission;
 
-use crate::errors::InvalidInput;
+use vbap_ipc::process::InvalidInput;
 
 /// The pass/fail criteria of the `[batch]` table, each optional.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use vbap_mission::config::{KeySet, Mission};
 
 use super::criteria::SWEEP_KEY;
-use crate::errors::InvalidInput;
+use vbap_ipc::process::InvalidInput;
 
 /// One `--sweep KEY=V1,V2,…`: a dotted mission key and its values (TOML, a bare word a
 /// string, as `--set`; the list is split at the commas outside brackets and quotes).

@@ -82,12 +82,12 @@ fn run_in_process(job: &Job<'_>) -> Result<Summary> {
     let dir =
         RunDir::create(&job.dir).with_context(|| format!("creating {}", job.dir.display()))?;
     std::fs::write(dir.mission(), m.to_toml_string()).context("writing mission.toml")?;
-    crate::sim::simulate(&m, &dir, &mut |_, _, _, _| {})
+    vbap_sim::simulate(&m, &dir, &mut |_, _, _, _| {})
 }
 
 /// A name for seed `seed` of mission `name`: `<name>_s<seed>`, the name cut to fit.
 pub fn seed_name(name: &str, seed: u64) -> String {
-    crate::child_run::suffixed_name(name, &format!("_s{seed}"))
+    vbap_mission::config::suffixed_name(name, &format!("_s{seed}"))
 }
 
 /// One run as a multi-process `vbap run`, its output in `RUN_DIR/vbap.log`. Two runs of one
@@ -105,7 +105,7 @@ fn run_process(job: &Job<'_>, exe: &Path, out: &Path) -> Result<Summary> {
         }
         Some(p) => {
             let suffix = format!("_p{}s{}", job.point.index, job.seed);
-            m.mission.name = crate::child_run::suffixed_name(name, &suffix);
+            m.mission.name = vbap_mission::config::suffixed_name(name, &suffix);
             format!("{p}_seed_{}.toml", job.seed)
         }
     };
@@ -116,7 +116,7 @@ fn run_process(job: &Job<'_>, exe: &Path, out: &Path) -> Result<Summary> {
     std::fs::write(&file, m.to_toml_string())
         .with_context(|| format!("writing {}", file.display()))?;
     std::fs::create_dir_all(&job.dir)?;
-    let (mut cmd, log_path) = crate::child_run::vbap_run(exe, &file, &job.dir)?;
+    let (mut cmd, log_path) = vbap_ipc::process::vbap_run(exe, &file, &job.dir)?;
     let status = cmd
         .status()
         .with_context(|| format!("starting {}", exe.display()))?;

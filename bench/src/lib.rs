@@ -49,8 +49,8 @@ use iceoryx2::node::{Node, NodeWaitFailure};
 use iceoryx2::prelude::ipc;
 use vbap_ipc::topics::Domain;
 
-use crate::domain::clean_domain;
-use crate::errors::InvalidInput;
+use vbap_ipc::domain::clean_domain;
+use vbap_ipc::process::InvalidInput;
 
 use report::Report;
 

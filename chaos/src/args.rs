@@ -10,7 +10,7 @@ use vbap_mission::config::{Mission, Pace, RestartPolicy, MAX_TICKS};
 
 use super::procs::Target;
 use super::{FIRST_ACTION, MIN_STOP, TAIL};
-use crate::errors::InvalidInput;
+use vbap_ipc::process::InvalidInput;
 
 /// Arguments.
 #[derive(clap::Args, Debug)]
@@ -115,7 +115,7 @@ pub(super) fn target_name(t: Target) -> &'static str {
 
 /// `<name>_c<NNN>`, the name cut to fit.
 pub fn run_name(name: &str, index: usize) -> String {
-    crate::child_run::suffixed_name(name, &format!("_c{index:03}"))
+    vbap_mission::config::suffixed_name(name, &format!("_c{index:03}"))
 }
 
 /// The seeded plan of one run: (planned wall offset s, kill?, pause s).

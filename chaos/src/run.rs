@@ -45,7 +45,7 @@ pub(super) fn run_one(exe: &Path, out: &Path, m: Mission, spec: &RunSpec) -> Res
         expected_ticks: m.ticks(),
         ..RunReport::default()
     };
-    let (mut cmd, _) = crate::child_run::vbap_run(exe, &file, &run_dir)?;
+    let (mut cmd, _) = vbap_ipc::process::vbap_run(exe, &file, &run_dir)?;
     let wall = Instant::now();
     let mut child = cmd
         .spawn()
@@ -154,7 +154,7 @@ fn clean_leftovers(
             send(pid, Signal::SIGKILL);
         }
     }
-    report.leftover_files = crate::domain::leftover_files(&domain);
+    report.leftover_files = domain.files();
     for f in &report.leftover_files {
         let _ = std::fs::remove_file(f);
     }

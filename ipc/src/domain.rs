@@ -1,16 +1,24 @@
-//! The iceoryx2 domain of a mission on this host: is it free, what of it is left, and
-//! cleaning it. A leaf: it uses no other module of this crate.
+//! The iceoryx2 domain of a mission on this host: is it free, and cleaning what is left of
+//! it (what is left: [`Domain::files`]). Used by the supervisor and the studies.
 
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use anyhow::Result;
-use vbap_ipc::topics::Domain;
+use crate::topics::Domain;
+
+/// A start refused because processes of the mission's domain still run (`which`).
+#[derive(Debug, thiserror::Error)]
+#[error("mission {mission:?} is already running on this host (live processes: {which}); choose another mission.name")]
+pub struct AlreadyRunning {
+    /// The mission's name.
+    pub mission: String,
+    /// The live processes, or what still holds the domain.
+    pub which: String,
+}
 
 /// Removes the stale iceoryx2 resources of `domain`: dead nodes, then every file of the
 /// domain (its exact prefix `vbap_<mission>.`) left in /dev/shm and under iceoryx2's root
 /// folder. Refuses when a live process of the same mission exists.
-pub fn clean_domain(domain: &Domain) -> Result<usize> {
+pub fn clean_domain(domain: &Domain) -> Result<usize, AlreadyRunning> {
     let alive = domain.alive_node_names();
     if !alive.is_empty() {
         return Err(already_running(domain, &alive.join(", ")));
@@ -25,7 +33,7 @@ pub fn clean_domain(domain: &Domain) -> Result<usize> {
 /// is left, holding the members file exclusively meanwhile: a member of the earlier run
 /// still leaving finds the file locked or replaced and does not clean the new run's
 /// files. Err names the processes still alive.
-pub fn await_domain_free(domain: &Domain, timeout: Duration) -> Result<()> {
+pub fn await_domain_free(domain: &Domain, timeout: Duration) -> Result<(), AlreadyRunning> {
     let start = Instant::now();
     loop {
         let alive = domain.alive_node_names();
@@ -49,11 +57,11 @@ pub fn await_domain_free(domain: &Domain, timeout: Duration) -> Result<()> {
 }
 
 /// The error of a start refused because processes of `domain` (`which`) still run.
-fn already_running(domain: &Domain, which: &str) -> anyhow::Error {
-    anyhow::anyhow!(
-        "mission {:?} is already running on this host (live processes: {which}); choose another mission.name",
-        domain.mission,
-    )
+fn already_running(domain: &Domain, which: &str) -> AlreadyRunning {
+    AlreadyRunning {
+        mission: domain.mission.clone(),
+        which: which.to_string(),
+    }
 }
 
 /// The members file is still locked by a member of an earlier run.
@@ -70,9 +78,4 @@ fn claim_members(domain: &Domain) -> std::result::Result<Option<std::fs::File>, 
         Err(std::fs::TryLockError::WouldBlock) => Err(Busy),
         Err(std::fs::TryLockError::Error(_)) => Ok(None),
     }
-}
-
-/// Files of the domain still present (for checks and tests).
-pub fn leftover_files(domain: &Domain) -> Vec<PathBuf> {
-    domain.files()
 }

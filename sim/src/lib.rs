@@ -1,4 +1,4 @@
-//! `vbap sim`: the in-process reference simulator.
+//! `vbap-sim`: the in-process reference simulator (`vbap sim`).
 //!
 //! The same mission as `vbap run`, through the same pure steps ([`Agent::step`],
 //! [`Planner::step`], [`Sensors::read`]) and the same recorder, in one process with no
@@ -7,7 +7,10 @@
 
 use std::time::Instant;
 
-use crate::plugins::Plugins;
+pub mod plugins;
+
+pub use plugins::Plugins;
+
 use anyhow::{Context, Result};
 use coordinator::fleet::Fleet;
 use coordinator::membership::{self, Loss};
