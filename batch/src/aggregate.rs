@@ -1,45 +1,12 @@
 //! `batch.json`: the whole batch's aggregate and its pass/fail judgment.
 
 use serde::Serialize;
-use vbap_mission::rundir::Percentiles;
 
 use super::criteria::Criteria;
 use super::points::PointAggregate;
 use super::row::SeedResult;
+use super::stats::{rate_of, Distribution};
 use super::sweep::SweptKey;
-
-/// A distribution over the runs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct Distribution {
-    pub n: usize,
-    pub min: f64,
-    pub mean: f64,
-    pub p50: f64,
-    pub p90: f64,
-    pub p99: f64,
-    pub max: f64,
-}
-
-impl Distribution {
-    /// Of `values` (zeros when empty).
-    pub fn of(mut values: Vec<f64>) -> Self {
-        if values.is_empty() {
-            return Self::default();
-        }
-        let n = values.len();
-        let mean = values.iter().sum::<f64>() / n as f64;
-        let p = Percentiles::of(&mut values);
-        Self {
-            n,
-            min: values[0],
-            mean,
-            p50: p.p50,
-            p90: p.p90,
-            p99: p.p99,
-            max: p.max,
-        }
-    }
-}
 
 /// `batch.json`.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -90,15 +57,6 @@ pub struct Aggregate {
     pub sweep: Vec<SweptKey>,
     /// The figures of every grid point (one without a sweep), in grid order.
     pub points: Vec<PointAggregate>,
-}
-
-/// The fraction of `rows` for which `test` is true, among those where it is known.
-pub(super) fn rate_of(
-    rows: &[&SeedResult],
-    test: impl Fn(&SeedResult) -> Option<bool>,
-) -> Option<f64> {
-    let known: Vec<bool> = rows.iter().filter_map(|r| test(r)).collect();
-    (!known.is_empty()).then(|| known.iter().filter(|b| **b).count() as f64 / known.len() as f64)
 }
 
 /// Aggregates the rows and judges them against `criteria`.

@@ -32,7 +32,7 @@
 //!   formation, had a near collision or stalled, distributions of the seen V/V_U, the
 //!   closest pair and the worst slot error, the criteria and the batch's pass/fail verdict;
 //!   then `sweep` (the keys and values) and `points`, the figures of every grid point
-//!   ([`points::PointAggregate`]: success rate with its 95 % Wilson interval, time to
+//!   ([`points::PointAggregate`]: success rate with its 95 % Wilson interval ([`stats::wilson`]), time to
 //!   converge, true max V/V_U, formation intact, messages delivered);
 //! - with a sweep: the grid points side by side on stderr and in `points.txt`, and
 //!   `sweep_<key>.svg` per swept key ([`plot`]).
@@ -64,6 +64,7 @@ pub mod points;
 pub mod resume;
 pub mod row;
 pub mod run;
+pub mod stats;
 pub mod sweep;
 #[cfg(test)]
 mod tests;
@@ -77,10 +78,11 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use vbap_mission::config::{read_mission_file, Mission};
 
-pub use aggregate::{aggregate, Aggregate, Distribution};
+pub use aggregate::{aggregate, Aggregate};
 pub use criteria::{Criteria, CRITERIA_KEYS};
 pub use row::{csv_row, header, SeedResult, BATCH_HEADER};
 pub use run::seed_name;
+pub use stats::Distribution;
 pub use sweep::SweepArg;
 
 use run::{Job, Outcome};

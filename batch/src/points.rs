@@ -5,29 +5,9 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use super::aggregate::{rate_of, Distribution};
 use super::row::SeedResult;
+use super::stats::{rate_of, wilson, Distribution, Z95};
 use super::sweep::Point;
-
-/// z of a two-sided 95 % normal interval: Φ⁻¹(0.975).
-pub const Z95: f64 = 1.959_963_984_540_054;
-
-/// The Wilson score interval of a proportion: `successes` of `n` trials at normal quantile
-/// `z` (E. B. Wilson, 1927), as `[low, high]` in [0, 1]; `[0, 1]` when `n` is 0.
-///
-/// centre = (p̂ + z²/2n) / (1 + z²/n), half width = z/(1 + z²/n) · √(p̂(1 − p̂)/n + z²/4n²).
-pub fn wilson(successes: usize, n: usize, z: f64) -> [f64; 2] {
-    if n == 0 {
-        return [0.0, 1.0];
-    }
-    let n = n as f64;
-    let p = successes as f64 / n;
-    let z2 = z * z;
-    let denom = 1.0 + z2 / n;
-    let centre = (p + z2 / (2.0 * n)) / denom;
-    let half = z / denom * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt();
-    [(centre - half).max(0.0), (centre + half).min(1.0)]
-}
 
 /// The figures of one grid point over its seeds.
 #[derive(Clone, Debug, Default, Serialize)]

@@ -236,18 +236,18 @@ fn the_batch_sweep_table_and_the_command_line_merge() {
 #[test]
 fn wilson_interval_matches_known_values() {
     // 8 of 10 at 95 %: [0.4902, 0.9433] (Wilson 1927; e.g. Newcombe 1998, method 3).
-    let [lo, hi] = points::wilson(8, 10, points::Z95);
+    let [lo, hi] = stats::wilson(8, 10, stats::Z95);
     assert!(
         (lo - 0.4902).abs() < 5e-5 && (hi - 0.9433).abs() < 5e-5,
         "{lo} {hi}"
     );
-    let [lo, hi] = points::wilson(0, 10, points::Z95);
+    let [lo, hi] = stats::wilson(0, 10, stats::Z95);
     assert_eq!(lo, 0.0);
     assert!((hi - 0.2775).abs() < 5e-5, "{hi}");
-    let [lo, hi] = points::wilson(10, 10, points::Z95);
+    let [lo, hi] = stats::wilson(10, 10, stats::Z95);
     assert!((lo - 0.7225).abs() < 5e-5, "{lo}");
     assert!((hi - 1.0).abs() < 1e-12, "{hi}");
-    assert_eq!(points::wilson(0, 0, points::Z95), [0.0, 1.0]);
+    assert_eq!(stats::wilson(0, 0, stats::Z95), [0.0, 1.0]);
 }
 
 #[test]

@@ -35,8 +35,8 @@ use vbap_ipc::topics::{Domain, Limits};
 use vbap_ipc::wait::{Event, Wake};
 use vbap_mission::rundir::Percentiles;
 
-use super::floors::{in_private_domain, say_ready, wait_events, Helper};
-use super::StopFlag;
+use super::peer::{in_private_domain, say_ready, wait_events, Helper};
+use super::stop::StopFlag;
 
 /// Bytes of a command of `n` vehicles as the coordinator writes it (the snapshot's entries
 /// in use; the other arrays whole), and as UDP sends it.

@@ -14,11 +14,8 @@
 //! wall clock into `header.sent_ns` just before sending, the receiver reads the wall clock
 //! once it holds the message. Both directions of each round trip are recorded.
 
-use std::fs::OpenOptions;
-use std::io::{BufRead, BufReader, Write};
 use std::net::UdpSocket;
 use std::path::Path;
-use std::process::{Child, ChildStdout, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
@@ -30,37 +27,11 @@ use vbap_ipc::msg::agent_to_coordinator::VehicleState;
 use vbap_ipc::msg::{wall_ns, Header};
 use vbap_ipc::ports::{self, Receiver, Sender};
 use vbap_ipc::topics::{Domain, Limits, EVENT_VEHICLE_BASE};
-use vbap_ipc::wait::{Event, Waiter, Wake, WakeListener};
+use vbap_ipc::wait::{Event, Wake, WakeListener};
 use vbap_mission::rundir::Percentiles;
 
-use super::{unique_name, BenchArgs, Interrupted, StopFlag};
-use vbap_ipc::domain::clean_domain;
-use vbap_ipc::process::InvalidInput;
-
-/// Helper roles (hidden from `--help`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Role {
-    /// Answers iceoryx2 pings.
-    IoxPong,
-    /// Answers UDP pings.
-    UdpPong,
-    /// Answers iceoryx2 pings, busy polling (no event, no sleep).
-    IoxPongPoll,
-    /// Answers UDP pings, busy polling a non-blocking socket.
-    UdpPongPoll,
-    /// One agent of the wake-up floor.
-    WakeAgent,
-    /// Spins at the lowest priority, keeping a CPU out of idle (the warm floors).
-    Spin,
-    /// One agent of the skeleton floor ([`super::skeleton`]).
-    SkeletonAgent,
-    /// The field server of the skeleton floor.
-    SkeletonField,
-    /// One receiver of the fan-out through iceoryx2 ([`super::fanout`]).
-    FanoutIox,
-    /// One receiver of the fan-out over UDP.
-    FanoutUdp,
-}
+use super::peer::{in_private_domain, say_ready, wait_events, Helper, PEER_TIMEOUT};
+use super::stop::{Interrupted, StopFlag};
 
 /// `header.flags` of the last ping: the peer exits.
 const STOP_FLAG: u32 = 1 << 31;
@@ -68,9 +39,6 @@ const STOP_FLAG: u32 = 1 << 31;
 const TICK: Event = Event::Body;
 /// Wake-up of the wake-up floor's agents: exit.
 const QUIT: Event = Event::Exit;
-/// How long a measurement waits for its peer before it gives up.
-pub(super) const PEER_TIMEOUT: Duration = Duration::from_secs(10);
-
 /// Bytes of a [`VehicleState`] on the wire (UDP): the size of the struct itself.
 const WIRE: usize = std::mem::size_of::<VehicleState>();
 /// Bytes [`encode`] fills (every field of the layout it knows); the rest stays zero.
@@ -86,100 +54,6 @@ pub struct HopFloor {
     pub round_trip_us: Percentiles,
     /// One-way samples.
     pub samples: usize,
-}
-
-/// A helper process, killed and reaped when dropped.
-pub(super) struct Helper {
-    child: Child,
-    stdout: Option<BufReader<ChildStdout>>,
-    name: String,
-}
-
-impl Helper {
-    pub(super) fn spawn(work: &Path, name: &str, args: &[String]) -> Result<Self> {
-        Self::spawn_with(work, name, args, false)
-    }
-
-    /// [`Helper::spawn`], at the lowest CPU priority (`nice -n 19`) when `niced`.
-    fn spawn_with(work: &Path, name: &str, args: &[String], niced: bool) -> Result<Self> {
-        let exe = super::exe()?;
-        let log = OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(work.join("helpers.stderr.log"))
-            .context("opening helpers.stderr.log")?;
-        let mut command = if niced {
-            let mut c = Command::new("nice");
-            c.arg("-n").arg("19").arg(exe);
-            c
-        } else {
-            Command::new(exe)
-        };
-        let mut child = command
-            .arg("bench")
-            .args(args)
-            .arg("--parent")
-            .arg(std::process::id().to_string())
-            .env_remove("RUST_LOG")
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::from(log))
-            .spawn()
-            .with_context(|| format!("starting helper {name}"))?;
-        let stdout = child.stdout.take().map(BufReader::new);
-        Ok(Self {
-            child,
-            stdout,
-            name: name.to_string(),
-        })
-    }
-
-    /// Reads the helper's `ready ...` line; returns what follows `ready`.
-    pub(super) fn ready(&mut self) -> Result<String> {
-        let mut line = String::new();
-        if let Some(out) = self.stdout.as_mut() {
-            out.read_line(&mut line)
-                .with_context(|| format!("reading helper {}'s stdout", self.name))?;
-        }
-        match line.trim().strip_prefix("ready") {
-            Some(rest) => Ok(rest.trim().to_string()),
-            None => bail!(
-                "helper {} exited before it was ready (see helpers.stderr.log)",
-                self.name
-            ),
-        }
-    }
-
-    /// The helper's next line on stdout (after `ready`), without its newline; empty at
-    /// the end of its output.
-    pub(super) fn line(&mut self) -> Result<String> {
-        let mut line = String::new();
-        if let Some(out) = self.stdout.as_mut() {
-            out.read_line(&mut line)
-                .with_context(|| format!("reading helper {}'s stdout", self.name))?;
-        }
-        Ok(line.trim_end().to_string())
-    }
-
-    /// Waits up to `timeout` for the helper to exit on its own, then kills it.
-    pub(super) fn reap(mut self, timeout: Duration) {
-        let deadline = Instant::now() + timeout;
-        while Instant::now() < deadline {
-            if !matches!(self.child.try_wait(), Ok(None)) {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        }
-    }
-}
-
-impl Drop for Helper {
-    fn drop(&mut self) {
-        if let Ok(None) = self.child.try_wait() {
-            let _ = self.child.kill();
-        }
-        let _ = self.child.wait();
-    }
 }
 
 fn service_name(domain: &Domain, path: &str) -> Result<ServiceName> {
@@ -240,37 +114,6 @@ fn receiver(
     ))
 }
 
-/// Blocks until the waiter's listener has events, the timeout passes or SIGINT/SIGTERM
-/// (then the bench's stop flag is set); calls `on_event` with every event received. A
-/// wake-up that finds no event waits again ([`Waiter::wait_for_event`]).
-pub(super) fn wait_events(
-    waiter: &Waiter<'_>,
-    timeout: Duration,
-    on_event: impl FnMut(Event),
-) -> Result<Wake> {
-    let wake = waiter.wait_for_event(timeout, on_event)?;
-    if wake == Wake::Stop {
-        StopFlag::set();
-    }
-    Ok(wake)
-}
-
-/// [`wait_events`] after polling for up to `spin` (the coordinator's way of waiting:
-/// [`vbap_ipc::wait::COORDINATOR_SPIN`]); a wake-up without an event is returned as
-/// [`Wake::Events`] for the caller to look and wait again.
-pub(super) fn wait_events_spinning(
-    waiter: &Waiter<'_>,
-    timeout: Duration,
-    spin: Duration,
-    on_event: impl FnMut(Event),
-) -> Result<Wake> {
-    let wake = waiter.spin_then_wait(timeout, spin, on_event)?;
-    if wake == Wake::Stop {
-        StopFlag::set();
-    }
-    Ok(wake)
-}
-
 /// The ping of round `i`.
 fn ping(i: u64, flags: u32) -> VehicleState {
     VehicleState {
@@ -314,21 +157,6 @@ impl Samples {
             round_trip_us: Percentiles::of(&mut self.round_trip_us),
         }
     }
-}
-
-/// Runs `body` in a fresh private domain, then removes the domain's files (after every
-/// node of `body` is dropped and every helper reaped).
-pub(super) fn in_private_domain<T>(
-    tag: &str,
-    body: impl FnOnce(&Domain) -> Result<T>,
-) -> Result<T> {
-    let domain = Domain::new(&unique_name(tag))?;
-    clean_domain(&domain)?;
-    let result = body(&domain);
-    let cleaned = clean_domain(&domain);
-    let value = result?;
-    cleaned.context("removing the bench's private iceoryx2 domain")?;
-    Ok(value)
 }
 
 /// The raw iceoryx2 floor of the hop: `samples` round trips after `warmup`. `poll`: both
@@ -401,7 +229,7 @@ pub fn iceoryx2_ping_pong(
     })
 }
 
-fn iox_pong(domain: &Domain, poll: bool) -> Result<i32> {
+pub fn iox_pong(domain: &Domain, poll: bool) -> Result<i32> {
     let node = domain.node("bench_pong")?;
     let pings = receiver(&node, domain, "ping")?;
     let pongs = sender(&node, domain, "pong")?;
@@ -533,7 +361,7 @@ pub fn udp_ping_pong(
     Ok(out.floor())
 }
 
-fn udp_pong(poll: bool) -> Result<i32> {
+pub fn udp_pong(poll: bool) -> Result<i32> {
     let socket = UdpSocket::bind("127.0.0.1:0").context("binding a UDP socket on 127.0.0.1")?;
     socket.set_nonblocking(poll)?;
     say_ready(&socket.local_addr()?.port().to_string());
@@ -663,7 +491,7 @@ pub fn wake_floor(work: &Path, agents: usize, rounds: usize, stop: &StopFlag) ->
     })
 }
 
-fn wake_agent(domain: &Domain, id: usize, agents: usize) -> Result<i32> {
+pub fn wake_agent(domain: &Domain, id: usize, agents: usize) -> Result<i32> {
     let node = domain.node(&format!("bench_agent_{id}"))?;
     let wake = WakeListener::new(&agent_wake(&node, domain, id)?)?;
     let waiter = wake.attach()?;
@@ -693,7 +521,7 @@ fn wake_agent(domain: &Domain, id: usize, agents: usize) -> Result<i32> {
 }
 
 /// Burns CPU until killed (the parent kills it; it dies with the parent).
-fn spin() -> Result<i32> {
+pub fn spin() -> Result<i32> {
     say_ready("");
     // No `spin_loop` hint: PAUSE in a loop makes a KVM guest's vCPU exit to the host
     // (pause-loop exiting), which is what the spinner must not do.
@@ -731,65 +559,6 @@ impl Warm {
             _spinners: spinners,
         })
     }
-}
-
-/// Tells the parent the ports exist: `ready [what]` on stdout, flushed.
-pub(super) fn say_ready(what: &str) {
-    let mut out = std::io::stdout().lock();
-    let _ = writeln!(out, "ready {what}");
-    let _ = out.flush();
-}
-
-/// Runs a helper role (a peer process of a floor).
-pub fn helper(role: Role, args: &BenchArgs) -> Result<i32> {
-    vbap_ipc::process::die_with_parent(args.parent);
-    let domain = || -> Result<Domain> {
-        let name = args
-            .domain
-            .as_deref()
-            .ok_or_else(|| InvalidInput(format!("--role {role:?} needs --domain")))?;
-        Ok(Domain::new(name)?)
-    };
-    let code = match role {
-        Role::IoxPong => iox_pong(&domain()?, false),
-        Role::UdpPong => udp_pong(false),
-        Role::IoxPongPoll => iox_pong(&domain()?, true),
-        Role::UdpPongPoll => udp_pong(true),
-        Role::Spin => spin(),
-        Role::SkeletonAgent | Role::SkeletonField | Role::FanoutIox => {
-            let (Some(id), Some(agents)) = (args.id, args.agents) else {
-                return Err(
-                    InvalidInput(format!("--role {role:?} needs --id and --agents")).into(),
-                );
-            };
-            match role {
-                Role::SkeletonAgent => super::skeleton::agent(&domain()?, id, agents),
-                Role::SkeletonField => super::skeleton::field(&domain()?, agents),
-                _ => super::fanout::iox_receiver(
-                    &domain()?,
-                    id,
-                    agents,
-                    args.warmup.unwrap_or(0),
-                    args.rounds.unwrap_or(0),
-                ),
-            }
-        }
-        Role::FanoutUdp => super::fanout::udp_receiver(
-            args.id.unwrap_or(0),
-            args.agents.unwrap_or(0),
-            args.warmup.unwrap_or(0),
-            args.rounds.unwrap_or(0),
-        ),
-        Role::WakeAgent => {
-            let (Some(id), Some(agents)) = (args.id, args.agents) else {
-                return Err(
-                    InvalidInput("--role wake-agent needs --id and --agents".into()).into(),
-                );
-            };
-            wake_agent(&domain()?, id, agents)
-        }
-    }?;
-    Ok(code)
 }
 
 #[cfg(test)]

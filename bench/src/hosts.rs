@@ -20,8 +20,9 @@ use anyhow::{anyhow, bail, Context, Result};
 use vbap_mission::rundir::{Percentiles, RunDir};
 use vbap_report::analyze::analyze;
 
+use super::args::BenchArgs;
 use super::netns::{Net, HOSTS};
-use super::{unique_name, BenchArgs};
+use super::peer::unique_name;
 use vbap_ipc::process::bin_dir;
 
 const N: usize = 16;

@@ -26,172 +26,50 @@
 //!
 //! How each figure is derived from the runs is in [`system`] and in BENCHMARKS.md.
 
-//! The command's parts: [`report`] (what is recorded), [`measure`] (the measurements in
-//! order), [`render`] (the tables), [`floors`] and [`system`] (the floors, the runs).
+//! The command's parts: [`args`] (the arguments, the hidden helper roles), [`plan`] (what a
+//! run does and aims at), [`report`] (what is recorded), [`measure`] (the measurements in
+//! order), [`render`] (the tables), [`floors`] and [`system`] (the floors, the runs),
+//! [`missions`] (what the runs fly), [`peer`] (helper processes, private domains),
+//! [`roles`] (this executable as a helper), [`stop`] (SIGINT/SIGTERM).
 
+mod args;
 mod fanout;
 mod floors;
 mod hosts;
 mod measure;
+mod missions;
 mod netns;
 mod overhead;
+mod peer;
+mod plan;
 mod render;
 mod report;
+mod roles;
 mod skeleton;
+mod stop;
 mod system;
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use std::time::Duration;
 
 use anyhow::{Context, Result};
-use iceoryx2::node::{Node, NodeWaitFailure};
-use iceoryx2::prelude::ipc;
+use vbap_ipc::process::InvalidInput;
 use vbap_ipc::topics::Domain;
 
-use vbap_ipc::domain::clean_domain;
-use vbap_ipc::process::InvalidInput;
-
+pub use args::BenchArgs;
 use report::Report;
-
-/// Arguments.
-#[derive(clap::Args, Debug)]
-pub struct BenchArgs {
-    /// Quick run: fewer samples, shorter missions, no N = 256 (a smoke run, < 1 min).
-    #[arg(long)]
-    pub quick: bool,
-    /// Also run N = 1024 (lockstep scaling, real-time sweep, start-up and memory).
-    #[arg(long)]
-    pub large: bool,
-    /// Also write the results as JSON to this file.
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Keep the run directories (missions, logs, summaries) in this directory (must be
-    /// empty or absent). Default: a temporary directory, removed at the end except for
-    /// the runs that failed, ran late, rejected states or lost vehicles.
-    #[arg(long)]
-    pub work_dir: Option<PathBuf>,
-    /// Instead: the cost of a mission spread over 3 hosts (network namespaces: root)
-    /// against raw Zenoh over the same links (cli/src/bench/hosts.rs).
-    #[arg(long)]
-    pub hosts: bool,
-    /// Instead: only section 7, the N = 4 state hop against the raw iceoryx2 floor and
-    /// against the skeleton's hop, 5 interleaved repetitions (cli/src/bench/overhead.rs).
-    #[arg(long, conflicts_with = "hosts")]
-    pub hop: bool,
-    /// Helper role of a peer process (internal).
-    #[arg(long, hide = true, value_enum)]
-    pub role: Option<floors::Role>,
-    /// Helper: the private iceoryx2 domain (mission name) of the floor (internal).
-    #[arg(long, hide = true)]
-    pub domain: Option<String>,
-    /// Helper: the agent id (internal).
-    #[arg(long, hide = true)]
-    pub id: Option<usize>,
-    /// Helper: the number of agents of the wake-up floor (internal).
-    #[arg(long, hide = true)]
-    pub agents: Option<usize>,
-    /// Helper: warm-up rounds of the fan-out (internal).
-    #[arg(long, hide = true)]
-    pub warmup: Option<u64>,
-    /// Helper: measured rounds of the fan-out (internal).
-    #[arg(long, hide = true)]
-    pub rounds: Option<usize>,
-    /// Helper: exit when this process is no longer our parent (internal).
-    #[arg(long, hide = true)]
-    pub parent: Option<u32>,
-}
+use stop::{Interrupted, StopFlag};
 
 /// Exit code of a bench stopped by SIGINT/SIGTERM.
 const EXIT_INTERRUPTED: i32 = 130;
-
-/// The bench was stopped by a signal.
-#[derive(Debug, thiserror::Error)]
-#[error("interrupted")]
-pub(crate) struct Interrupted;
-
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
-/// Catches SIGINT/SIGTERM for the whole bench: an iceoryx2 node with
-/// `HandleTerminationRequests` turns them into a flag that [`StopFlag::check`] reads between
-/// and inside the phases, so an interrupted bench still reaps its children and removes its
-/// shared-memory files.
-pub(crate) struct StopFlag {
-    node: Node<ipc::Service>,
-    domain: Domain,
-}
-
-impl StopFlag {
-    fn new(domain: Domain) -> Result<Self> {
-        let node = domain.node("bench_signals")?;
-        let flag = Self { node, domain };
-        let _ = flag.requested(); // installs iceoryx2's signal capture now
-        Ok(flag)
-    }
-
-    /// True once SIGINT or SIGTERM has arrived (sticky).
-    pub(crate) fn requested(&self) -> bool {
-        if !INTERRUPTED.load(Ordering::SeqCst) {
-            if let Err(NodeWaitFailure::Interrupt | NodeWaitFailure::TerminationRequest) =
-                self.node.wait(Duration::ZERO)
-            {
-                INTERRUPTED.store(true, Ordering::SeqCst);
-            }
-        }
-        INTERRUPTED.load(Ordering::SeqCst)
-    }
-
-    /// Records a signal seen by some other iceoryx2 wait.
-    pub(crate) fn set() {
-        INTERRUPTED.store(true, Ordering::SeqCst);
-    }
-
-    /// `Err(Interrupted)` once a signal has arrived.
-    pub(crate) fn check(&self) -> Result<()> {
-        if self.requested() {
-            Err(Interrupted.into())
-        } else {
-            Ok(())
-        }
-    }
-
-    fn close(self) {
-        let Self { node, domain } = self;
-        drop(node);
-        let _ = clean_domain(&domain);
-    }
-}
-
-/// This executable, as it was when the bench started (a rebuild during the bench replaces
-/// the file, and `/proc/self/exe` then names a deleted file).
-pub(crate) fn exe() -> Result<PathBuf> {
-    static EXE: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
-    if let Some(p) = EXE.get() {
-        return Ok(p.clone());
-    }
-    let p = std::env::current_exe().context("locating the vbap executable")?;
-    Ok(EXE.get_or_init(|| p).clone())
-}
-
-/// A fresh mission / domain name of this bench: `bench<pid>x<counter>` (letters, digits,
-/// ≤ 32 characters).
-pub(crate) fn unique_name(tag: &str) -> String {
-    static COUNTER: AtomicU32 = AtomicU32::new(0);
-    format!(
-        "bench{}{tag}{}",
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::SeqCst)
-    )
-}
 
 /// Runs the command; returns the exit code.
 pub fn main(args: &BenchArgs) -> Result<i32> {
     // iceoryx2's own warnings (no config file: defaults are what the bench wants) would
     // clutter the tables; errors still show.
     iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
-    exe()?;
+    peer::exe()?;
     if let Some(role) = args.role {
-        return floors::helper(role, args);
+        return roles::helper(role, args);
     }
     check_out(args)?;
     let (work, keep) = work_dir(args)?;
@@ -202,7 +80,7 @@ pub fn main(args: &BenchArgs) -> Result<i32> {
         }
         return Ok(code);
     }
-    let stop = StopFlag::new(Domain::new(&unique_name("s"))?)?;
+    let stop = StopFlag::new(Domain::new(&peer::unique_name("s"))?)?;
     if args.hop {
         let result = overhead::hop_only(args, &work, &stop);
         stop.close();

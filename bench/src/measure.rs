@@ -5,53 +5,25 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Result;
-use vbap_mission::config::{Mission, Pace};
+use vbap_mission::config::Pace;
 
+use super::args::BenchArgs;
 use super::floors::{self, HopFloor};
+use super::missions::{glider_mission, paper_mission};
 use super::overhead::{self, Overhead};
+use super::plan::{LockstepPlan, Plan};
 use super::report::{
-    goals, CpuMark, Glider, GliderRate, LockstepPlan, LockstepRow, Machine, Plan, Realtime,
-    RealtimeRow, Report, SystemHop,
+    goals, CpuMark, Glider, GliderRate, LockstepRow, Machine, Realtime, RealtimeRow, Report,
+    SystemHop,
 };
+use super::stop::StopFlag;
 use super::system::{self, Footprint, SystemRun};
-use super::{unique_name, BenchArgs, StopFlag};
 
 /// Time step of the real-time and footprint runs, s.
 const REALTIME_DT: f64 = 0.1;
 
 fn phase(what: &str) {
     eprintln!("vbap bench: {what}");
-}
-
-/// The paper's mission (deploy/missions/paper.toml), with N vehicles on a polygon whose
-/// edge is that of the paper's optimal square (radius 1.229 for N = 4), so neighbours
-/// keep the paper's spacing at every N.
-pub(super) fn paper_mission(n: usize, duration: f64, dt: f64, pace: Pace) -> Result<Mission> {
-    const PAPER: &str = include_str!("../../deploy/missions/paper.toml");
-    let mut m = Mission::from_toml_str(PAPER, "deploy/missions/paper.toml (embedded)")?;
-    let edge = 2.0 * m.formation.radius * (std::f64::consts::PI / 4.0).sin();
-    m.mission.name = unique_name("p");
-    m.vehicles.count = n;
-    m.formation.radius = edge / (2.0 * (std::f64::consts::PI / n as f64).sin());
-    m.mission.duration = duration;
-    m.mission.dt = dt;
-    m.mission.pace = pace;
-    m.validate()?;
-    Ok(m)
-}
-
-/// The glider mission (deploy/missions/glider.toml), `n` gliders, lockstep, surfacing.
-fn glider_mission(n: usize, duration: f64, period: f64, window: f64) -> Result<Mission> {
-    const GLIDER: &str = include_str!("../../deploy/missions/glider.toml");
-    let mut m = Mission::from_toml_str(GLIDER, "deploy/missions/glider.toml (embedded)")?;
-    m.mission.name = unique_name("g");
-    m.vehicles.count = n;
-    m.mission.duration = duration;
-    m.mission.pace = Pace::Lockstep;
-    m.links.surfacing_period = period;
-    m.links.surfacing_window = window;
-    m.validate()?;
-    Ok(m)
 }
 
 /// Every measurement of the bench, in order; the report with its goals.

@@ -17,11 +17,12 @@ use anyhow::Result;
 use serde::Serialize;
 use vbap_mission::config::Pace;
 
+use super::args::BenchArgs;
 use super::fanout::{self, Fanout};
 use super::floors;
-use super::measure::paper_mission;
-use super::report::{Goal, Plan, Report};
-use super::StopFlag;
+use super::missions::paper_mission;
+use super::plan::{Goal, Plan};
+use super::stop::StopFlag;
 use super::{skeleton, system};
 
 /// Repetitions of the N = 4 hop against its floor.
@@ -254,7 +255,7 @@ fn rank_medians(pairs: &[HopPair], of: impl Fn(&HopPair) -> &[f64]) -> Vec<f64> 
 }
 
 /// `vbap bench --hop`: section 7 alone, printed with the load average before and after.
-pub fn hop_only(args: &super::BenchArgs, work: &Path, stop: &StopFlag) -> Result<i32> {
+pub fn hop_only(args: &BenchArgs, work: &Path, stop: &StopFlag) -> Result<i32> {
     let plan = Plan::new(args.quick);
     let load = || {
         std::fs::read_to_string("/proc/loadavg")
@@ -296,9 +297,8 @@ pub fn fanout(quick: bool, work: &Path, stop: &StopFlag) -> Result<Fanout> {
     )
 }
 
-/// The tables of this module (sections 6 to 8).
-pub fn render(r: &Report, s: &mut String) {
-    let o = &r.overhead;
+/// The tables of this module (sections 6 to 8), on a machine of `cpus` CPUs.
+pub fn render(o: &Overhead, cpus: usize, s: &mut String) {
     let opt = |v: Option<f64>, p: usize| v.map_or("n/a".into(), |v| format!("{v:.p$}"));
     let _ = writeln!(
         s,
@@ -337,7 +337,7 @@ pub fn render(r: &Report, s: &mut String) {
          (**) the skeleton's tick plus that work as a lockstep tick orders it: the field's readings and the\n       \
          coordinator's planner and rows one after the other, the agents' laws over min(N, {}) CPUs; what is\n       \
          left above it is what vbap sim does not do (message records, checkpoints, checks, bookkeeping)",
-        r.machine.cpus, r.machine.cpus
+        cpus, cpus
     );
     for row in &o.skeleton {
         if let Some([field, coordinator, agents]) = row.sim_parts_us {

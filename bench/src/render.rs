@@ -32,7 +32,7 @@ pub(super) fn render(r: &Report) -> String {
     let _ = writeln!(s);
     footprint(r, &mut s);
     let _ = writeln!(s);
-    super::overhead::render(r, &mut s);
+    super::overhead::render(&r.overhead, r.machine.cpus, &mut s);
     let _ = writeln!(s);
     goals(r, &mut s);
     let _ = writeln!(s);

@@ -39,10 +39,10 @@ use vbap_ipc::topics::{self, Domain, Limits};
 use vbap_ipc::wait::{Event, Wake, WakeListener, COORDINATOR_SPIN};
 use vbap_mission::rundir::Percentiles;
 
-use super::floors::{
+use super::peer::{
     in_private_domain, say_ready, wait_events, wait_events_spinning, Helper, PEER_TIMEOUT,
 };
-use super::{Interrupted, StopFlag};
+use super::stop::{Interrupted, StopFlag};
 
 /// Time step written into the headers (s); nothing depends on it.
 const DT: f64 = 0.05;

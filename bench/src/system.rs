@@ -38,7 +38,7 @@ use vbap_ipc::topics::Domain;
 use vbap_mission::config::Mission;
 use vbap_mission::rundir::{RunDir, Summary};
 
-use super::StopFlag;
+use super::stop::StopFlag;
 use vbap_ipc::domain::clean_domain;
 use vbap_report::analyze::{analyze, HopReport};
 
@@ -247,7 +247,7 @@ pub fn run(mission: &Mission, work: &Path, stop: &StopFlag, sample_pss: bool) ->
         .with_context(|| format!("writing {}", file.display()))?;
     let stderr = std::fs::File::create(&stderr_path)
         .with_context(|| format!("creating {}", stderr_path.display()))?;
-    let exe = super::exe()?;
+    let exe = super::peer::exe()?;
     let launch_ns = wall_ns();
     let started = Instant::now();
     let child = Command::new(exe)
@@ -553,24 +553,6 @@ impl Marks {
 
 /// The `target` of message records as it appears in a JSON log line.
 const MSG_TARGET_FIELD: &str = "\"target\":\"vbap::msg\"";
-
-/// Fleet size the `--large` bench adds (issue 17: linear cost and real time at N = 1024).
-pub(super) const LARGE_N: usize = 1024;
-
-impl super::report::Plan {
-    /// `--large`: N = [`LARGE_N`] added to the lockstep scaling (100 ticks), the real-time
-    /// sweep and the footprint runs (about 3 more minutes on 2 cores).
-    pub(super) fn with_large(mut self) -> Self {
-        self.lockstep.push(super::report::LockstepPlan {
-            vehicles: LARGE_N,
-            ticks: 100,
-            floor_rounds: 150,
-        });
-        self.realtime.push(LARGE_N);
-        self.footprint.push(LARGE_N);
-        self
-    }
-}
 
 #[cfg(test)]
 mod tests {

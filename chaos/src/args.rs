@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use vbap_mission::config::{Mission, Pace, RestartPolicy, MAX_TICKS};
 
 use super::procs::Target;
-use super::{FIRST_ACTION, MIN_STOP, TAIL};
+use super::timing::{FIRST_ACTION, MIN_STOP, TAIL};
 use vbap_ipc::process::InvalidInput;
 
 /// Arguments.

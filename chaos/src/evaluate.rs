@@ -9,7 +9,7 @@ use vbap_mission::config::RestartPolicy;
 
 use super::procs::{json_lines, message, Seen, Slot};
 use super::report::{action_failure, Action, RunReport};
-use super::MARGIN;
+use super::timing::MARGIN;
 
 fn num_list(v: Option<&Value>) -> Vec<f64> {
     v.and_then(Value::as_array)

@@ -74,10 +74,11 @@ mod report;
 mod run;
 #[cfg(test)]
 mod tests;
+mod timing;
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use anyhow::{Context, Result};
 use vbap_mission::config::{FaultKind, Mission, Overrides, Pace, RestartPolicy};
@@ -86,25 +87,13 @@ pub use args::{plan, run_name, ChaosArgs};
 pub use output::{table, CSV_HEADER};
 pub use procs::{slot_of, Slot, Target};
 pub use report::{Action, Campaign, RunReport, Totals};
+pub use timing::{MARGIN, TAIL};
 
 use args::{policy_name, run_mission, target_name};
 use procs::json_lines;
 use run::{run_one, RunSpec};
 use vbap_ipc::process::InvalidInput;
 
-/// Wall time a paced run lasts after the action window, s: room to detect, restart and
-/// readmit the last action's target.
-pub const TAIL: f64 = 5.0;
-/// An action is judged when the mission went on at least this long after it (wall, s).
-pub const MARGIN: f64 = 3.0;
-/// Earliest action, s of wall time after the process set is up.
-const FIRST_ACTION: f64 = 0.5;
-/// Shortest SIGSTOP pause, s.
-const MIN_STOP: f64 = 0.2;
-/// How often the campaign looks at the process set.
-const POLL: Duration = Duration::from_millis(2);
-/// Longest wait for the process set to come up.
-const UP_TIMEOUT: Duration = Duration::from_secs(120);
 /// Ticks of the calibration run.
 const CALIBRATION_TICKS: u64 = 4000;
 

@@ -18,7 +18,7 @@ use super::evaluate::evaluate;
 use super::procs::{alive, children, cmdline, epoch_s, is_up, leftover_processes, send, slot_of};
 use super::procs::{Seen, Slot, Target};
 use super::report::{Action, RunReport};
-use super::{MIN_STOP, POLL, UP_TIMEOUT};
+use super::timing::{MIN_STOP, POLL, UP_TIMEOUT};
 
 /// What a run is: its place in the campaign, its pace, policy, seed and plan.
 pub(super) struct RunSpec<'a> {

@@ -1,6 +1,7 @@
 //! Unit tests of the campaign: slots, plans, the detection limit, run names.
 
 use super::report::apply_detection_limit;
+use super::timing::{FIRST_ACTION, MIN_STOP};
 use super::*;
 use vbap_mission::config::MAX_NAME_LEN;
 
