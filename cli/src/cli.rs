@@ -39,15 +39,15 @@ enum Cmd {
     /// Re-run the planner offline on a run's recorded inputs; check body.csv bit for bit.
     Replay(crate::replay::ReplayArgs),
     /// Run a mission for many seeds; table, aggregate, pass/fail.
-    Batch(crate::batch::BatchArgs),
+    Batch(vbap_batch::BatchArgs),
     /// Seeded random-mission stress campaign over a declared space of missions: pass rates
     /// by law and by dimension, failures shrunk (exit 1 if any mission failed).
     Stress(crate::stress::StressArgs),
     /// Fault campaign: real SIGKILLs and SIGSTOPs at random times; a table of detections,
     /// recoveries and leftovers (exit 1 if any kill went undetected or unrecovered).
-    Chaos(crate::chaos::ChaosArgs),
+    Chaos(vbap_chaos::ChaosArgs),
     /// Benchmarks: IPC hop against its floor, lockstep scaling, real-time capacity.
-    Bench(crate::bench::BenchArgs),
+    Bench(vbap_bench::BenchArgs),
     /// Are two run directories the same run? (files from mission time byte for byte,
     /// summary.json without its wall-clock fields; exit 0 same, 1 different)
     Compare(crate::compare::CompareArgs),
@@ -117,8 +117,6 @@ struct RunArgs {
     host: Option<String>,
 }
 
-// Re-exported for analyze, replay and bench/floors, which still take it from here; other
-// modules take it from `errors`.
 use crate::errors::InvalidInput;
 
 /// Runs the command line; returns the exit code.
@@ -128,7 +126,7 @@ pub fn main() -> i32 {
 
 /// Runs the command line of a user's own vbap (`plugins`: its field and law,
 /// [`crate::custom`]); `None`: `vbap` itself. Returns the exit code.
-pub fn main_with(plugins: Option<&crate::plugins::Plugins>) -> i32 {
+pub fn main_with(plugins: Option<&vbap_sim::Plugins>) -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
@@ -148,7 +146,7 @@ pub fn main_with(plugins: Option<&crate::plugins::Plugins>) -> i32 {
     }
 }
 
-fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> {
+fn dispatch(cmd: Cmd, plugins: Option<&vbap_sim::Plugins>) -> Result<i32> {
     if let (
         Some(_),
         Cmd::Replay(_) | Cmd::Batch(_) | Cmd::Chaos(_) | Cmd::Bench(_) | Cmd::Stress(_),
@@ -166,10 +164,10 @@ fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> 
         Cmd::Run(args) => run(&args, plugins),
         Cmd::Formation(args) => crate::formation::main(&args),
         Cmd::Replay(args) => crate::replay::main(&args),
-        Cmd::Batch(args) => crate::batch::main(&args),
-        Cmd::Chaos(args) => crate::chaos::main(&args),
+        Cmd::Batch(args) => vbap_batch::main(&args),
+        Cmd::Chaos(args) => vbap_chaos::main(&args),
         Cmd::Stress(args) => crate::stress::main(&args),
-        Cmd::Bench(args) => crate::bench::main(&args),
+        Cmd::Bench(args) => vbap_bench::main(&args),
         Cmd::Compare(args) => crate::compare::main(&args),
         Cmd::Services(args) => crate::introspect::services(&args),
         Cmd::Echo(args) => crate::introspect::echo(&args),
@@ -183,7 +181,7 @@ fn dispatch(cmd: Cmd, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> 
 fn check(mission: &Path, sets: &[KeySet]) -> Result<i32> {
     let m = Mission::load_with(mission, sets)?;
     // The criteria and the sweep of `vbap batch`, checked as it will read them.
-    crate::batch::check(mission, sets, &m)?;
+    vbap_batch::check(mission, sets, &m)?;
     if let Some(w) = m.stiffness_warning() {
         eprintln!("vbap: warning: {w}");
     }
@@ -229,7 +227,7 @@ fn live_view(args: &RunArgs, mission: &Mission, dir: &RunDir) -> Result<Option<v
 }
 
 /// `vbap sim`: the mission in this process, with a progress bar on a terminal.
-fn sim(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> {
+fn sim(args: &RunArgs, plugins: Option<&vbap_sim::Plugins>) -> Result<i32> {
     if args.view.is_some() {
         return Err(InvalidInput(
             "--view: only `vbap run` serves a live view (`vbap view DIR` replays a run)".into(),
@@ -258,13 +256,13 @@ fn sim(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32>
         {
             if let Ok(mut shutdown) = rt.block_on(async { crate::supervise::Shutdown::listen() }) {
                 rt.block_on(shutdown.requested());
-                crate::sim::STOP.store(true, std::sync::atomic::Ordering::Relaxed);
+                vbap_sim::STOP.store(true, std::sync::atomic::Ordering::Relaxed);
             }
         }
     });
     let summary = match plugins {
-        Some(p) => crate::sim::simulate_plugins(&mission, &dir, p, &mut progress)?,
-        None => crate::sim::simulate(&mission, &dir, &mut progress)?,
+        Some(p) => vbap_sim::simulate_plugins(&mission, &dir, p, &mut progress)?,
+        None => vbap_sim::simulate(&mission, &dir, &mut progress)?,
     };
     bar.finish_and_clear();
     print_summary(&summary, &dir, args.json)?;
@@ -279,7 +277,7 @@ fn sim(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32>
 }
 
 /// `vbap run`: the mission as a process set, under the mission's lock.
-fn run(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32> {
+fn run(args: &RunArgs, plugins: Option<&vbap_sim::Plugins>) -> Result<i32> {
     vbap_ipc::msglog::parse_records_switch(
         std::env::var(vbap_ipc::msglog::RECORDS_ENV).ok().as_deref(),
     )
@@ -298,7 +296,7 @@ fn run(args: &RunArgs, plugins: Option<&crate::plugins::Plugins>) -> Result<i32>
     // Processes of a supervisor that was killed end on their own (SIGTERM, then
     // their watchdog): wait for them, bounded.
     let domain = vbap_ipc::topics::Domain::new(&mission.mission.name)?;
-    crate::domain::await_domain_free(
+    vbap_ipc::domain::await_domain_free(
         &domain,
         vbap_ipc::process::ORPHAN_GRACE + std::time::Duration::from_secs(1),
     )
@@ -392,7 +390,7 @@ fn prepare_mission(args: &RunArgs) -> Result<Mission> {
 fn prepare_dir(args: &RunArgs, mission: &Mission) -> Result<RunDir> {
     let root = match &args.out {
         Some(p) => p.clone(),
-        None => crate::rundirs::default_run_dir(&mission.mission.name)?,
+        None => vbap_mission::rundir::default_run_dir(&mission.mission.name)?,
     };
     let dir = RunDir::create(&root)
         .map_err(|e| InvalidInput(format!("--out {}: {e}", root.display())))?;

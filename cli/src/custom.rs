@@ -4,7 +4,7 @@
 //! truth) and [`ControlLaw`] (a vehicle's u_i). A user's crate implements them and hands
 //! them to [`main`] in its own binary; that binary is then a `vbap` of its own:
 //!
-//! - `my_vbap sim MISSION ...`: the in-process simulator ([`crate::sim::simulate_plugins`]);
+//! - `my_vbap sim MISSION ...`: the in-process simulator ([`vbap_sim::simulate_plugins`]);
 //! - `my_vbap run MISSION ...`: the multi-process system, this same executable started
 //!   again in each role (`my_vbap role field-server|coordinator|agent ...`,
 //!   [`crate::supervise::Executables::this_exe_as_roles`]), so the field server samples
@@ -29,7 +29,8 @@ use clap::Parser;
 use field_server::{Sensors, World};
 use vbap_ipc::process::EXIT_INVALID;
 
-pub use crate::plugins::{Plugins, ROLE_COMMAND};
+pub use crate::supervise::ROLE_COMMAND;
+pub use vbap_sim::Plugins;
 
 /// This executable in a role (`THIS role ...`): the roles' own command lines.
 #[derive(Parser, Debug)]

@@ -2,12 +2,8 @@
 //! input (a bad argument or mission file, named in the message). A leaf: it uses no other
 //! module of this crate.
 
+pub use vbap_ipc::process::InvalidInput;
 use vbap_ipc::process::{EXIT_FAILURE, EXIT_INVALID};
-
-/// An error that is the user's input (exit 2).
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct InvalidInput(pub String);
 
 /// Prints `e` as `vbap: <message>` on stderr and returns its exit code: [`EXIT_INVALID`]
 /// for an [`InvalidInput`], a run directory that cannot be reported on or a mission-file

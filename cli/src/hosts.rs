@@ -11,7 +11,8 @@ use vbap_mission::config::Mission;
 use vbap_mission::hosts::Hosts;
 
 use crate::errors::InvalidInput;
-use crate::supervise::{bin_dir, Executable, HostPlan};
+use crate::supervise::{Executable, HostPlan};
+use vbap_ipc::process::bin_dir;
 
 /// The plan of host `host` of hosts file `file` for `mission` (both flags or neither);
 /// errors are the user's (exit 2).

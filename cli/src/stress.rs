@@ -61,7 +61,7 @@ pub struct StressArgs {
 
 /// The flyer: `vbap sim` without its progress bar.
 fn fly(mission: &Mission, dir: &RunDir) -> Result<Summary> {
-    crate::sim::simulate(mission, dir, &mut |_, _, _, _| {})
+    vbap_sim::simulate(mission, dir, &mut |_, _, _, _| {})
 }
 
 /// Runs `vbap stress`: exit 0 when every flight passed, 1 when any failed, 2 on bad input.

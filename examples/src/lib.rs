@@ -135,20 +135,7 @@ mod tests {
         let inter = vbap_math::potential::PairPotential::new(60.0, 1.0, 1.5).unwrap();
         let leader = vbap_math::potential::PairPotential::new(60.0, 1.2, 6.0).unwrap();
         let leaders = [Vec3::new(3.0, 0.0, 0.0)];
-        let inputs = ControlInputs {
-            leaders: &leaders,
-            neighbours: &[],
-            inter,
-            leader,
-            damping: 5.0,
-            neighbour_sigmas: &[],
-            neighbour_slots: &[],
-            homing: None,
-            neighbour_velocities: &[],
-            neighbour_ages: &[],
-            slot: None,
-            body_velocity: Vec3::zeros(),
-        };
+        let inputs = ControlInputs::paper(&leaders, &[], inter, leader, 5.0);
         let law = Saturated { u_max: 4.0 };
         let (x, v) = (Vec3::zeros(), Vec3::new(0.0, 2.0, 0.0));
         let paper = PaperLaw.control(&x, &v, &inputs);

@@ -1,5 +1,6 @@
 //! Process plumbing shared by the binaries: ending with the supervisor (or making a child
-//! end with us), signals, exit codes.
+//! end with us, a `vbap run` child), signals, exit codes and the user's error that exits 2,
+//! the folder of the binaries.
 
 use nix::sys::signal::Signal;
 
@@ -9,6 +10,61 @@ pub const EXIT_OK: i32 = 0;
 pub const EXIT_FAILURE: i32 = 1;
 /// Exit code: invalid input (config, arguments).
 pub const EXIT_INVALID: i32 = 2;
+
+/// An error that is the user's input (a bad argument or mission file, named in the
+/// message): exit [`EXIT_INVALID`].
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct InvalidInput(pub String);
+
+/// Prints `PASS`, or a `FAIL: …` line per failure, on stderr; returns the exit code
+/// ([`EXIT_OK`] or [`EXIT_FAILURE`]): how a study (`vbap batch`, `vbap chaos`) closes.
+pub fn pass_or_fail(passed: bool, failures: &[String]) -> i32 {
+    if passed {
+        eprintln!("PASS");
+        EXIT_OK
+    } else {
+        for f in failures {
+            eprintln!("FAIL: {f}");
+        }
+        EXIT_FAILURE
+    }
+}
+
+/// The directory of the vbap binaries (the one holding this executable).
+pub fn bin_dir() -> std::io::Result<std::path::PathBuf> {
+    let exe = std::env::current_exe()
+        .map_err(|e| std::io::Error::new(e.kind(), format!("locating the vbap executable: {e}")))?;
+    exe.parent()
+        .map(std::path::Path::to_path_buf)
+        .ok_or_else(|| std::io::Error::other("vbap executable has no parent directory"))
+}
+
+/// `exe run FILE --out RUN_DIR --quiet`, stdin closed, stdout and stderr into
+/// `RUN_DIR/vbap.log` (created here), stopped with its parent ([`stop_with_parent`]): the
+/// `vbap run` child of a study. Returns the command and the log's path.
+pub fn vbap_run(
+    exe: &std::path::Path,
+    file: &std::path::Path,
+    run_dir: &std::path::Path,
+) -> std::io::Result<(std::process::Command, std::path::PathBuf)> {
+    use std::process::Stdio;
+    let log_path = run_dir.join("vbap.log");
+    let log = std::fs::File::create(&log_path).map_err(|e| {
+        std::io::Error::new(e.kind(), format!("creating {}: {e}", log_path.display()))
+    })?;
+    let mut cmd = std::process::Command::new(exe);
+    cmd.arg("run")
+        .arg(file)
+        .arg("--out")
+        .arg(run_dir)
+        .arg("--quiet")
+        .stdin(Stdio::null())
+        .stdout(log.try_clone()?)
+        .stderr(log);
+    stop_with_parent(&mut cmd);
+    Ok((cmd, log_path))
+}
 
 /// How long a process whose supervisor died may take to end on its own (SIGTERM: flush,
 /// drop its node) before its watchdog ends it.

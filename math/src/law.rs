@@ -44,7 +44,34 @@ pub struct ControlInputs<'a> {
     pub body_velocity: Vec3,
 }
 
-impl ControlInputs<'_> {
+impl<'a> ControlInputs<'a> {
+    /// The inputs of (II.1) alone: leaders b_l(s) and neighbours (length unit), the scaled
+    /// potentials V_I and V_h, the damping gain (1/s); nobody rejoins, no neighbour velocity,
+    /// age or slot is known, the body is at rest. The inputs beyond the paper are set on
+    /// top with the struct update syntax (`ControlInputs { homing, ..ControlInputs::paper(…) }`).
+    pub fn paper(
+        leaders: &'a [Vec3],
+        neighbours: &'a [Vec3],
+        inter: PairPotential,
+        leader: PairPotential,
+        damping: f64,
+    ) -> Self {
+        ControlInputs {
+            leaders,
+            neighbours,
+            inter,
+            leader,
+            damping,
+            neighbour_sigmas: &[],
+            neighbour_slots: &[],
+            homing: None,
+            neighbour_velocities: &[],
+            neighbour_ages: &[],
+            slot: None,
+            body_velocity: Vec3::zeros(),
+        }
+    }
+
     /// True while this vehicle or a neighbour rejoins (some homing weight is > 0).
     pub fn rejoining(&self) -> bool {
         self.homing.is_some() || self.neighbour_sigmas.iter().any(|s| *s > 0.0)
@@ -116,18 +143,8 @@ mod tests {
         let neighbours = [Vec3::new(0.9, 0.0, 0.0), Vec3::new(-0.5, 0.7, 0.0)];
         let leaders = [Vec3::new(1.5, 1.0, 0.0)];
         let inputs = ControlInputs {
-            leaders: &leaders,
-            neighbours: &neighbours,
-            inter,
-            leader,
-            damping: 0.7,
             neighbour_sigmas: &[0.0, 0.0],
-            neighbour_slots: &[],
-            homing: None,
-            neighbour_velocities: &[],
-            neighbour_ages: &[],
-            slot: None,
-            body_velocity: Vec3::zeros(),
+            ..ControlInputs::paper(&leaders, &neighbours, inter, leader, 0.7)
         };
         assert!(!inputs.rejoining());
         let u = PaperLaw.control(&x, &v, &inputs);

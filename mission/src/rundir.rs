@@ -14,6 +14,16 @@ use serde::{Deserialize, Serialize};
 
 use vbap_math::Vec3;
 
+/// `runs/<label>-<UTC timestamp>`: where a run goes by default (label: the mission name),
+/// a batch (`<name>-batch`) or a chaos campaign (`<name>-chaos`).
+pub fn default_run_dir(label: &str) -> Result<PathBuf, time::error::Error> {
+    let now = time::OffsetDateTime::now_utc();
+    let stamp = now.format(&time::format_description::parse_borrowed::<2>(
+        "[year][month][day]T[hour][minute][second]Z",
+    )?)?;
+    Ok(Path::new("runs").join(format!("{label}-{stamp}")))
+}
+
 /// Header of `vehicles.csv`.
 pub const VEHICLES_HEADER: &str = "t,k,id,x,y,z,vx,vy,vz,measurement";
 /// The columns `vehicles.csv` has after [`VEHICLES_HEADER`] when the mission moves beyond

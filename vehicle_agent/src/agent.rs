@@ -77,23 +77,11 @@ impl Agent {
         leader: &PairPotential,
         damping: f64,
     ) -> AgentInputs<'a> {
-        AgentInputs {
-            leaders: last_leaders,
-            neighbours: &[],
-            inter: PairPotential {
-                alpha: 0.0,
-                d0: 1.0,
-                d1: 0.0,
-            },
-            leader: *leader,
-            damping,
-            neighbour_sigmas: &[],
-            neighbour_slots: &[],
-            homing: None,
-            neighbour_velocities: &[],
-            neighbour_ages: &[],
-            slot: None,
-            body_velocity: Vec3::zeros(),
-        }
+        let no_neighbours = PairPotential {
+            alpha: 0.0,
+            d0: 1.0,
+            d1: 0.0,
+        };
+        AgentInputs::paper(last_leaders, &[], no_neighbours, *leader, damping)
     }
 }

@@ -27,20 +27,13 @@ fn paper_mission(links: Option<&str>) -> Mission {
 }
 
 fn no_one<'a>(leaders: &'a [Vec3], leader: PairPotential, damping: f64) -> AgentInputs<'a> {
-    AgentInputs {
+    AgentInputs::paper(
         leaders,
-        neighbours: &[],
-        inter: PairPotential::new(1.0, 1.0, 1.5).unwrap(),
+        &[],
+        PairPotential::new(1.0, 1.0, 1.5).unwrap(),
         leader,
         damping,
-        neighbour_sigmas: &[],
-        neighbour_slots: &[],
-        homing: None,
-        neighbour_velocities: &[],
-        neighbour_ages: &[],
-        slot: None,
-        body_velocity: Vec3::zeros(),
-    }
+    )
 }
 
 #[test]
@@ -103,20 +96,13 @@ fn a_formation_at_its_slots_with_a_still_body_stays() {
             .filter(|(j, _)| *j != i)
             .map(|(_, p)| *p)
             .collect();
-        let inputs = AgentInputs {
-            leaders: &leaders,
-            neighbours: &neighbours,
-            inter: body.scaled_inter(&design),
-            leader: body.scaled_leader(&design),
-            damping: mission.vehicles.damping,
-            neighbour_sigmas: &[],
-            neighbour_slots: &[],
-            homing: None,
-            neighbour_velocities: &[],
-            neighbour_ages: &[],
-            slot: None,
-            body_velocity: Vec3::zeros(),
-        };
+        let inputs = AgentInputs::paper(
+            &leaders,
+            &neighbours,
+            body.scaled_inter(&design),
+            body.scaled_leader(&design),
+            mission.vehicles.damping,
+        );
         let mut agent = Agent {
             id: i as u32,
             dim: 2,

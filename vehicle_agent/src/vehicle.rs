@@ -258,11 +258,6 @@ impl Vehicle {
                 g.neighbour_ages.iter().map(|a| a + age).collect()
             };
             let inputs = AgentInputs {
-                leaders: &leaders,
-                neighbours: &neighbours,
-                inter,
-                leader,
-                damping: g.damping,
                 neighbour_sigmas: &g.neighbour_sigmas,
                 neighbour_slots: &slots,
                 homing,
@@ -270,6 +265,7 @@ impl Vehicle {
                 neighbour_ages: &ages,
                 slot: g.slot.as_ref().map(moved),
                 body_velocity,
+                ..AgentInputs::paper(&leaders, &neighbours, inter, leader, g.damping)
             };
             fly(
                 &mut self.agent,
@@ -281,11 +277,6 @@ impl Vehicle {
             );
         } else {
             let inputs = AgentInputs {
-                leaders: &g.leaders,
-                neighbours: &g.neighbours,
-                inter: g.inter,
-                leader: g.leader,
-                damping: g.damping,
                 neighbour_sigmas: &g.neighbour_sigmas,
                 neighbour_slots: &g.neighbour_slots,
                 homing,
@@ -293,6 +284,7 @@ impl Vehicle {
                 neighbour_ages: &g.neighbour_ages,
                 slot: g.slot,
                 body_velocity: g.velocity,
+                ..AgentInputs::paper(&g.leaders, &g.neighbours, g.inter, g.leader, g.damping)
             };
             fly(
                 &mut self.agent,

@@ -36,7 +36,7 @@ pub fn echo(args: &EchoArgs) -> Result<i32> {
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
         return Err(InvalidInput(format!("--timeout {}: must be > 0 s", args.timeout)).into());
     }
-    let (mission, domain) = super::domain_of(&args.mission, &args.sets)?;
+    let (mission, domain) = super::join::domain_of(&args.mission, &args.sets)?;
     let m = &mission.mission.name;
     let name = if args.service.starts_with(&format!("{m}/")) {
         args.service.clone()
@@ -51,7 +51,7 @@ pub fn echo(args: &EchoArgs) -> Result<i32> {
         ))
         .into());
     };
-    let node = domain.node(super::TOOL_NODE)?;
+    let node = domain.node(super::join::TOOL_NODE)?;
     let sub = Sub::open(&node, kind, &name).map_err(|e| {
         anyhow::Error::new(InvalidInput(format!(
             "{name}: cannot open it; is mission {m:?} running? ({e:#})"

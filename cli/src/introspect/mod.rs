@@ -11,24 +11,22 @@
 
 mod decode;
 mod echo;
+mod join;
 mod services;
 mod sub;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use vbap_ipc::topics::Domain;
-use vbap_mission::config::{KeySet, Mission};
 use vbap_mission::rundir::RunDir;
 
 pub use echo::{echo, EchoArgs};
+pub use join::TOOL_NODE;
 pub use services::{services, ServicesArgs};
 
 /// The file of the mission's iceoryx2 configuration in its run directory.
 pub const IOX2_CONFIG: &str = "iox2.toml";
-
-/// Name of the node the tools add to a mission.
-pub const TOOL_NODE: &str = "vbap_tool";
 
 /// Writes the iceoryx2 configuration of `domain` (its prefix `vbap_<mission>.` included)
 /// to `RUN/iox2.toml`; returns its path.
@@ -44,13 +42,6 @@ pub fn write_config(dir: &RunDir, domain: &Domain) -> Result<PathBuf> {
     );
     std::fs::write(&path, head + &text).with_context(|| format!("writing {}", path.display()))?;
     Ok(path)
-}
-
-/// The mission's domain: the mission file at `path` with `sets` (its name names the domain).
-fn domain_of(path: &Path, sets: &[KeySet]) -> Result<(Mission, Domain)> {
-    let mission = Mission::load_with(path, sets)?;
-    let domain = Domain::new(&mission.mission.name)?;
-    Ok((mission, domain))
 }
 
 #[cfg(test)]

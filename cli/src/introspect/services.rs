@@ -67,7 +67,7 @@ pub fn services(args: &ServicesArgs) -> Result<i32> {
             InvalidInput(format!("--sample {}: must be in (0, 3600] s", args.sample)).into(),
         );
     }
-    let (mission, domain) = super::domain_of(&args.mission, &args.sets)?;
+    let (mission, domain) = super::join::domain_of(&args.mission, &args.sets)?;
     let name = mission.mission.name.clone();
     let mut nodes: Vec<NodeRow> = domain
         .node_states()
@@ -105,7 +105,7 @@ pub fn services(args: &ServicesArgs) -> Result<i32> {
             rate_hz: n.map(|n| n as f64 / args.sample),
         })
         .collect();
-    nodes.retain(|n| n.name != super::TOOL_NODE);
+    nodes.retain(|n| n.name != super::join::TOOL_NODE);
     let listing = Listing {
         mission: name,
         prefix: domain.shm_prefix(),
@@ -130,7 +130,7 @@ fn sample_rates(
     found: &[(String, String)],
     window: f64,
 ) -> Result<Vec<Option<usize>>> {
-    let node = domain.node(super::TOOL_NODE)?;
+    let node = domain.node(super::join::TOOL_NODE)?;
     let subs: Vec<Option<Sub>> = found
         .iter()
         .map(|(name, pattern)| {

@@ -19,18 +19,11 @@ fn inputs<'a>(
 ) -> ControlInputs<'a> {
     let (inter, leader) = pots();
     ControlInputs {
-        leaders,
-        neighbours,
-        inter,
-        leader,
-        damping: 1.0,
-        neighbour_sigmas: &[],
-        neighbour_slots: &[],
-        homing: None,
         neighbour_velocities: velocities,
         neighbour_ages: ages,
         slot,
         body_velocity: Vec3::new(0.3, 0.1, 0.0),
+        ..ControlInputs::paper(leaders, neighbours, inter, leader, 1.0)
     }
 }
 

@@ -63,6 +63,13 @@ pub const MAX_VEHICLES: usize = 1024;
 pub const MAX_TICKS: f64 = 10_000_000.0;
 /// Longest mission name (it prefixes every service name and the run directory).
 pub const MAX_NAME_LEN: usize = 32;
+
+/// `<name><suffix>`, the name cut so that the whole fits in [`MAX_NAME_LEN`]: the mission
+/// name of one run of a study (`_s<seed>` of a batch, `_c<index>` of a chaos campaign).
+pub fn suffixed_name(name: &str, suffix: &str) -> String {
+    let keep = MAX_NAME_LEN.saturating_sub(suffix.len()).min(name.len());
+    format!("{}{suffix}", &name[..keep])
+}
 /// Most bumps of a `gaussian_sum` field.
 pub const MAX_BUMPS: usize = 64;
 /// Largest mission file read, bytes (1 MiB): a longer file (or `/dev/zero`) is refused after

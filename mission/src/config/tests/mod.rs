@@ -346,3 +346,11 @@ fn pace_accepts_lockstep_floats_and_integers() {
     assert!("NaN".parse::<Pace>().is_err());
     assert_eq!(Pace::Factor(60.0).to_string(), "60");
 }
+
+#[test]
+fn suffixed_names_fit_and_keep_the_suffix() {
+    assert_eq!(suffixed_name("paper", "_s3"), "paper_s3");
+    let long = suffixed_name(&"a".repeat(3 * MAX_NAME_LEN), "_c012");
+    assert_eq!(long.len(), MAX_NAME_LEN);
+    assert!(long.ends_with("_c012"));
+}
