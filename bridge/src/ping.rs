@@ -7,7 +7,7 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Result};
-use vbap_ipc::msg::agent_to_coordinator::VehicleState;
+use vbap_wire::msg::agent_to_coordinator::VehicleState;
 use vbap_mission::hosts::Hosts;
 use zenoh::qos::Priority;
 use zenoh::Wait;

@@ -9,10 +9,10 @@
 //! - [`current`], [`land`]: the water that carries the vehicles and the land they keep
 //!   out of (beyond the paper).
 //! - [`hosts`]: the hosts file of a mission spread over machines.
-//! - [`rundir`]: the run directory a mission writes (CSV, JSON lines, summary).
+//! - [`rundir`]: the run directory a mission writes (CSV, JSON lines, summary), defined in
+//!   `vbap-wire` (its writers and readers meet there) and re-exported here for its many users.
 
 pub mod config;
-pub mod csv_line;
 pub mod current;
 pub mod faults;
 pub mod field;
@@ -23,4 +23,4 @@ pub mod land;
 pub mod link;
 pub mod loaded;
 mod mission_field;
-pub mod rundir;
+pub use vbap_wire::rundir;
