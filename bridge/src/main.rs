@@ -30,7 +30,10 @@ struct Args {
 fn main() {
     let args = Args::parse();
     die_with_parent(args.parent);
-    let mission = valid_or_exit("vbap_bridge", vbap_mission::config::Mission::load(&args.mission));
+    let mission = valid_or_exit(
+        "vbap_bridge",
+        vbap_mission::config::Mission::load(&args.mission),
+    );
     vbap_ipc::process::join_domain(&mission.mission.name, args.parent);
     let hosts = valid_or_exit(
         "vbap_bridge",

@@ -180,9 +180,9 @@ pub fn u64_at(bytes: &[u8], offset: usize) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use vbap_ipc::topics::{Domain, Limits};
     use vbap_wire::msg::agent_to_coordinator::VehicleState;
     use vbap_wire::msg::Header;
-    use vbap_ipc::topics::{Domain, Limits};
 
     #[test]
     fn a_frame_reads_back_and_another_type_or_size_is_refused() {

@@ -142,7 +142,8 @@ mod tests {
 
     #[test]
     fn beside_ignores_the_tracing_filter() {
-        let dir = std::env::temp_dir().join(format!("vbap-telemetry-{}-beside", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("vbap-telemetry-{}-beside", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         let jsonl = dir.join("logs/coordinator.jsonl");
         let csv = dir.join("logs/coordinator.msgs.csv");

@@ -25,13 +25,13 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::ipc;
 use iceoryx2::service::port_factory::PortFactory as _;
 use tracing::{info, warn};
+use vbap_ipc::ports::{self, Sender};
+use vbap_ipc::topics;
+use vbap_ipc::wait::Event;
 use vbap_wire::msg::agent_to_coordinator::VehicleState;
 use vbap_wire::msg::coordinator_to_agent::BodyCommand;
 use vbap_wire::msg::supervisor_to_coordinator::ProcessExit;
 use vbap_wire::msg::{wall_ns, Header};
-use vbap_ipc::ports::{self, Sender};
-use vbap_ipc::topics;
-use vbap_ipc::wait::Event;
 use zenoh::qos::Priority;
 use zenoh::Wait;
 

@@ -1,52 +1,11 @@
 //! From a variable as read to a [`GridField`]: roles and units of the axes, the projection,
 //! monotone and long-enough axes, the data layout, land and the optimum candidates.
 
+use vbap_formats::cf::{self, Role, Units};
+use vbap_formats::RawVar;
+
 use super::axis::{Axis, MIN_NODES};
-use super::cf::{self, Role, Units};
-use super::read::{self, RawVar};
 use super::{GridError, GridField, GridSpec, Layout};
-
-fn read_any(spec: &GridSpec) -> Result<RawVar, GridError> {
-    let ext = spec
-        .file
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_lowercase();
-    if !spec.file.is_file() {
-        return Err(GridError::new(&spec.file, "-", "no such file"));
-    }
-    match ext.as_str() {
-        "npy" => read::npy(&spec.file),
-        "npz" => read::npz(&spec.file, spec.variable.as_deref(), &spec.names),
-        _ if is_hdf5(&spec.file) => netcdf4(spec),
-        _ => read::netcdf(&spec.file, spec.variable.as_deref()),
-    }
-}
-
-/// Whether the file starts with the HDF5 signature (a NetCDF-4 file).
-fn is_hdf5(path: &std::path::Path) -> bool {
-    use std::io::Read;
-    let mut magic = [0u8; 8];
-    std::fs::File::open(path).is_ok_and(|mut f| f.read_exact(&mut magic).is_ok())
-        && magic == *b"\x89HDF\r\n\x1a\n"
-}
-
-#[cfg(feature = "netcdf4")]
-fn netcdf4(spec: &GridSpec) -> Result<RawVar, GridError> {
-    super::nc4::netcdf4(&spec.file, spec.variable.as_deref())
-}
-
-#[cfg(not(feature = "netcdf4"))]
-fn netcdf4(spec: &GridSpec) -> Result<RawVar, GridError> {
-    Err(GridError::new(
-        &spec.file,
-        spec.variable.as_deref().unwrap_or("-"),
-        "a NetCDF-4 (HDF5) file, and this vbap was built without the `netcdf4` feature: \
-         build with `cargo build --release --workspace --bins --features vbap-mission/netcdf4`, or convert the file with \
-         `nccopy -k classic`",
-    ))
-}
 
 /// One axis's values in file order, in mission units (projection aside), and whether they
 /// are degrees.
@@ -142,7 +101,7 @@ fn monotone(spec: &GridSpec, name: &str, v: &[f64]) -> Result<bool, GridError> {
 
 /// Reads and builds the grid of `spec`.
 pub fn load(spec: &GridSpec) -> Result<GridField, GridError> {
-    let var = read_any(spec)?;
+    let var = vbap_formats::read_variable(&spec.file, spec.variable.as_deref(), &spec.names)?;
     let roles = cf::roles(&var, &spec.names, spec.dim, &spec.file)?;
     let find = |r: Role| roles.iter().position(|x| *x == r);
     let rank_err =

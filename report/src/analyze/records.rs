@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use serde::Deserialize;
-use vbap_wire::msglog::{self, MsgEvent, MSG_HEADER, MSG_SUFFIX};
 use vbap_wire::msglog::MSG_TARGET;
+use vbap_wire::msglog::{self, MsgEvent, MSG_HEADER, MSG_SUFFIX};
 
 /// One log line of the message target, borrowed from the line.
 #[derive(Deserialize)]
