@@ -4,7 +4,7 @@
 //!   its environment (in `mission_field.rs`, so `config` does not depend on `field`).
 //! - [`field`]: the sensed environments, with ground truth, and the keyed sensor noise.
 //! - [`link`], [`faults`]: the emulated glider link and the scheduled faults.
-//! - [`grid`]: gridded fields from files (NetCDF, NumPy), interpolated.
+//! - [`grid`]: gridded fields from files (read by `vbap-formats`: NetCDF, NumPy), interpolated.
 //! - [`horizon`]: the plan horizon of the robust law, from the link model.
 //! - [`current`], [`land`]: the water that carries the vehicles and the land they keep
 //!   out of (beyond the paper).
