@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use clap::Parser;
-use vbap_ipc::process::{announce_ready, die_with_parent, finish, load_mission_or_exit};
+use vbap_ipc::process::{announce_ready, die_with_parent, finish, valid_or_exit};
 
 /// The Zenoh bridge of one host of a vbap mission.
 #[derive(Parser, Debug)]
@@ -30,17 +30,16 @@ struct Args {
 fn main() {
     let args = Args::parse();
     die_with_parent(args.parent);
-    let mission = load_mission_or_exit("vbap_bridge", &args.mission);
+    let mission = valid_or_exit(
+        "vbap_bridge",
+        vbap_mission::config::Mission::load(&args.mission),
+    );
     vbap_ipc::process::join_domain(&mission.mission.name, args.parent);
-    let hosts = match vbap_mission::hosts::Hosts::load(&args.hosts, mission.vehicles.count)
-        .and_then(|h| h.host(&args.host).map(|_| ()).map(|()| h))
-    {
-        Ok(h) => h,
-        Err(e) => {
-            eprintln!("vbap_bridge: {e}");
-            std::process::exit(vbap_ipc::process::EXIT_INVALID);
-        }
-    };
+    let hosts = valid_or_exit(
+        "vbap_bridge",
+        vbap_mission::hosts::Hosts::load(&args.hosts, mission.vehicles.count)
+            .and_then(|h| h.host(&args.host).map(|_| ()).map(|()| h)),
+    );
     let log = vbap_ipc::telemetry::init("vbap_bridge", args.log.as_deref());
     let result = vbap_bridge::run(&mission, &hosts, &args.host, announce_ready);
     vbap_ipc::process::leave_domain();

@@ -7,8 +7,8 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Result};
-use vbap_ipc::msg::agent_to_coordinator::VehicleState;
 use vbap_mission::hosts::Hosts;
+use vbap_wire::msg::agent_to_coordinator::VehicleState;
 use zenoh::qos::Priority;
 use zenoh::Wait;
 

@@ -32,15 +32,11 @@ struct Args {
 
 fn main() {
     let args = Args::parse();
-    let hosts = match vbap_mission::hosts::Hosts::load(&args.hosts, args.vehicles)
-        .and_then(|h| h.host(&args.host).map(|_| ()).map(|()| h))
-    {
-        Ok(h) => h,
-        Err(e) => {
-            eprintln!("vbap_zenoh_ping: {e}");
-            std::process::exit(vbap_ipc::process::EXIT_INVALID);
-        }
-    };
+    let hosts = vbap_ipc::process::valid_or_exit(
+        "vbap_zenoh_ping",
+        vbap_mission::hosts::Hosts::load(&args.hosts, args.vehicles)
+            .and_then(|h| h.host(&args.host).map(|_| ()).map(|()| h)),
+    );
     let result = if args.pong {
         vbap_bridge::ping::pong(&hosts, &args.host)
     } else {

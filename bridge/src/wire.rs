@@ -12,16 +12,16 @@
 //! byte order or layout has another size or is refused by name only if the version
 //! differs: run one build of vbap on every host).
 //!
-//! The payloads are read and written through their raw twins (`vbap_ipc::versioned`):
+//! The payloads are read and written through their raw twins (`vbap_wire::versioned`):
 //! byte arrays with the name, size and alignment of the real payload, declared with it
 //! from one literal, so iceoryx2 opens the real services with them and the bridge copies
 //! bytes without decoding (and without `unsafe`).
 
 use iceoryx2::prelude::ZeroCopySend;
-pub use vbap_ipc::msg::agent_to_coordinator::RawVehicleState as RawState;
-pub use vbap_ipc::msg::coordinator_to_agent::RawBodyCommand as RawBody;
-pub use vbap_ipc::msg::supervisor_to_coordinator::RawProcessExit as RawExit;
-pub use vbap_ipc::versioned::RawBytes;
+pub use vbap_wire::msg::agent_to_coordinator::RawVehicleState as RawState;
+pub use vbap_wire::msg::coordinator_to_agent::RawBodyCommand as RawBody;
+pub use vbap_wire::msg::supervisor_to_coordinator::RawProcessExit as RawExit;
+pub use vbap_wire::versioned::RawBytes;
 
 /// Magic and wire version of every frame.
 pub const MAGIC: &[u8; 6] = b"VBAPW2";
@@ -32,8 +32,8 @@ const LEN: usize = 4;
 /// A payload carried as bytes under its versioned type name ([`RawBytes::TYPE_NAME`],
 /// the payload's own).
 pub trait Raw: RawBytes + ZeroCopySend {
-    /// The iceoryx2 type name of the payload (as in `vbap_ipc::msg`).
-    const NAME: &'static str = <Self as vbap_ipc::versioned::Versioned>::TYPE_NAME;
+    /// The iceoryx2 type name of the payload (as in `vbap_wire::msg`).
+    const NAME: &'static str = <Self as vbap_wire::versioned::Versioned>::TYPE_NAME;
 }
 
 impl<T: RawBytes + ZeroCopySend> Raw for T {}
@@ -180,9 +180,9 @@ pub fn u64_at(bytes: &[u8], offset: usize) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vbap_ipc::msg::agent_to_coordinator::VehicleState;
-    use vbap_ipc::msg::Header;
     use vbap_ipc::topics::{Domain, Limits};
+    use vbap_wire::msg::agent_to_coordinator::VehicleState;
+    use vbap_wire::msg::Header;
 
     #[test]
     fn a_frame_reads_back_and_another_type_or_size_is_refused() {

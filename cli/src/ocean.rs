@@ -2,12 +2,12 @@
 //! with `--netcdf4` in a build with the `netcdf4` feature, on a lon/lat
 //! grid: sea temperature with a front and eddies, u/v currents, a coast and an island as
 //! land) that `deploy/missions/ocean_grid.toml` uses. The ocean itself is
-//! `vbap_mission::grid::ocean`.
+//! `vbap_formats::ocean`.
 
 use std::path::PathBuf;
 
 use clap::Args;
-use vbap_mission::grid::ocean;
+use vbap_formats::ocean;
 
 use crate::errors::InvalidInput;
 

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use crate::planner::{Planner, PlannerParams};
 
 use vbap_ipc::process::{
-    announce_ready, die_with_parent, finish, load_mission_or_exit, orphaned, EXIT_INVALID,
+    announce_ready, die_with_parent, finish, orphaned, valid_or_exit, EXIT_INVALID,
 };
 use vbap_mission::field::ScalarField;
 use vbap_mission::rundir::{RunDir, Summary};
@@ -41,7 +41,10 @@ pub struct Args {
 /// or 1 with the error on stderr; 2 for an invalid mission or run directory).
 pub fn main_with(args: &Args, truth: Option<Arc<dyn ScalarField>>) -> ! {
     die_with_parent(args.parent);
-    let mission = load_mission_or_exit("coordinator", &args.mission);
+    let mission = valid_or_exit(
+        "coordinator",
+        vbap_mission::config::Mission::load(&args.mission),
+    );
     vbap_ipc::process::join_domain(&mission.mission.name, args.parent);
     let dir = RunDir::create(&args.run_dir).unwrap_or_else(|e| {
         eprintln!("coordinator: --run-dir {}: {e}", args.run_dir.display());

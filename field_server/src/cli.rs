@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use vbap_ipc::process::{announce_ready, die_with_parent, finish, load_mission_or_exit};
+use vbap_ipc::process::{announce_ready, die_with_parent, finish, valid_or_exit};
 use vbap_mission::config::Mission;
 
 use crate::Sensors;
@@ -28,7 +28,10 @@ pub struct Args {
 /// exits the process (code 0, or 1 with the error on stderr; 2 for an invalid mission).
 pub fn main_with(args: &Args, sensors: impl FnOnce(&Mission) -> Sensors) -> ! {
     die_with_parent(args.parent);
-    let mission = load_mission_or_exit("field_server", &args.mission);
+    let mission = valid_or_exit(
+        "field_server",
+        vbap_mission::config::Mission::load(&args.mission),
+    );
     vbap_ipc::process::join_domain(&mission.mission.name, args.parent);
     let log = vbap_ipc::telemetry::init("field_server", args.log.as_deref());
     let msgs = vbap_ipc::process::message_log(args.log.as_deref());

@@ -4,12 +4,7 @@
 
 use nix::sys::signal::Signal;
 
-/// Exit code: success.
-pub const EXIT_OK: i32 = 0;
-/// Exit code: runtime failure.
-pub const EXIT_FAILURE: i32 = 1;
-/// Exit code: invalid input (config, arguments).
-pub const EXIT_INVALID: i32 = 2;
+pub use vbap_wire::exit::{EXIT_FAILURE, EXIT_INVALID, EXIT_OK};
 
 /// An error that is the user's input (a bad argument or mission file, named in the
 /// message): exit [`EXIT_INVALID`].
@@ -312,13 +307,12 @@ pub fn stop_with_parent(cmd: &mut std::process::Command) {
     }
 }
 
-/// Loads the mission file of a process, or exits with [`EXIT_INVALID`] naming what is wrong.
-pub fn load_mission_or_exit(
-    process: &str,
-    path: &std::path::Path,
-) -> vbap_mission::config::Mission {
-    match vbap_mission::config::Mission::load(path) {
-        Ok(m) => m,
+/// The input a process was given (its mission file, say:
+/// `valid_or_exit("coordinator", Mission::load(path))`), or, when it is invalid, an exit
+/// with [`EXIT_INVALID`] naming what is wrong.
+pub fn valid_or_exit<T, E: std::fmt::Display>(process: &str, input: Result<T, E>) -> T {
+    match input {
+        Ok(v) => v,
         Err(e) => {
             eprintln!("{process}: {e}");
             std::process::exit(EXIT_INVALID);

@@ -25,7 +25,7 @@ use tracing_subscriber::EnvFilter;
 
 /// Target of per-message records in the JSON logs of earlier versions (the records now have
 /// their own file and switch, [`crate::msglog`]).
-pub const MSG_TARGET: &str = "vbap::msg";
+pub use vbap_wire::msglog::MSG_TARGET;
 
 /// Default filter: info everywhere, message records included, iceoryx2 warnings only.
 pub const DEFAULT_FILTER: &str = "info,vbap::msg=debug,iceoryx2_bb_loggers=warn";
@@ -133,4 +133,37 @@ pub fn init_with(
     };
     tracing::info!(process, pid = std::process::id(), "started");
     Ok(guard)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::DEFAULT_FILTER;
+    use crate::msglog::MsgLog;
+
+    #[test]
+    fn beside_ignores_the_tracing_filter() {
+        let dir =
+            std::env::temp_dir().join(format!("vbap-telemetry-{}-beside", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let jsonl = dir.join("logs/coordinator.jsonl");
+        let csv = dir.join("logs/coordinator.msgs.csv");
+        let with_filter = |filter: &str| {
+            let sub = tracing_subscriber::fmt()
+                .with_env_filter(tracing_subscriber::EnvFilter::new(filter))
+                .with_writer(std::io::sink)
+                .finish();
+            tracing::subscriber::with_default(sub, || MsgLog::beside(Some(&jsonl)).unwrap())
+        };
+        // RUST_LOG=info (or even error) keeps the records.
+        for filter in ["info", "error"] {
+            let log = with_filter(filter);
+            assert!(log.is_enabled(), "{filter}");
+        }
+        let mut on = with_filter(DEFAULT_FILTER);
+        assert!(on.is_enabled());
+        on.recv("state", 0, u32::MAX - 1, 0, 0, 1, 2);
+        drop(on);
+        assert_eq!(std::fs::read_to_string(&csv).unwrap().lines().count(), 2);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -14,9 +14,9 @@ use std::hint::black_box;
 use std::path::Path;
 use std::time::Instant;
 
+use vbap_formats::write::{write_netcdf, NcData, NcVar};
 use vbap_math::Vec3;
 use vbap_mission::field::{Field, GaussianBump};
-use vbap_mission::grid::write::{write_netcdf, NcData, NcVar};
 use vbap_mission::grid::{GridField, GridSpec};
 
 fn field() -> Field {

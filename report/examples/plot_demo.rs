@@ -5,10 +5,10 @@
 //!
 //! `cargo run --release -p vbap-report --example plot_demo`
 
-use vbap_mission::rundir::Event;
 use vbap_report::plot::chart::{self, Axis, Figure, Panel, Series};
 use vbap_report::plot::style::{self, TimeUnit};
 use vbap_report::plot::{write_mission_svg, MissionPlot, Snapshot, Track};
+use vbap_wire::rundir::Event;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (ox, oy) = (120.0, 80.0);

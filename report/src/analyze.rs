@@ -1,7 +1,7 @@
 //! `vbap analyze RUN_DIR`: timing analysis of a run from its message records.
 //!
 //! Every receiver records each message it receives over IPC (event `recv`) in
-//! `logs/<process>.msgs.csv` ([`vbap_ipc::msglog`], the format and its units), with the
+//! `logs/<process>.msgs.csv` ([`vbap_wire::msglog`], the format and its units), with the
 //! sender's wall-clock send time `sent_ns` and its own receive time `recv_ns` (all
 //! processes share one host clock): their difference is the hop's *transport* latency. The
 //! link model (docs/ARCHITECTURE.md §7) works in mission time after reception and records its verdicts
@@ -41,9 +41,9 @@
 use std::path::Path;
 
 use anyhow::Result;
-use vbap_ipc::msglog::MSG_SUFFIX;
-use vbap_ipc::telemetry::MSG_TARGET;
-use vbap_mission::rundir::RunDir;
+use vbap_wire::msglog::MSG_SUFFIX;
+use vbap_wire::msglog::MSG_TARGET;
+use vbap_wire::rundir::RunDir;
 
 mod compute;
 pub mod plots;
@@ -115,7 +115,7 @@ pub fn main(run_dir: &Path, json: bool) -> Result<i32> {
             dir.root.join(LOOPS_SVG).display()
         );
     }
-    Ok(vbap_ipc::process::EXIT_OK)
+    Ok(vbap_wire::exit::EXIT_OK)
 }
 
 /// Why a run directory may hold no message records.

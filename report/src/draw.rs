@@ -12,7 +12,7 @@
 use anyhow::{Context, Result};
 use vbap_mission::config::Mission;
 use vbap_mission::field::ScalarField;
-use vbap_mission::rundir::RunDir;
+use vbap_wire::rundir::RunDir;
 
 use crate::analyze::{self, Distributions, Report};
 

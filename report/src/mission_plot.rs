@@ -11,7 +11,7 @@ use anyhow::{Context, Result};
 use vbap_math::Vec3;
 use vbap_mission::config::Mission;
 use vbap_mission::field::ScalarField;
-use vbap_mission::rundir::RunDir;
+use vbap_wire::rundir::RunDir;
 
 use super::rows::{for_each_row_of, BodyPathCsv, VehicleCsv};
 

@@ -34,7 +34,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use style::{nice_step, TimeUnit};
-use vbap_mission::rundir::Event;
+use vbap_wire::rundir::Event;
 
 mod bounds;
 mod contour;

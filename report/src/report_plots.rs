@@ -27,7 +27,7 @@ use crate::plot::style::TimeUnit;
 pub use crate::plot::style::PALETTE;
 use anyhow::{Context, Result};
 use vbap_mission::config::Mission;
-use vbap_mission::rundir::RunDir;
+use vbap_wire::rundir::RunDir;
 
 use crate::truth_plots;
 use series::RunSeries;

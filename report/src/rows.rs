@@ -16,7 +16,7 @@ pub trait CsvRow: DeserializeOwned {
     const COLUMNS: &'static [&'static str];
 }
 
-/// A row of `body.csv` (`vbap_mission::rundir::BODY_HEADER`); the estimator and truth columns are
+/// A row of `body.csv` (`vbap_wire::rundir::BODY_HEADER`); the estimator and truth columns are
 /// optional (older runs have none).
 #[derive(Clone, Debug, Deserialize)]
 pub struct BodyCsv {
@@ -74,7 +74,7 @@ impl CsvRow for BodyPathCsv {
     const COLUMNS: &'static [&'static str] = &["t", "k", "rx", "ry", "rz"];
 }
 
-/// A row of `vehicles.csv` (`vbap_mission::rundir::VEHICLES_HEADER`), the columns the plot needs.
+/// A row of `vehicles.csv` (`vbap_wire::rundir::VEHICLES_HEADER`), the columns the plot needs.
 #[derive(Clone, Debug, Deserialize)]
 pub struct VehicleCsv {
     pub k: u64,
@@ -87,7 +87,7 @@ impl CsvRow for VehicleCsv {
     const COLUMNS: &'static [&'static str] = &["k", "id", "x", "y"];
 }
 
-/// A row of `formation.csv` (`vbap_mission::rundir::FORMATION_HEADER`); an empty field is `None`.
+/// A row of `formation.csv` (`vbap_wire::rundir::FORMATION_HEADER`); an empty field is `None`.
 #[derive(Clone, Debug, Deserialize)]
 pub struct FormationCsv {
     pub t: f64,
@@ -114,7 +114,7 @@ impl CsvRow for FormationCsv {
     ];
 }
 
-/// A row of `truth.csv` (`vbap_mission::rundir::TRUTH_HEADER`); an empty field is `None`.
+/// A row of `truth.csv` (`vbap_wire::rundir::TRUTH_HEADER`); an empty field is `None`.
 #[derive(Clone, Debug, Deserialize)]
 #[allow(non_snake_case)]
 pub struct TruthCsv {

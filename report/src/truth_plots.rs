@@ -27,7 +27,7 @@ use std::fs::File;
 use crate::plot::chart::PLOT_W;
 use crate::plot::style::CONTACT_STATES;
 use vbap_mission::config::Mission;
-use vbap_mission::rundir::RunDir;
+use vbap_wire::rundir::RunDir;
 
 use crate::plot::decimate::MAX_POINTS;
 

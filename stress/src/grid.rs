@@ -8,7 +8,7 @@
 
 use std::path::Path;
 
-use vbap_mission::grid::write::{write_netcdf, NcData, NcVar};
+use vbap_formats::write::{write_netcdf, NcData, NcVar};
 
 /// The file name of the grid in the campaign directory.
 pub const GRID_FILE: &str = "grid.nc";

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use vbap_mission::grid::write::{write_netcdf, NcData, NcVar};
+use vbap_formats::write::{write_netcdf, NcData, NcVar};
 
 /// The Gaussian of the multiprocess tests' 2-D mission (centre (6, 3), amplitude 10, width 6).
 pub fn gaussian(x: f64, y: f64) -> f64 {

@@ -5,9 +5,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use vbap_ipc::process::{
-    announce_ready, die_with_parent, finish, load_mission_or_exit, EXIT_INVALID,
-};
+use vbap_ipc::process::{announce_ready, die_with_parent, finish, valid_or_exit, EXIT_INVALID};
 use vbap_math::law::ControlLaw;
 
 /// One vehicle of a vbap mission (normally started by `vbap run`).
@@ -47,7 +45,10 @@ pub fn main_with(args: &Args, law: Arc<dyn ControlLaw>) -> ! {
 /// [`main_with`] flying `law`, or the mission's law when None.
 fn main_flying(args: &Args, law: Option<Arc<dyn ControlLaw>>) -> ! {
     die_with_parent(args.parent);
-    let mission = load_mission_or_exit("vehicle_agent", &args.mission);
+    let mission = valid_or_exit(
+        "vehicle_agent",
+        vbap_mission::config::Mission::load(&args.mission),
+    );
     vbap_ipc::process::join_domain(&mission.mission.name, args.parent);
     if args.id as usize >= mission.vehicles.count {
         eprintln!(

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::time::Duration;
 
 use serde_json::Value;
-use vbap_mission::rundir::{BODY_HEADER, FORMATION_HEADER, TRUTH_HEADER, VEHICLES_HEADER};
+use vbap_wire::rundir::{BODY_HEADER, FORMATION_HEADER, TRUTH_HEADER, VEHICLES_HEADER};
 
 const MISSION: &str =
     "[mission]\nname = \"synthetic\"\nduration = 10.0\ndt = 0.1\ngoal = \"min\"\n\

@@ -25,13 +25,13 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::ipc;
 use iceoryx2::service::port_factory::PortFactory as _;
 use tracing::{info, warn};
-use vbap_ipc::msg::agent_to_coordinator::VehicleState;
-use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
-use vbap_ipc::msg::supervisor_to_coordinator::ProcessExit;
-use vbap_ipc::msg::{wall_ns, Header};
 use vbap_ipc::ports::{self, Sender};
 use vbap_ipc::topics;
 use vbap_ipc::wait::Event;
+use vbap_wire::msg::agent_to_coordinator::VehicleState;
+use vbap_wire::msg::coordinator_to_agent::BodyCommand;
+use vbap_wire::msg::supervisor_to_coordinator::ProcessExit;
+use vbap_wire::msg::{wall_ns, Header};
 use zenoh::qos::Priority;
 use zenoh::Wait;
 
@@ -120,6 +120,8 @@ struct Glider {
     ack: zenoh::pubsub::Publisher<'static>,
     /// When the final command was published here (None: not yet).
     finished: Option<Instant>,
+    /// The node of the ports (dropped after them).
+    _node: Node<ipc::Service>,
 }
 
 /// The inbound loop: opens the ports, declares this host's token when it may, calls
@@ -136,10 +138,165 @@ pub(crate) fn run(
     let node = domain.node("vbap_bridge_in")?;
     // The coordinator is up once the body service has its publisher.
     let body_service = domain.body_service_as::<RawBody>(&node, limits)?;
-    let coordinator_up = body_service.dynamic_config().number_of_publishers() > 0;
-    let mut shore = None;
-    let mut glider = None;
-    if place.is_shore() {
+    let coordinator_publishes = || body_service.dynamic_config().number_of_publishers() > 0;
+    let mut inbound = Inbound::open(session, place, node, coordinator_publishes())?;
+    let liveliness = session.liveliness();
+    let declare = || {
+        liveliness
+            .declare_token(place.keys.host(place.host))
+            .wait()
+            .map_err(|e| anyhow!("declaring this host's liveliness token: {e}"))
+    };
+    // A glider host is up as soon as its ports are; the shore once its coordinator is.
+    let mut token = if place.is_shore() {
+        None
+    } else {
+        Some(declare()?)
+    };
+    let mut ready = Some(ready);
+    let final_wait = Duration::from_secs_f64(place.hosts.final_wait);
+    while !stop.is_set() {
+        match rx.recv_timeout(POLL) {
+            Ok(message) => {
+                if inbound.take(place, message, counts)? {
+                    stop.set();
+                }
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        }
+        if inbound.final_wait_over(final_wait, counts)? {
+            stop.set();
+        }
+        if inbound.may_start(place) {
+            if let Some(r) = ready.take() {
+                info!("every host this one waits for is up: ready");
+                r();
+            }
+        }
+        if token.is_none() && ready.is_none() && coordinator_publishes() {
+            info!("the coordinator publishes: this host's token declared");
+            token = Some(declare()?);
+        }
+    }
+    drop(token);
+    Ok(())
+}
+
+/// What the inbound loop holds: this host's ports (the shore's or a glider host's) and
+/// which hosts are up.
+struct Inbound {
+    shore: Option<Shore>,
+    glider: Option<Glider>,
+    /// Each host heard of: up (its token is there) or gone.
+    up: BTreeMap<String, bool>,
+}
+
+impl Inbound {
+    /// Opens the ports of this host's side on `node`; `coordinator_up`: the coordinator
+    /// already publishes (the shore's bridge was restarted).
+    fn open(
+        session: &zenoh::Session,
+        place: &Place<'_>,
+        node: Node<ipc::Service>,
+        coordinator_up: bool,
+    ) -> Result<Self> {
+        let (shore, glider) = if place.is_shore() {
+            (
+                Some(Shore::open(session, place, node, coordinator_up)?),
+                None,
+            )
+        } else {
+            (None, Some(Glider::open(session, place, node)?))
+        };
+        Ok(Self {
+            shore,
+            glider,
+            up: BTreeMap::new(),
+        })
+    }
+
+    /// Takes one message of the Zenoh callbacks or the outbound thread; true when the
+    /// bridge is done (the final command delivered, or the shore gone after it).
+    fn take(&mut self, place: &Place<'_>, message: In, counts: &Counts) -> Result<bool> {
+        match message {
+            In::Frame { key, bytes } => match (&mut self.shore, &mut self.glider) {
+                // On the shore: true on the last acknowledgement of the final command.
+                (Some(s), _) => s.frame(place, &key, &bytes, counts),
+                (_, Some(g)) => g.frame(&key, &bytes, counts).map(|()| false),
+                _ => Ok(false),
+            },
+            In::Up(h) => {
+                info!(host = %h, "host up");
+                self.up.insert(h.clone(), true);
+                if let Some(s) = &mut self.shore {
+                    s.host_up(place, &h)?;
+                    if let Some(held) = s.held.as_mut().filter(|d| d.pending.contains(&h)) {
+                        held.now = true;
+                    }
+                }
+                Ok(false)
+            }
+            In::Down(h) => {
+                warn!(host = %h, "host gone");
+                self.up.insert(h.clone(), false);
+                if let Some(s) = &mut self.shore {
+                    s.host_down(place, &h)?;
+                }
+                let finished = self.glider.as_ref().is_some_and(|g| g.finished.is_some());
+                if finished && h == place.hosts.shore {
+                    info!("the shore is gone after the final command: bridge ends");
+                    return Ok(true);
+                }
+                Ok(false)
+            }
+            In::Final(frame) => Ok(self.shore.as_mut().is_some_and(|s| s.hold(place, frame))),
+        }
+    }
+
+    /// The final command's deadlines: the shore puts it again to the glider hosts that
+    /// have not acknowledged it; true when the bridge is done waiting (every host has it,
+    /// or `final_wait` is over on either side).
+    fn final_wait_over(&mut self, final_wait: Duration, counts: &Counts) -> Result<bool> {
+        if let Some(s) = &mut self.shore {
+            if s.resend(final_wait, counts)? {
+                return Ok(true);
+            }
+        }
+        if let Some(at) = self.glider.as_ref().and_then(|g| g.finished) {
+            if at.elapsed() > final_wait {
+                warn!(
+                    final_wait_s = final_wait.as_secs_f64(),
+                    "the shore still there final_wait after the final command: bridge ends"
+                );
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    /// Whether every host this one waits for is up: the glider hosts for the shore, the
+    /// shore for a glider host.
+    fn may_start(&self, place: &Place<'_>) -> bool {
+        let all_up = |names: &[String]| names.iter().all(|n| self.up.get(n) == Some(&true));
+        if place.is_shore() {
+            all_up(&place.glider_hosts())
+        } else {
+            all_up(std::slice::from_ref(&place.hosts.shore))
+        }
+    }
+}
+
+impl Shore {
+    /// The shore's inbound ports on `node`: a state publisher per remote vehicle, the exits
+    /// publisher, the body commands' Zenoh key. `restarted`: the coordinator already runs.
+    fn open(
+        session: &zenoh::Session,
+        place: &Place<'_>,
+        node: Node<ipc::Service>,
+        restarted: bool,
+    ) -> Result<Self> {
+        let (domain, limits) = (&place.domain, &place.limits);
         let mut states = BTreeMap::new();
         for id in place.remote_vehicles() {
             let publisher = ports::publisher(&domain.state_like_service_as::<RawState>(
@@ -155,143 +312,23 @@ pub(crate) fn run(
             ports::notifier(&domain.coordinator_wake(&node, limits)?, Event::Exit)?,
             Event::Exit,
         );
-        shore = Some(Shore {
+        let shore = Shore {
             node,
             states,
             exits,
             proxies: BTreeMap::new(),
             pids: BTreeMap::new(),
-            restarted: coordinator_up,
+            restarted,
             heard: Default::default(),
             body_out: super::publisher(session, place.keys.body(), Priority::RealTime)?,
             held: None,
-        });
-        if coordinator_up {
+        };
+        if restarted {
             info!("the coordinator already runs: a restarted bridge (remote vehicles rejoin)");
         }
-    } else {
-        let mut wakes = Vec::new();
-        for id in place.local_vehicles() {
-            wakes.push(ports::notifier(
-                &domain.vehicle_wake(&node, id, limits)?,
-                Event::Body,
-            )?);
-        }
-        glider = Some(Glider {
-            body: ports::publisher(&domain.body_service_as::<RawBody>(&node, limits)?)?,
-            wakes,
-            ack: super::publisher(
-                session,
-                place.keys.final_ack(place.host),
-                Priority::RealTime,
-            )?,
-            finished: None,
-        });
+        Ok(shore)
     }
-    let liveliness = session.liveliness();
-    let declare = || {
-        liveliness
-            .declare_token(place.keys.host(place.host))
-            .wait()
-            .map_err(|e| anyhow!("declaring this host's liveliness token: {e}"))
-    };
-    // A glider host is up as soon as its ports are; the shore once its coordinator is.
-    let mut token = if place.is_shore() {
-        None
-    } else {
-        Some(declare()?)
-    };
-    let mut up: BTreeMap<String, bool> = BTreeMap::new();
-    let mut ready = Some(ready);
-    let final_wait = Duration::from_secs_f64(place.hosts.final_wait);
-    while !stop.is_set() {
-        match rx.recv_timeout(POLL) {
-            Ok(In::Frame { key, bytes }) => {
-                // On the shore: true on the last acknowledgement of the final command.
-                let delivered = match (&mut shore, &mut glider) {
-                    (Some(s), _) => s.frame(place, &key, &bytes, counts)?,
-                    (_, Some(g)) => {
-                        g.frame(&key, &bytes, counts)?;
-                        false
-                    }
-                    _ => false,
-                };
-                if delivered {
-                    stop.set();
-                }
-            }
-            Ok(In::Up(h)) => {
-                info!(host = %h, "host up");
-                up.insert(h.clone(), true);
-                if let Some(s) = &mut shore {
-                    s.host_up(place, &h)?;
-                    if let Some(held) = s.held.as_mut().filter(|d| d.pending.contains(&h)) {
-                        held.now = true;
-                    }
-                }
-            }
-            Ok(In::Down(h)) => {
-                warn!(host = %h, "host gone");
-                up.insert(h.clone(), false);
-                if let Some(s) = &mut shore {
-                    s.host_down(place, &h)?;
-                }
-                if let Some(g) = &glider {
-                    if g.finished.is_some() && h == place.hosts.shore {
-                        info!("the shore is gone after the final command: bridge ends");
-                        stop.set();
-                    }
-                }
-            }
-            Ok(In::Final(frame)) => {
-                if let Some(s) = &mut shore {
-                    if s.hold(place, frame) {
-                        stop.set();
-                    }
-                }
-            }
-            Err(mpsc::RecvTimeoutError::Timeout) => {}
-            Err(mpsc::RecvTimeoutError::Disconnected) => break,
-        }
-        if let Some(s) = &mut shore {
-            if s.resend(final_wait, counts)? {
-                stop.set();
-            }
-        }
-        if let Some(at) = glider.as_ref().and_then(|g| g.finished) {
-            if at.elapsed() > final_wait {
-                warn!(
-                    final_wait_s = final_wait.as_secs_f64(),
-                    "the shore still there final_wait after the final command: bridge ends"
-                );
-                stop.set();
-            }
-        }
-        let all_up = |names: &[String]| names.iter().all(|n| up.get(n) == Some(&true));
-        let may_start = if place.is_shore() {
-            all_up(&place.glider_hosts())
-        } else {
-            all_up(std::slice::from_ref(&place.hosts.shore))
-        };
-        if may_start {
-            if let Some(r) = ready.take() {
-                info!("every host this one waits for is up: ready");
-                r();
-            }
-        }
-        if token.is_none()
-            && ready.is_none()
-            && body_service.dynamic_config().number_of_publishers() > 0
-        {
-            info!("the coordinator publishes: this host's token declared");
-            token = Some(declare()?);
-        }
-    }
-    drop(token);
-    Ok(())
-}
 
-impl Shore {
     /// A frame from a glider host: its vehicles' states, its exits, or its acknowledgement
     /// of the final command; true when that was the last acknowledgement awaited.
     fn frame(
@@ -498,6 +535,30 @@ impl Shore {
 }
 
 impl Glider {
+    /// A glider host's inbound ports on `node`: the body publisher, every local vehicle's
+    /// wake notifier, the acknowledgement key of the final command.
+    fn open(session: &zenoh::Session, place: &Place<'_>, node: Node<ipc::Service>) -> Result<Self> {
+        let (domain, limits) = (&place.domain, &place.limits);
+        let mut wakes = Vec::new();
+        for id in place.local_vehicles() {
+            wakes.push(ports::notifier(
+                &domain.vehicle_wake(&node, id, limits)?,
+                Event::Body,
+            )?);
+        }
+        Ok(Glider {
+            body: ports::publisher(&domain.body_service_as::<RawBody>(&node, limits)?)?,
+            wakes,
+            ack: super::publisher(
+                session,
+                place.keys.final_ack(place.host),
+                Priority::RealTime,
+            )?,
+            finished: None,
+            _node: node,
+        })
+    }
+
     /// A body command from the shore: published here, every local agent woken; the
     /// mission's final one acknowledged (every time it comes: the shore puts it again
     /// until it hears us), and once it is published nothing more is.

@@ -21,10 +21,10 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{ipc, CallbackProgression, SignalHandlingMode, WaitSetBuilder};
 use iceoryx2::waitset::WaitSetRunResult;
 use tracing::info;
-use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
-use vbap_ipc::msg::Header;
 use vbap_ipc::ports;
 use vbap_ipc::topics::{Domain, Limits};
+use vbap_wire::msg::coordinator_to_agent::BodyCommand;
+use vbap_wire::msg::Header;
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::Wait;
 

@@ -1,4 +1,4 @@
-//! The payloads of `ipc/src/msg.rs` as JSON (what `vbap echo` prints): every field by its
+//! The payloads of `wire/src/msg.rs` as JSON (what `vbap echo` prints): every field by its
 //! name, arrays cut to their used length.
 
 use serde_json::{json, Value};

@@ -1,52 +1,11 @@
 //! From a variable as read to a [`GridField`]: roles and units of the axes, the projection,
 //! monotone and long-enough axes, the data layout, land and the optimum candidates.
 
+use vbap_formats::cf::{self, Role, Units};
+use vbap_formats::RawVar;
+
 use super::axis::{Axis, MIN_NODES};
-use super::cf::{self, Role, Units};
-use super::read::{self, RawVar};
 use super::{GridError, GridField, GridSpec, Layout};
-
-fn read_any(spec: &GridSpec) -> Result<RawVar, GridError> {
-    let ext = spec
-        .file
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_lowercase();
-    if !spec.file.is_file() {
-        return Err(GridError::new(&spec.file, "-", "no such file"));
-    }
-    match ext.as_str() {
-        "npy" => read::npy(&spec.file),
-        "npz" => read::npz(&spec.file, spec.variable.as_deref(), &spec.names),
-        _ if is_hdf5(&spec.file) => netcdf4(spec),
-        _ => read::netcdf(&spec.file, spec.variable.as_deref()),
-    }
-}
-
-/// Whether the file starts with the HDF5 signature (a NetCDF-4 file).
-fn is_hdf5(path: &std::path::Path) -> bool {
-    use std::io::Read;
-    let mut magic = [0u8; 8];
-    std::fs::File::open(path).is_ok_and(|mut f| f.read_exact(&mut magic).is_ok())
-        && magic == *b"\x89HDF\r\n\x1a\n"
-}
-
-#[cfg(feature = "netcdf4")]
-fn netcdf4(spec: &GridSpec) -> Result<RawVar, GridError> {
-    super::nc4::netcdf4(&spec.file, spec.variable.as_deref())
-}
-
-#[cfg(not(feature = "netcdf4"))]
-fn netcdf4(spec: &GridSpec) -> Result<RawVar, GridError> {
-    Err(GridError::new(
-        &spec.file,
-        spec.variable.as_deref().unwrap_or("-"),
-        "a NetCDF-4 (HDF5) file, and this vbap was built without the `netcdf4` feature: \
-         build with `cargo build --release --workspace --bins --features vbap-mission/netcdf4`, or convert the file with \
-         `nccopy -k classic`",
-    ))
-}
 
 /// One axis's values in file order, in mission units (projection aside), and whether they
 /// are degrees.
@@ -142,8 +101,47 @@ fn monotone(spec: &GridSpec, name: &str, v: &[f64]) -> Result<bool, GridError> {
 
 /// Reads and builds the grid of `spec`.
 pub fn load(spec: &GridSpec) -> Result<GridField, GridError> {
-    let var = read_any(spec)?;
-    let roles = cf::roles(&var, &spec.names, spec.dim, &spec.file)?;
+    let var = vbap_formats::read_variable(&spec.file, spec.variable.as_deref(), &spec.names)?;
+    let dims = dimensions(spec, &var)?;
+    let mut axes = Vec::new();
+    for (role, k) in [Role::X, Role::Y, Role::Z, Role::T].into_iter().zip(dims) {
+        axes.push(match k {
+            Some(k) => Some(raw_axis(&var, k, role, spec)?),
+            None => None,
+        });
+    }
+    let origin = geographic_origin(spec, &var, &mut axes)?;
+    let Laid {
+        layout,
+        mut built,
+        times,
+    } = lay_out(spec, &var, &axes, dims)?;
+    let mut g = GridField {
+        file: spec.file.display().to_string(),
+        variable: var.name.clone(),
+        dim: spec.dim,
+        x: built[0].take().expect("x axis"),
+        y: built[1].take().expect("y axis"),
+        z: built[2].take(),
+        times,
+        origin,
+        data: super::values::Values::F64(var.data),
+        layout,
+        land: Vec::new(),
+        best: Vec::new(),
+        extrema: [0, 0],
+    };
+    canonical(&mut g);
+    super::land::mark_and_fill(&mut g, spec.land_above)?;
+    super::optimum::prepare(&mut g);
+    g.data.compact();
+    Ok(g)
+}
+
+/// The dimension of `var` that is each axis (x, y, z, time), x and y always found; an
+/// error when the variable's rank does not fit the mission's dimension.
+fn dimensions(spec: &GridSpec, var: &RawVar) -> Result<[Option<usize>; 4], GridError> {
+    let roles = cf::roles(var, &spec.names, spec.dim, &spec.file)?;
     let find = |r: Role| roles.iter().position(|x| *x == r);
     let rank_err =
         |what: String| GridError::new(&spec.file, &var.name, format!("wrong rank: {what}"));
@@ -165,18 +163,16 @@ pub fn load(spec: &GridSpec) -> Result<GridField, GridError> {
             "a 3-D mission needs a vertical axis of at least {MIN_NODES} levels (the variable has {nz})"
         )));
     }
-    let mut axes = Vec::new();
-    for (role, k) in [
-        (Role::X, Some(kx)),
-        (Role::Y, Some(ky)),
-        (Role::Z, kz),
-        (Role::T, find(Role::T)),
-    ] {
-        axes.push(match k {
-            Some(k) => Some(raw_axis(&var, k, role, spec)?),
-            None => None,
-        });
-    }
+    Ok([Some(kx), Some(ky), kz, find(Role::T)])
+}
+
+/// When x/y are lon/lat degrees: projects them about the origin and returns it (None for
+/// a grid in length units); an error when the mission says geographic and they are not.
+fn geographic_origin(
+    spec: &GridSpec,
+    var: &RawVar,
+    axes: &mut [Option<RawAxis>],
+) -> Result<Option<[f64; 2]>, GridError> {
     let (lon, lat) = (&axes[0], &axes[1]);
     let geographic = matches!(
         (lon.as_ref().map(|a| a.units), lat.as_ref().map(|a| a.units)),
@@ -189,17 +185,36 @@ pub fn load(spec: &GridSpec) -> Result<GridField, GridError> {
             "field.geographic = true but the x/y coordinates are not lon/lat degrees",
         ));
     }
-    let mut origin = None;
     if geographic {
-        origin = Some(project(spec, &mut axes)?);
+        return Ok(Some(project(spec, axes)?));
     }
+    Ok(None)
+}
+
+/// The axes of a grid laid out ascending: where each node's value is in the file's order.
+struct Laid {
+    layout: Layout,
+    /// x, y, z (3-D) in mission length units, ascending; None for z in 2-D and for time.
+    built: Vec<Option<Axis>>,
+    /// Times, s from the first, ascending (one entry for a steady field).
+    times: Vec<f64>,
+}
+
+/// Lays out `axes` (x, y, z, time; in dimensions `dims` of `var`): each strictly monotone,
+/// flipped to ascend (the layout steps back through a descending one), scaled to mission
+/// units, long enough for the cubic interpolation.
+fn lay_out(
+    spec: &GridSpec,
+    var: &RawVar,
+    axes: &[Option<RawAxis>],
+    dims: [Option<usize>; 4],
+) -> Result<Laid, GridError> {
     let mut layout = Layout::default();
     let strides = row_major(&var.shape);
     let mut built: Vec<Option<Axis>> = Vec::new();
     let mut times = vec![0.0];
     for (r, a) in axes.iter().enumerate() {
-        let k = [Some(kx), Some(ky), kz, find(Role::T)][r];
-        let (Some(a), Some(k)) = (a, k) else {
+        let (Some(a), Some(k)) = (a, dims[r]) else {
             built.push(None);
             continue;
         };
@@ -237,26 +252,11 @@ pub fn load(spec: &GridSpec) -> Result<GridField, GridError> {
         }
         built.push((r < 2 || spec.dim == 3).then(|| Axis::new(v)));
     }
-    let mut g = GridField {
-        file: spec.file.display().to_string(),
-        variable: var.name.clone(),
-        dim: spec.dim,
-        x: built[0].take().expect("x axis"),
-        y: built[1].take().expect("y axis"),
-        z: built[2].take(),
-        times,
-        origin,
-        data: super::values::Values::F64(var.data),
+    Ok(Laid {
         layout,
-        land: Vec::new(),
-        best: Vec::new(),
-        extrema: [0, 0],
-    };
-    canonical(&mut g);
-    super::land::mark_and_fill(&mut g, spec.land_above)?;
-    super::optimum::prepare(&mut g);
-    g.data.compact();
-    Ok(g)
+        built,
+        times,
+    })
 }
 
 /// Reorders the values, if need be, so that x varies fastest, then y, z and time, every axis

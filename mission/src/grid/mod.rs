@@ -7,50 +7,22 @@
 //! `field.origin` by the equirectangular projection. Missing data and land are
 //! [`land`](GridField::is_land): see `land.rs`.
 //!
-//! Files: [`read`] (the file formats), [`cf`] (which dimension is which axis, units),
-//! [`axis`] (one axis and its interpolation stencil), `build.rs` (from a variable to a
-//! grid), `eval.rs` (value, gradient, Hessian), `land.rs`, `optimum.rs`.
+//! The files themselves (NetCDF, NumPy: reading, CF axes and units, writing) are
+//! `vbap-formats`'s. Here: [`axis`] (one axis and its interpolation stencil), `build.rs`
+//! (from a variable as read to a grid), `values.rs` (the node values), `eval.rs` (value,
+//! gradient, Hessian), `land.rs`, `optimum.rs`.
 
 pub mod axis;
 mod build;
-pub mod cf;
 mod eval;
 mod land;
-#[cfg(feature = "netcdf4")]
-mod nc4;
-pub mod ocean;
 mod optimum;
-pub mod read;
 mod values;
-pub mod write;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 pub use axis::Axis;
-pub use cf::AxisNames;
-
-/// A bad grid file: names the file, the variable and what is wrong.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{file}: variable {variable:?}: {what}")]
-pub struct GridError {
-    /// The file.
-    pub file: String,
-    /// The variable (or `-` when none is concerned).
-    pub variable: String,
-    /// What is wrong.
-    pub what: String,
-}
-
-impl GridError {
-    /// An error about `variable` of the file at `path`.
-    pub fn new(path: &Path, variable: &str, what: impl Into<String>) -> GridError {
-        GridError {
-            file: path.display().to_string(),
-            variable: variable.to_string(),
-            what: what.into(),
-        }
-    }
-}
+pub use vbap_formats::{AxisNames, GridError};
 
 /// The grid a mission loaded (in its `[field]` section; not a key).
 pub type GridSlot = crate::loaded::Loaded<std::sync::Arc<GridField>>;

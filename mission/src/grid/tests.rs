@@ -2,10 +2,11 @@
 
 use std::path::{Path, PathBuf};
 
-use super::write::{write_netcdf, NcAttr, NcData, NcVar};
 use super::*;
 use crate::config::Goal;
 use crate::land::LandMask;
+use vbap_formats::ocean;
+use vbap_formats::write::{write_netcdf, NcAttr, NcData, NcVar};
 use vbap_math::{Mat3, Vec3};
 
 fn spec(file: &Path, dim: usize) -> GridSpec {
@@ -498,5 +499,75 @@ fn an_hdf5_file_is_read_with_the_feature_and_refused_without() {
         assert!(e.what.contains("not a readable NetCDF-4 file"), "{e}");
     } else {
         assert!(e.what.contains("without the `netcdf4` feature"), "{e}");
+    }
+}
+
+/// NetCDF-4 files (the `netcdf4` feature) build the same grids as classic ones.
+#[cfg(feature = "netcdf4")]
+mod netcdf4 {
+    use crate::grid::{GridField, GridSpec};
+    use vbap_formats::ocean;
+    use vbap_formats::write::{write_netcdf, write_netcdf4, NcAttr, NcData, NcVar};
+
+    fn load(path: &Path, variable: &str, dim: usize) -> GridField {
+        let spec = GridSpec {
+            file: path.to_path_buf(),
+            variable: Some(variable.into()),
+            dim,
+            ..GridSpec::default()
+        };
+        let mut g = GridField::load(&spec).unwrap();
+        g.file = String::new();
+        g
+    }
+
+    use std::path::Path;
+
+    /// A 3-D, time-varying f32 variable with a fill value and descending depth, written as
+    /// NetCDF classic and as NetCDF-4: the same grid.
+    #[test]
+    fn a_netcdf4_file_reads_equal_to_the_classic_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (nx, ny, nz, nt) = (6, 5, 4, 2);
+        let mut data: Vec<f32> = (0..nx * ny * nz * nt)
+            .map(|i| (i as f32 * 0.37).sin() * 3.0 + 10.0)
+            .collect();
+        data[3 * nx * ny + 7] = -999.0; // depth 0 (the last level in the file), t = 0
+        let axis =
+            |n: &str, v: Vec<f64>, u: &str| NcVar::new(n, &[n], NcData::F64(v), &[("units", u)]);
+        let mut temp = NcVar::new(
+            "temp",
+            &["time", "depth", "y", "x"],
+            NcData::F32(data),
+            &[("units", "degC")],
+        );
+        temp.attrs.push(("_FillValue".into(), NcAttr::F32(-999.0)));
+        let vars = [
+            axis("time", vec![0.0, 2.0], "hours since 2026-01-01"),
+            axis("depth", vec![60.0, 30.0, 10.0, 0.0], "m"),
+            axis("y", (0..ny).map(|j| j as f64 * 1.5).collect(), "km"),
+            axis("x", (0..nx).map(|j| j as f64 * 700.0).collect(), "m"),
+            temp,
+        ];
+        let dims = [("time", nt), ("depth", nz), ("y", ny), ("x", nx)];
+        let (classic, nc4) = (dir.path().join("c.nc"), dir.path().join("h.nc"));
+        write_netcdf(&classic, false, &dims, &vars, "t").unwrap();
+        write_netcdf4(&nc4, &dims, &vars, "t").unwrap();
+        assert_eq!(&std::fs::read(&nc4).unwrap()[..4], b"\x89HDF");
+        let (a, b) = (load(&classic, "temp", 3), load(&nc4, "temp", 3));
+        assert!(a.has_land(), "the fill value is land");
+        assert_eq!(a, b);
+    }
+
+    /// The synthetic ocean (geographic, land) in both formats: the same temperature grid.
+    #[test]
+    fn the_synthetic_ocean_as_netcdf4_reads_equal_to_the_classic_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (classic, nc4) = (dir.path().join("c.nc"), dir.path().join("o.nc"));
+        ocean::write_ocean(&classic, 40, 30, 3).unwrap();
+        ocean::write_ocean_netcdf4(&nc4, 40, 30, 3).unwrap();
+        for v in ["temperature", "u"] {
+            assert_eq!(load(&classic, v, 2), load(&nc4, v, 2), "{v}");
+        }
     }
 }

@@ -106,8 +106,8 @@ mod tests {
     /// store reads: value, gradient and Hessian, inside and beyond the grid.
     #[test]
     fn an_f32_store_reads_the_same_bits_as_the_f64_store() {
-        use crate::grid::write::{write_netcdf, NcData, NcVar};
         use crate::grid::{GridField, GridSpec};
+        use vbap_formats::write::{write_netcdf, NcData, NcVar};
         use vbap_math::Vec3;
         let dir = tempfile::tempdir().unwrap();
         let (xs, ys, zs): (Vec<f64>, Vec<f64>, Vec<f64>) = (

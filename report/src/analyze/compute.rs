@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use vbap_mission::config::{Mission, Pace};
-use vbap_mission::rundir::{Percentiles, RunDir, Summary};
+use vbap_wire::rundir::{Percentiles, RunDir, Summary};
 
 use super::records::{log_file, read_logs, Format, HopAcc};
 use super::{Distributions, HopReport, LoopReport, Report, TickReport};

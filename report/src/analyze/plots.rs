@@ -5,7 +5,7 @@ use crate::plot::chart::{self, Axis, Figure, Panel, RefLine, Series};
 use crate::plot::style::{TimeUnit, PALETTE};
 use anyhow::Result;
 use vbap_mission::config::Mission;
-use vbap_mission::rundir::{Percentiles, RunDir};
+use vbap_wire::rundir::{Percentiles, RunDir};
 
 use super::{Distributions, Report, LATENCY_SVG, LOOPS_SVG};
 

@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use serde::Deserialize;
-use vbap_ipc::msglog::{self, MsgEvent, MSG_HEADER, MSG_SUFFIX};
-use vbap_ipc::telemetry::MSG_TARGET;
+use vbap_wire::msglog::MSG_TARGET;
+use vbap_wire::msglog::{self, MsgEvent, MSG_HEADER, MSG_SUFFIX};
 
 /// One log line of the message target, borrowed from the line.
 #[derive(Deserialize)]
@@ -173,7 +173,7 @@ impl Partial {
 pub(super) enum Format {
     /// `<process>.jsonl`: tracing JSON lines, message records among them (earlier versions).
     Json,
-    /// `<process>.msgs.csv`: message records only ([`vbap_ipc::msglog`]).
+    /// `<process>.msgs.csv`: message records only ([`vbap_wire::msglog`]).
     Csv,
 }
 

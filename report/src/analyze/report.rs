@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use serde::Serialize;
-use vbap_mission::rundir::{Percentiles, Summary};
+use vbap_wire::rundir::{Percentiles, Summary};
 
 /// Figures of one hop (docs/ARCHITECTURE.md §10, `vbap analyze --json`).
 #[derive(Clone, Debug, Default, Serialize)]

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use vbap_mission::rundir::{RunDir, Summary};
+use vbap_wire::rundir::{RunDir, Summary};
 
 use super::plots::{self, ccdf_points, cdf_points};
 use super::*;
@@ -109,7 +109,7 @@ fn latency_drops_and_loops_from_logs() {
 
 #[test]
 fn latency_drops_and_loops_from_csv_records() {
-    use vbap_ipc::msglog::MsgLog;
+    use vbap_wire::msglog::MsgLog;
     let root = std::env::temp_dir().join(format!("vbap-analyze-csv-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&root);
     std::fs::create_dir_all(root.join("logs")).unwrap();
@@ -183,7 +183,7 @@ fn a_process_may_have_records_in_both_formats() {
         ));
     }
     std::fs::write(dir.log("vehicle_agent_0"), json).unwrap();
-    let mut log = vbap_ipc::msglog::MsgLog::open(&dir.msg_log("vehicle_agent_0")).unwrap();
+    let mut log = vbap_wire::msglog::MsgLog::open(&dir.msg_log("vehicle_agent_0")).unwrap();
     for k in 3..6u64 {
         let sent = t0 + k * 1_000_000;
         log.recv("body", u32::MAX - 1, 0, k, k, sent, sent + 10_000);

@@ -15,7 +15,7 @@ use std::path::Path;
 use super::canvas::{self, Anchor, Canvas, TextOpts};
 use super::style::{self, TimeUnit};
 use super::PlotError;
-use vbap_mission::rundir::Event;
+use vbap_wire::rundir::Event;
 
 pub use panel::{draw_panel, panel_height};
 

@@ -26,58 +26,14 @@ pub fn render_mission_svg(plot: &MissionPlot<'_>) -> Result<String, PlotError> {
         let px = (bounds.width() / span_x, bounds.height() / span_y);
 
         // Field: filled bands, then contour lines at the band edges.
-        let aspect = span_x / span_y;
-        let fine = sample_field(plot.field, bounds, aspect, 2 * FIELD_GRID);
-        let fine_levels = fine.levels();
-        let fine_rects = field_rects(&fine, fine_levels.as_ref());
-        let (grid, levels, rects) = if fine_rects.len() <= FIELD_RECT_BUDGET {
-            (fine, fine_levels, fine_rects)
-        } else {
-            let g = sample_field(plot.field, bounds, aspect, FIELD_GRID);
-            let l = g.levels();
-            let r = field_rects(&g, l.as_ref());
-            (g, l, r)
-        };
+        let (grid, levels, rects) = sampled_field(plot, bounds, span_x / span_y);
         draw_field(&mut chart, &grid, levels.as_ref(), rects, px)?;
         if let Some(current) = plot.current {
             draw_current(&mut chart, current, bounds)?;
         }
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_labels(9)
-            .y_labels(9)
-            .x_desc(match plot.geographic {
-                Some(_) => "longitude (°E)".to_string(),
-                None => axis_desc("x", &plot.length_unit),
-            })
-            .y_desc(match plot.geographic {
-                Some(_) => "latitude (°N)".to_string(),
-                None => axis_desc("y", &plot.length_unit),
-            })
-            .x_label_formatter(&|v| match plot.geographic {
-                Some([lon0, lat0]) => {
-                    let lon = vbap_math::gridmath::equirectangular_inverse(*v, 0.0, lon0, lat0).0;
-                    format!("{lon:.3}")
-                }
-                None => style::fmt_tick_span(*v, bounds.width()),
-            })
-            .y_label_formatter(&|v| match plot.geographic {
-                Some([lon0, lat0]) => {
-                    let lat = vbap_math::gridmath::equirectangular_inverse(0.0, *v, lon0, lat0).1;
-                    format!("{lat:.3}")
-                }
-                None => style::fmt_tick_span(*v, bounds.height()),
-            })
-            .label_style(font(14.0))
-            .axis_desc_style(font(17.0))
-            .draw()
-            .map_err(draw_err)?;
+        draw_axes(&mut chart, plot, bounds)?;
 
-        // Formation snapshots (under the tracks), labelled in one time unit.
-        let time_unit =
-            TimeUnit::for_span(plot.snapshots.iter().map(|s| s.t.abs()).fold(0.0, f64::max));
-        let mut placer = LabelPlacer::new(chart.plotting_area().get_pixel_range());
+        // Formation snapshots (under the tracks).
         for snap in &plot.snapshots {
             draw_snapshot(&mut chart, snap)?;
         }
@@ -93,58 +49,132 @@ pub fn render_mission_svg(plot: &MissionPlot<'_>) -> Result<String, PlotError> {
             draw_track(&mut chart, track, px)?;
         }
 
-        // Markers and labels, in backend pixels on the root area.
-        let to_px = |p: (f64, f64)| chart.backend_coord(&p);
-        if let Some(opt) = plot.optimum {
-            let c = to_px(opt);
-            root.draw(&star(c, 12.0, 5.0, RED_STAR.filled()))
-                .map_err(draw_err)?;
-            root.draw(&star_outline(c, 12.0, 5.0, BLACK.stroke_width(2)))
-                .map_err(draw_err)?;
-            placer.block((c.0 - 12, c.1 - 12, c.0 + 12, c.1 + 12));
-        }
-        for (x, y, _) in &plot.events {
-            let c = to_px((*x, *y));
-            draw_cross(&root, c, 6)?;
-            placer.block((c.0 - 7, c.1 - 7, c.0 + 7, c.1 + 7));
-        }
-        for snap in &plot.snapshots {
-            // Above or below the formation's core: a vehicle flung far away does not
-            // carry the label off with it.
-            let core = formation_core(snap);
-            let ys = core.iter().map(|&p| to_px(p).1);
-            let (top, bottom) = (ys.clone().min(), ys.max());
-            let mut text = format!("t = {}", time_unit.fmt(snap.t));
-            if !snap.label.is_empty() {
-                text = format!("{text}: {}", snap.label);
-            }
-            let (x, y) = to_px(snap.centre);
-            placer.place_label(
-                &root,
-                &text,
-                (x, top.unwrap_or(y) - 6),
-                13.0,
-                LabelSide::AboveOrBelow(bottom.unwrap_or(y) + 6),
-            )?;
-        }
-        for (x, y, label) in &plot.events {
-            if !label.is_empty() {
-                let c = to_px((*x, *y));
-                placer.place_label(&root, label, c, 13.0, LabelSide::Around)?;
-            }
-        }
-        // Frame of the plotting area on top of everything.
-        let (xr, yr) = chart.plotting_area().get_pixel_range();
-        root.draw(&Rectangle::new(
-            [(xr.start, yr.start), (xr.end - 1, yr.end - 1)],
-            BLACK.stroke_width(1),
-        ))
-        .map_err(draw_err)?;
-
+        draw_marks(&root, &chart, plot)?;
         draw_mission_side(&side, plot, levels.as_ref(), grid.has_no_data())?;
         root.present().map_err(draw_err)?;
     }
     Ok(svg)
+}
+
+/// The field sampled for its filled bands: on a fine grid, or on the coarse one when the
+/// fine grid's rectangles would exceed [`FIELD_RECT_BUDGET`]; with its levels.
+fn sampled_field(
+    plot: &MissionPlot<'_>,
+    bounds: Bounds,
+    aspect: f64,
+) -> (Grid, Option<Levels>, Vec<FieldRect>) {
+    let fine = sample_field(plot.field, bounds, aspect, 2 * FIELD_GRID);
+    let fine_levels = fine.levels();
+    let fine_rects = field_rects(&fine, fine_levels.as_ref());
+    if fine_rects.len() <= FIELD_RECT_BUDGET {
+        (fine, fine_levels, fine_rects)
+    } else {
+        let g = sample_field(plot.field, bounds, aspect, FIELD_GRID);
+        let l = g.levels();
+        let r = field_rects(&g, l.as_ref());
+        (g, l, r)
+    }
+}
+
+/// The axes of the mission chart: lon/lat degrees for a geographic field, else x and y in
+/// the length unit.
+fn draw_axes(
+    chart: &mut Chart<'_, '_>,
+    plot: &MissionPlot<'_>,
+    bounds: Bounds,
+) -> Result<(), PlotError> {
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels(9)
+        .y_labels(9)
+        .x_desc(match plot.geographic {
+            Some(_) => "longitude (°E)".to_string(),
+            None => axis_desc("x", &plot.length_unit),
+        })
+        .y_desc(match plot.geographic {
+            Some(_) => "latitude (°N)".to_string(),
+            None => axis_desc("y", &plot.length_unit),
+        })
+        .x_label_formatter(&|v| match plot.geographic {
+            Some([lon0, lat0]) => {
+                let lon = vbap_math::gridmath::equirectangular_inverse(*v, 0.0, lon0, lat0).0;
+                format!("{lon:.3}")
+            }
+            None => style::fmt_tick_span(*v, bounds.width()),
+        })
+        .y_label_formatter(&|v| match plot.geographic {
+            Some([lon0, lat0]) => {
+                let lat = vbap_math::gridmath::equirectangular_inverse(0.0, *v, lon0, lat0).1;
+                format!("{lat:.3}")
+            }
+            None => style::fmt_tick_span(*v, bounds.height()),
+        })
+        .label_style(font(14.0))
+        .axis_desc_style(font(17.0))
+        .draw()
+        .map_err(draw_err)?;
+    Ok(())
+}
+
+/// Markers (the optimum, event crosses) and labels (formation snapshots in one time unit,
+/// events), in backend pixels on the root area, placed clear of each other; then the frame
+/// of the plotting area on top of everything.
+fn draw_marks(
+    root: &DrawingArea<SVGBackend<'_>, Shift>,
+    chart: &Chart<'_, '_>,
+    plot: &MissionPlot<'_>,
+) -> Result<(), PlotError> {
+    let time_unit =
+        TimeUnit::for_span(plot.snapshots.iter().map(|s| s.t.abs()).fold(0.0, f64::max));
+    let mut placer = LabelPlacer::new(chart.plotting_area().get_pixel_range());
+    let to_px = |p: (f64, f64)| chart.backend_coord(&p);
+    if let Some(opt) = plot.optimum {
+        let c = to_px(opt);
+        root.draw(&star(c, 12.0, 5.0, RED_STAR.filled()))
+            .map_err(draw_err)?;
+        root.draw(&star_outline(c, 12.0, 5.0, BLACK.stroke_width(2)))
+            .map_err(draw_err)?;
+        placer.block((c.0 - 12, c.1 - 12, c.0 + 12, c.1 + 12));
+    }
+    for (x, y, _) in &plot.events {
+        let c = to_px((*x, *y));
+        draw_cross(root, c, 6)?;
+        placer.block((c.0 - 7, c.1 - 7, c.0 + 7, c.1 + 7));
+    }
+    for snap in &plot.snapshots {
+        // Above or below the formation's core: a vehicle flung far away does not
+        // carry the label off with it.
+        let core = formation_core(snap);
+        let ys = core.iter().map(|&p| to_px(p).1);
+        let (top, bottom) = (ys.clone().min(), ys.max());
+        let mut text = format!("t = {}", time_unit.fmt(snap.t));
+        if !snap.label.is_empty() {
+            text = format!("{text}: {}", snap.label);
+        }
+        let (x, y) = to_px(snap.centre);
+        placer.place_label(
+            root,
+            &text,
+            (x, top.unwrap_or(y) - 6),
+            13.0,
+            LabelSide::AboveOrBelow(bottom.unwrap_or(y) + 6),
+        )?;
+    }
+    for (x, y, label) in &plot.events {
+        if !label.is_empty() {
+            let c = to_px((*x, *y));
+            placer.place_label(root, label, c, 13.0, LabelSide::Around)?;
+        }
+    }
+    // Frame of the plotting area on top of everything.
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
+    root.draw(&Rectangle::new(
+        [(xr.start, yr.start), (xr.end - 1, yr.end - 1)],
+        BLACK.stroke_width(1),
+    ))
+    .map_err(draw_err)?;
+    Ok(())
 }
 
 /// Arrows of the current on a lattice of [`CURRENT_ARROWS`] columns over `bounds`, the

@@ -20,44 +20,14 @@ pub(super) fn draw_mission_side(
     ))
     .map_err(draw_err)?;
     y += 22;
-    let bar_h = 340;
-    let bar_w = 26;
+    let bar = Bar {
+        left,
+        top: y,
+        w: 26,
+        h: 340,
+    };
     match levels {
-        Some(l) => {
-            let band_h = f64::from(bar_h) / l.n as f64;
-            let y_of = |k: usize| y + bar_h - (k as f64 * band_h).round() as i32;
-            for k in 0..l.n {
-                side.draw(&Rectangle::new(
-                    [(left, y_of(k + 1)), (left + bar_w, y_of(k))],
-                    l.colour(k).filled(),
-                ))
-                .map_err(draw_err)?;
-            }
-            side.draw(&Rectangle::new(
-                [(left, y), (left + bar_w, y + bar_h)],
-                BLACK.stroke_width(1),
-            ))
-            .map_err(draw_err)?;
-            // Label every edge when there is room, else every other one.
-            let every = if band_h >= 20.0 { 1 } else { 2 };
-            for k in (0..=l.n).filter(|k| k % every == 0 || *k == l.n) {
-                if k == l.n && k % every != 0 {
-                    continue;
-                }
-                let yk = y_of(k);
-                side.draw(&PathElement::new(
-                    vec![(left + bar_w, yk), (left + bar_w + 5, yk)],
-                    BLACK.stroke_width(1),
-                ))
-                .map_err(draw_err)?;
-                side.draw(&Text::new(
-                    fmt_level(l.edge(k), l.step),
-                    (left + bar_w + 9, yk),
-                    font(13.0).pos(Pos::new(HPos::Left, VPos::Center)),
-                ))
-                .map_err(draw_err)?;
-            }
-        }
+        Some(l) => draw_colour_bar(side, &bar, l)?,
         None => {
             side.draw(&Text::new(
                 "(no finite field values)",
@@ -67,23 +37,78 @@ pub(super) fn draw_mission_side(
             .map_err(draw_err)?;
         }
     }
-    y += bar_h + 20;
+    y += bar.h + 20;
     if has_no_data {
         side.draw(&Rectangle::new(
-            [(left, y - 7), (left + bar_w, y + 7)],
+            [(left, y - 7), (left + bar.w, y + 7)],
             NO_DATA.filled(),
         ))
         .map_err(draw_err)?;
         side.draw(&Text::new(
             "no data",
-            (left + bar_w + 9, y),
+            (left + bar.w + 9, y),
             font(13.0).pos(Pos::new(HPos::Left, VPos::Center)),
         ))
         .map_err(draw_err)?;
         y += 24;
     }
     y += 16;
+    draw_legend(side, &legend_entries(plot), y, h - 10)
+}
 
+/// Where the colour bar goes in the side panel, pixels.
+struct Bar {
+    left: i32,
+    top: i32,
+    w: i32,
+    h: i32,
+}
+
+/// The colour bar of the field's levels `l`, its edges labelled.
+fn draw_colour_bar(
+    side: &DrawingArea<SVGBackend<'_>, Shift>,
+    bar: &Bar,
+    l: &Levels,
+) -> Result<(), PlotError> {
+    let (left, y, bar_w, bar_h) = (bar.left, bar.top, bar.w, bar.h);
+    let band_h = f64::from(bar_h) / l.n as f64;
+    let y_of = |k: usize| y + bar_h - (k as f64 * band_h).round() as i32;
+    for k in 0..l.n {
+        side.draw(&Rectangle::new(
+            [(left, y_of(k + 1)), (left + bar_w, y_of(k))],
+            l.colour(k).filled(),
+        ))
+        .map_err(draw_err)?;
+    }
+    side.draw(&Rectangle::new(
+        [(left, y), (left + bar_w, y + bar_h)],
+        BLACK.stroke_width(1),
+    ))
+    .map_err(draw_err)?;
+    // Label every edge when there is room, else every other one.
+    let every = if band_h >= 20.0 { 1 } else { 2 };
+    for k in (0..=l.n).filter(|k| k % every == 0 || *k == l.n) {
+        if k == l.n && k % every != 0 {
+            continue;
+        }
+        let yk = y_of(k);
+        side.draw(&PathElement::new(
+            vec![(left + bar_w, yk), (left + bar_w + 5, yk)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(draw_err)?;
+        side.draw(&Text::new(
+            fmt_level(l.edge(k), l.step),
+            (left + bar_w + 9, yk),
+            font(13.0).pos(Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(draw_err)?;
+    }
+    Ok(())
+}
+
+/// The legend's entries: what the mission plot draws.
+fn legend_entries(plot: &MissionPlot<'_>) -> Vec<(LegendSymbol, String)> {
     let mut entries: Vec<(LegendSymbol, String)> = plot
         .tracks
         .iter()
@@ -115,7 +140,7 @@ pub(super) fn draw_mission_side(
     if !plot.events.is_empty() {
         entries.push((LegendSymbol::Cross, "event".into()));
     }
-    draw_legend(side, &entries, y, h - 10)
+    entries
 }
 
 #[derive(Debug, Clone, Copy)]

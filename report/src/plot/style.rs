@@ -4,7 +4,7 @@
 //! "nice" tick steps and the same readable time labels ("36 h", "1.5 d", "250 ms", never
 //! "129600 s" or "6e6 ms").
 
-use vbap_mission::rundir::Event;
+use vbap_wire::rundir::Event;
 
 /// Qualitative palette (Tableau 10) for vehicles and series, as `#rrggbb`. Vehicle `id`
 /// takes `PALETTE[id % 10]` in every figure.

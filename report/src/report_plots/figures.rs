@@ -3,7 +3,7 @@
 use crate::plot::chart::{event_markers, Axis, Figure, Marker, Panel, RefLine, Series};
 use crate::plot::style::{self, TimeUnit, PALETTE};
 use vbap_mission::config::Mission;
-use vbap_mission::rundir::Event;
+use vbap_wire::rundir::Event;
 
 use super::series::RunSeries;
 use crate::truth_plots::{self, Formation, Truth};

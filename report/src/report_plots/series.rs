@@ -4,7 +4,7 @@ use crate::plot::decimate::Decimator;
 use anyhow::Result;
 use vbap_math::Vec3;
 use vbap_mission::config::Mission;
-use vbap_mission::rundir::RunDir;
+use vbap_wire::rundir::RunDir;
 
 use super::MAX_POINTS;
 use crate::rows::{for_each_row_of, BodyCsv};

@@ -1,7 +1,7 @@
 use std::path::Path;
 
 use vbap_mission::config::Mission;
-use vbap_mission::rundir::RunDir;
+use vbap_wire::rundir::RunDir;
 
 use super::figures::field_unit;
 use super::*;
@@ -13,7 +13,7 @@ fn synthetic_run(root: &Path, ticks: u64) -> RunDir {
     let mut mission = Mission::from_toml_str(text, "synthetic").unwrap();
     mission.mission.duration = ticks as f64 * mission.mission.dt;
     std::fs::write(dir.mission(), mission.to_toml_string()).unwrap();
-    let mut body = String::from(vbap_mission::rundir::BODY_HEADER);
+    let mut body = String::from(vbap_wire::rundir::BODY_HEADER);
     body.push('\n');
     for k in 0..ticks {
         let t = k as f64 * 0.05;

@@ -11,7 +11,7 @@ use crate::plot::chart::{
 use crate::plot::style::{self, TimeUnit, CONTACT_STATES};
 use crate::plot::PlotError;
 use vbap_mission::config::Mission;
-use vbap_mission::rundir::Event;
+use vbap_wire::rundir::Event;
 
 use super::{panels::age_panel, Formation, Lane, N_STATES};
 

@@ -4,7 +4,7 @@
 use crate::plot::chart::{event_markers, Axis, Panel, RefLine, Series};
 use crate::plot::style::{self, TimeUnit};
 use vbap_mission::config::Mission;
-use vbap_mission::rundir::Event;
+use vbap_wire::rundir::Event;
 
 use super::{Formation, Lane, Truth, MAX_SAWTEETH, MAX_VEHICLE_LINES};
 

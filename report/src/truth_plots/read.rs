@@ -36,7 +36,86 @@ pub struct Lane {
     prev_age: Option<(f64, f64)>,
 }
 
+/// The pixel columns of the timeline: `cols` of `width` s from `t0` to `t1` (s).
+#[derive(Clone, Copy)]
+struct Columns {
+    t0: f64,
+    t1: f64,
+    width: f64,
+    cols: usize,
+}
+
+impl Columns {
+    /// `cols` columns (at least one) over `t_range` (s).
+    fn over(t_range: (f64, f64), cols: usize) -> Self {
+        let cols = cols.max(1);
+        let (t0, t1) = t_range;
+        let width = ((t1 - t0) / cols as f64).max(f64::MIN_POSITIVE);
+        Self {
+            t0,
+            t1,
+            width,
+            cols,
+        }
+    }
+
+    /// The column of time `t` (s), if within the columns.
+    fn of(&self, t: f64) -> Option<usize> {
+        (t >= self.t0 && t < self.t1)
+            .then(|| (((t - self.t0) / self.width) as usize).min(self.cols - 1))
+    }
+}
+
 impl Lane {
+    /// The tick at `t` (s) of `dt` s, in state `state`, covers [t, t + dt): spread it over
+    /// the columns it touches.
+    fn spread(&mut self, columns: &Columns, state: usize, t: f64, dt: f64) {
+        let Columns {
+            t0,
+            t1,
+            width,
+            cols,
+        } = *columns;
+        let (a, b) = (t.max(t0), (t + dt).min(t1));
+        if b > a {
+            let c0 = (((a - t0) / width).floor() as usize).min(cols - 1);
+            let c1 = (((b - t0) / width).ceil() as usize).clamp(c0 + 1, cols);
+            for c in c0..c1 {
+                let lo = t0 + c as f64 * width;
+                let overlap = b.min(lo + width) - a.max(lo);
+                if overlap > 0.0 {
+                    self.state_time[c][state] += overlap;
+                }
+            }
+        }
+    }
+
+    /// The coordinator's information on this vehicle is `age` s old at `t` (s; ticks of
+    /// `dt` s): a delivery when the age fell below what it would be with no news since the
+    /// last tick.
+    fn age(&mut self, columns: &Columns, t: f64, age: f64, dt: f64) {
+        let renewed = match self.prev_age {
+            None => true,
+            Some((tp, ap)) => age < ap + (t - tp) - 1e-9 * (1.0 + t.abs()),
+        };
+        if renewed {
+            self.deliveries += 1;
+            if self
+                .prev_age
+                .is_some_and(|(_, ap)| ap > SILENCE_TICKS as f64 * dt)
+            {
+                self.silences += 1;
+            }
+            if let Some(c) = columns.of(t) {
+                self.delivered[c] = true;
+            }
+        }
+        self.prev_age = Some((t, age));
+        if self.max_age.is_none_or(|(m, _)| age > m) {
+            self.max_age = Some((age, t));
+        }
+    }
+
     fn new(cols: usize, bucket: u64) -> Self {
         Self {
             state_time: vec![[0.0; N_STATES]; cols],
@@ -86,9 +165,8 @@ impl Formation {
         cols: usize,
         bucket: u64,
     ) -> Result<Self> {
-        let cols = cols.max(1);
-        let (t0, t1) = t_range;
-        let width = ((t1 - t0) / cols as f64).max(f64::MIN_POSITIVE);
+        let columns = Columns::over(t_range, cols);
+        let cols = columns.cols;
         let mut f = Formation {
             lanes: BTreeMap::new(),
             t_range,
@@ -130,42 +208,9 @@ impl Formation {
             }
             let lane = f.lanes.entry(id).or_insert_with(|| Lane::new(cols, bucket));
             lane.seen[state] = true;
-            // The tick covers [t, t + dt): spread it over the columns it touches.
-            let (a, b) = (t.max(t0), (t + dt).min(t1));
-            if b > a {
-                let c0 = (((a - t0) / width).floor() as usize).min(cols - 1);
-                let c1 = (((b - t0) / width).ceil() as usize).clamp(c0 + 1, cols);
-                for c in c0..c1 {
-                    let lo = t0 + c as f64 * width;
-                    let overlap = b.min(lo + width) - a.max(lo);
-                    if overlap > 0.0 {
-                        lane.state_time[c][state] += overlap;
-                    }
-                }
-            }
-            // A delivery: the age fell below what it would be with no news since last tick.
+            lane.spread(&columns, state, t, dt);
             if let Some(age) = age {
-                let renewed = match lane.prev_age {
-                    None => true,
-                    Some((tp, ap)) => age < ap + (t - tp) - 1e-9 * (1.0 + t.abs()),
-                };
-                if renewed {
-                    lane.deliveries += 1;
-                    if lane
-                        .prev_age
-                        .is_some_and(|(_, ap)| ap > SILENCE_TICKS as f64 * dt)
-                    {
-                        lane.silences += 1;
-                    }
-                    if t >= t0 && t < t1 {
-                        let c = (((t - t0) / width) as usize).min(cols - 1);
-                        lane.delivered[c] = true;
-                    }
-                }
-                lane.prev_age = Some((t, age));
-                if lane.max_age.is_none_or(|(m, _)| age > m) {
-                    lane.max_age = Some((age, t));
-                }
+                lane.age(&columns, t, age, dt);
             }
             lane.info_age.push(t, age.unwrap_or(f64::NAN));
             lane.slot_error.push(t, slot.unwrap_or(f64::NAN));

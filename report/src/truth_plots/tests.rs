@@ -2,7 +2,7 @@ use std::path::Path;
 
 use crate::plot::style;
 use anyhow::Result;
-use vbap_mission::rundir::Event;
+use vbap_wire::rundir::Event;
 
 use super::contact::intervals;
 use super::*;

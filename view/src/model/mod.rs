@@ -10,7 +10,7 @@ use anyhow::{Context, Result};
 use vbap_math::formation::FormationDesign;
 use vbap_mission::config::Mission;
 use vbap_mission::field::Field;
-use vbap_mission::rundir::RunDir;
+use vbap_wire::rundir::RunDir;
 
 mod read;
 

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use vbap_math::formation::design_regular;
-use vbap_mission::rundir::RunDir;
+use vbap_wire::rundir::RunDir;
 
 use super::{contact_code, Body, Event, Model, Tick, Truth, Vehicle};
 use crate::tail::{Columns, Polled, Row, Tail};
@@ -216,7 +216,7 @@ impl Model {
             Polled::Lines(l) => l,
         };
         for line in lines {
-            let Ok(e) = serde_json::from_str::<vbap_mission::rundir::Event>(&line) else {
+            let Ok(e) = serde_json::from_str::<vbap_wire::rundir::Event>(&line) else {
                 continue;
             };
             if e.kind == "link_drop" {

@@ -2,8 +2,8 @@
 //! or found from the CF attributes `axis`, `standard_name` and `units` of its coordinate
 //! variable (or, last, a conventional name); and the units of each axis.
 
-use super::read::{Coord, RawVar};
-use super::GridError;
+use crate::var::{Coord, RawVar};
+use crate::GridError;
 
 /// The role of a dimension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

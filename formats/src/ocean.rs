@@ -8,7 +8,7 @@
 
 use std::path::Path;
 
-use super::write::{write_netcdf, NcAttr, NcData, NcVar};
+use crate::write::{write_netcdf, NcAttr, NcData, NcVar};
 use vbap_math::gridmath::equirectangular;
 
 /// Centre of the grid (degrees): the missions' (0, 0).
@@ -205,7 +205,7 @@ pub fn write_ocean(path: &Path, nx: usize, ny: usize, seed: u64) -> std::io::Res
 /// `netcdf4` feature ([`NETCDF4`] says which).
 pub fn write_ocean_netcdf4(path: &Path, nx: usize, ny: usize, seed: u64) -> std::io::Result<()> {
     #[cfg(feature = "netcdf4")]
-    return super::write::write_netcdf4(
+    return crate::write::write_netcdf4(
         path,
         &[("lat", ny), ("lon", nx)],
         &variables(nx, ny, seed),
@@ -220,5 +220,6 @@ pub fn write_ocean_netcdf4(path: &Path, nx: usize, ny: usize, seed: u64) -> std:
     }
 }
 
-/// Whether this build reads and writes NetCDF-4 (the `netcdf4` feature of vbap-mission).
+/// Whether this build reads and writes NetCDF-4 (the `netcdf4` feature of vbap-formats,
+/// which vbap-mission's `netcdf4` feature turns on).
 pub const NETCDF4: bool = cfg!(feature = "netcdf4");

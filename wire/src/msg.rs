@@ -4,7 +4,8 @@
 //! versioned type name: change the version whenever the layout changes, so an old process
 //! can never read a new layout. Every payload starts with a [`Header`] (docs/ARCHITECTURE.md §5).
 
-use iceoryx2::prelude::ZeroCopySend;
+use iceoryx2_bb_derive_macros::ZeroCopySend;
+use iceoryx2_bb_elementary_traits::zero_copy_send::ZeroCopySend;
 
 use vbap_math::potential::PairPotential;
 use vbap_math::schedule::{BodySchedule, Segment, MAX_PLAN};

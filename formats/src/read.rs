@@ -6,85 +6,9 @@ use std::path::Path;
 
 use netcdf3::{DataSet, DataVector, FileReader};
 
-use super::GridError;
-
-/// A coordinate variable: its values and the CF attributes that tell which axis it is.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Coord {
-    /// Variable name.
-    pub name: String,
-    /// Values in file order.
-    pub values: Vec<f64>,
-    /// `units` (empty if absent).
-    pub units: String,
-    /// `standard_name` (empty if absent).
-    pub standard_name: String,
-    /// `axis` (`X`, `Y`, `Z`, `T`; empty if absent).
-    pub axis: String,
-    /// `positive` (`up` / `down`; empty if absent).
-    pub positive: String,
-}
-
-impl Coord {
-    /// The coordinate variable `name` of a self-describing file, its `axis` upper-cased and
-    /// `positive` lower-cased as CF compares them.
-    pub(crate) fn of_file(
-        name: String,
-        values: Vec<f64>,
-        units: String,
-        standard_name: String,
-        axis: &str,
-        positive: &str,
-    ) -> Self {
-        Self {
-            name,
-            values,
-            units,
-            standard_name,
-            axis: axis.to_uppercase(),
-            positive: positive.to_lowercase(),
-        }
-    }
-}
-
-/// A variable as read: its dimensions (slowest first), values (missing data = NaN) and the
-/// coordinate variable of each dimension, if the file has one.
-#[derive(Clone, Debug, Default)]
-pub struct RawVar {
-    /// Variable name.
-    pub name: String,
-    /// Dimension names, slowest first.
-    pub dims: Vec<String>,
-    /// Dimension lengths, slowest first.
-    pub shape: Vec<usize>,
-    /// Row-major values; `_FillValue`, `missing_value` and NaN are NaN.
-    pub data: Vec<f64>,
-    /// The coordinate variable of each dimension (same name as the dimension), if any.
-    pub coords: Vec<Option<Coord>>,
-    /// Whether the file says nothing about its axes (NumPy): the mission must.
-    pub bare: bool,
-}
-
-impl RawVar {
-    /// Variable `name` of a self-describing file (NetCDF): packed values already unpacked
-    /// by [`unpack`], the file's coordinate variables.
-    pub(crate) fn of_file(
-        name: String,
-        dims: Vec<String>,
-        shape: Vec<usize>,
-        data: Vec<f64>,
-        coords: Vec<Option<Coord>>,
-    ) -> Self {
-        Self {
-            name,
-            dims,
-            shape,
-            data,
-            coords,
-            bare: false,
-        }
-    }
-}
+use crate::cf::AxisNames;
+use crate::var::{Coord, RawVar};
+use crate::GridError;
 
 /// Unpacks CF packed values in place: `x · scale_factor + add_offset` (absent: 1 and 0).
 pub(crate) fn unpack(data: &mut [f64], scale_factor: Option<f64>, add_offset: Option<f64>) {
@@ -306,11 +230,7 @@ fn bare(name: String, shape: Vec<usize>, data: Vec<f64>) -> RawVar {
 /// Reads `variable` (or the only array of rank ≥ 2) of a `.npz` archive, with its 1-D
 /// arrays as coordinate candidates (named by the mission or `x`/`lon`, `y`/`lat`, `z`/`depth`,
 /// `time`).
-pub fn npz(
-    path: &Path,
-    variable: Option<&str>,
-    names: &super::cf::AxisNames,
-) -> Result<RawVar, GridError> {
+pub fn npz(path: &Path, variable: Option<&str>, names: &AxisNames) -> Result<RawVar, GridError> {
     let fail = |v: &str, what: String| GridError::new(path, v, what);
     let mut zip = npyz::npz::NpzArchive::open(path)
         .map_err(|e| fail("-", format!("not a NumPy .npz archive ({e})")))?;

@@ -102,7 +102,7 @@ impl RunDir {
     pub fn log(&self, process: &str) -> PathBuf {
         self.root.join("logs").join(format!("{process}.jsonl"))
     }
-    /// `logs/<process>.msgs.csv`: the process's message records (`vbap_ipc::msglog`).
+    /// `logs/<process>.msgs.csv`: the process's message records (`crate::msglog`).
     pub fn msg_log(&self, process: &str) -> PathBuf {
         self.root
             .join("logs")

@@ -84,7 +84,11 @@ pub const MSG_HEADER: &str =
     "event,hop,sender,receiver,tick,seq,sent_ns,recv_ns,injected_ns,reason";
 
 /// File name suffix: `<process>.msgs.csv` (named with the other run-directory files).
-pub use vbap_mission::rundir::MSG_SUFFIX;
+pub use crate::rundir::MSG_SUFFIX;
+
+/// Target of per-message records in the JSON logs of earlier versions (the records now have
+/// their own file and switch): the readers still accept them.
+pub const MSG_TARGET: &str = "vbap::msg";
 
 /// Buffer size of the writer, bytes.
 const BUFFER: usize = 1 << 16;
@@ -566,30 +570,5 @@ mod tests {
         }
         let err = parse_records_switch(Some("maybe")).unwrap_err();
         assert!(err.starts_with("VBAP_MSG_RECORDS=\"maybe\""), "{err}");
-    }
-
-    #[test]
-    fn beside_ignores_the_tracing_filter() {
-        let dir = temp("beside");
-        let jsonl = dir.join("logs/coordinator.jsonl");
-        let csv = dir.join("logs/coordinator.msgs.csv");
-        let with_filter = |filter: &str| {
-            let sub = tracing_subscriber::fmt()
-                .with_env_filter(tracing_subscriber::EnvFilter::new(filter))
-                .with_writer(std::io::sink)
-                .finish();
-            tracing::subscriber::with_default(sub, || MsgLog::beside(Some(&jsonl)).unwrap())
-        };
-        // RUST_LOG=info (or even error) keeps the records.
-        for filter in ["info", "error"] {
-            let log = with_filter(filter);
-            assert!(log.is_enabled(), "{filter}");
-        }
-        let mut on = with_filter(crate::telemetry::DEFAULT_FILTER);
-        assert!(on.is_enabled());
-        on.recv("state", 0, u32::MAX - 1, 0, 0, 1, 2);
-        drop(on);
-        assert_eq!(lines(&csv).len(), 2);
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }
