@@ -26,7 +26,7 @@ pub fn workspace() -> PathBuf {
 /// Builds the binaries (release, once per test process) and returns their directory.
 ///
 /// It builds every binary of the workspace together with its test targets, so that cargo
-/// resolves the features exactly as the README's `cargo test --workspace --release` does:
+/// resolves the features exactly as the README's test command (`deploy/test.sh`: `cargo test --workspace --release`) does:
 /// a build of a few packages (`-p …`) unifies them differently and compiles the heavy
 /// dependencies (zenoh, iceoryx2) a second time. After that test command's own build,
 /// this one finds everything fresh.

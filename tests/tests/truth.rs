@@ -39,7 +39,7 @@ fn a_broken_formation_gets_a_verdict_that_says_so_from_the_true_states() {
     let tmp = TempDir::new("broken");
     // The shipped mission under stress, cut short while its formation is still torn by the
     // lossy links and the kill (its survivors are all guided back in formation later on).
-    // Under the paper's law: the robust law keeps this formation (README, `[control]`).
+    // Under the paper's law: the robust law keeps this formation (docs/guide/control.md).
     let text = with_law(
         &read(&mission_file("lossy_kill.toml")).replace("duration = 300.0", "duration = 120.0"),
         "paper",

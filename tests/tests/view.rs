@@ -252,7 +252,66 @@ async fn a_replay_shows_every_vehicle_and_the_slider_moves_them() {
     );
     let t1 = b.eval("document.getElementById('time').textContent").await;
     assert_ne!(t0, t1);
-    assert!(t1.as_str().unwrap().contains("3.00 d"), "{t1}");
+    // A 3-day mission reads in hours, as the report's axes do.
+    assert!(t1.as_str().unwrap().contains("72 h"), "{t1}");
+
+    // Axes read at a glance: time at round steps of the clock with its unit, values with
+    // distinct labels (the gradient error of a glider run is a small range), units on the
+    // value axes; the map has a scale bar and the field's colour bar.
+    let labels = b
+        .eval("window.vbap.charts.map((c) => c.vbapLabels || {})")
+        .await;
+    let charts = labels.as_array().expect("labels of every chart");
+    for (j, c) in charts.iter().enumerate() {
+        let x: Vec<&str> = c["x"]
+            .as_array()
+            .expect("time labels")
+            .iter()
+            .map(|v| v.as_str().unwrap())
+            .collect();
+        assert!(x.len() >= 2, "chart {j}: {x:?}");
+        let hours: Vec<f64> = x
+            .iter()
+            .map(|l| {
+                l.strip_suffix(" h")
+                    .unwrap_or_else(|| panic!("chart {j}: {l:?} is not in h"))
+                    .parse()
+                    .unwrap()
+            })
+            .collect();
+        assert!(
+            hours.iter().all(|h| h % 1.0 == 0.0)
+                && hours
+                    .windows(2)
+                    .all(|w| [1.0, 2.0, 3.0, 6.0, 12.0, 24.0].contains(&(w[1] - w[0]))),
+            "chart {j}: time ticks at a step of the clock: {x:?}"
+        );
+        if let Some(y) = c["y"].as_array() {
+            let mut seen: Vec<&str> = y.iter().map(|v| v.as_str().unwrap()).collect();
+            let n = seen.len();
+            seen.dedup();
+            assert_eq!(
+                seen.len(),
+                n,
+                "chart {j}: two value ticks read the same: {y:?}"
+            );
+        }
+    }
+    let units = b
+        .eval("window.vbap.charts.map((c) => c.axes[1].label)")
+        .await;
+    assert_eq!(units, json!(["V/V_U", "m", "°C/m", "ṡ/v0"]));
+    let bar = b.eval("window.vbap.map.overlay").await;
+    let scale = bar["scaleBar"]["label"].as_str().expect("a scale bar");
+    assert!(
+        scale.ends_with(" km") || scale.ends_with(" m"),
+        "scale bar {scale:?}"
+    );
+    assert_eq!(bar["colourBar"]["label"], json!("T (°C)"), "{bar}");
+    assert!(
+        bar["colourBar"]["ticks"].as_array().unwrap().len() >= 2,
+        "{bar}"
+    );
     // The status tells the verdict of summary.json.
     let status = b
         .eval("document.getElementById('status').textContent")

@@ -11,13 +11,9 @@ window.vbap = state;
 const map = new RunMap($("map"));
 state.map = map;
 
-// Mission time in the unit that suits the mission's length.
+// Mission time in the unit that suits the mission's length (the axes' unit), to 3 digits.
 function fmtTime(t, span) {
-  span = span || (state.meta ? state.meta.duration : t);
-  if (span >= 2 * 86400) return (t / 86400).toFixed(2) + " d";
-  if (span >= 2 * 3600) return (t / 3600).toFixed(2) + " h";
-  if (span >= 120) return (t / 60).toFixed(1) + " min";
-  return t.toFixed(2) + " s";
+  return VbapTicks.fmtTime(t, span || (state.meta ? state.meta.duration : t));
 }
 
 const MARKERS = {
@@ -57,16 +53,58 @@ function markersPlugin() {
   };
 }
 
+// The panels: series [key, label, colour] and the unit of the values (`unit(meta)`).
 const PANELS = [
-  { title: "V / V_U of (II.2): true (from the true states) and seen", series: [["v_true", "true", "#d62728"], ["v_seen", "seen", "#1f77b4"]], log: true, one: true },
-  { title: "distance of the body to the optimum", series: [["dist", "distance", "#333"]] },
-  { title: "gradient-estimate error |∇T_est − ∇T|", series: [["grad_err", "error", "#9467bd"]] },
-  { title: "ṡ / v0", series: [["sdot", "ṡ/v0", "#2ca02c"]] },
+  { title: "V / V_U of (II.2): true (from the true states) and seen", series: [["v_true", "true", "#d62728"], ["v_seen", "seen", "#1f77b4"]], log: true, one: true, unit: () => "V/V_U" },
+  { title: "distance of the body to the optimum", series: [["dist", "distance", "#333"]], unit: (m) => lengthUnit(m) },
+  { title: "gradient-estimate error |∇T_est − ∇T|", series: [["grad_err", "error", "#9467bd"]], unit: (m) => `${fieldUnit(m)}/${lengthUnit(m)}` },
+  { title: "ṡ / v0", series: [["sdot", "ṡ/v0", "#2ca02c"]], unit: () => "ṡ/v0" },
 ];
+
+// The mission's length unit, "L" when non-dimensional.
+function lengthUnit(m) { return m.length_unit || "L"; }
+// The field's unit from its label ("T (°C)" → "°C"), else its label ("T").
+function fieldUnit(m) {
+  const label = m.field_label || "T", u = /\(([^()]+)\)\s*$/.exec(label);
+  return u ? u[1] : label;
+}
 
 // Tick labels of a logarithmic axis.
 function logTicks(u, vals) {
   return vals.map((v) => (v == null ? "" : Math.abs(v) >= 0.01 && Math.abs(v) < 1e4 ? String(+v.toPrecision(2)) : v.toExponential(0)));
+}
+
+// uPlot axes whose ticks come from ticks.js: round time steps in the mission's unit ("6 h"),
+// values with the decimals their step needs. The labels drawn last are kept on the chart
+// (`chart.vbapLabels`, read by the browser tests).
+function timeAxis() {
+  let last = null;
+  return {
+    splits: (u, i, lo, hi) => {
+      last = VbapTicks.time(lo, hi, Math.max(2, Math.round(u.bbox.width / (devicePixelRatio || 1) / 90)));
+      return last.values;
+    },
+    values: (u, vals) => {
+      const labels = vals.map((v, j) => (last && last.values[j] === v ? `${last.labels[j]} ${last.unit.symbol}` : fmtTime(v)));
+      (u.vbapLabels = u.vbapLabels || {}).x = labels;
+      return labels;
+    },
+  };
+}
+function valueAxis(unit) {
+  let last = null;
+  return {
+    size: 60, label: unit, labelSize: 16, labelFont: "12px system-ui",
+    splits: (u, i, lo, hi) => {
+      last = VbapTicks.linear(lo, hi, Math.max(2, Math.round(u.bbox.height / (devicePixelRatio || 1) / 30)));
+      return last.values;
+    },
+    values: (u, vals) => {
+      const labels = vals.map((v, j) => (last && last.values[j] === v ? last.labels[j] : String(v)));
+      (u.vbapLabels = u.vbapLabels || {}).y = labels;
+      return labels;
+    },
+  };
 }
 
 function panelData(p, cfg) {
@@ -85,7 +123,7 @@ function buildPanels() {
     const opts = {
       width: Math.max(300, box.clientWidth - 12), height: 125,
       scales: { x: { time: false }, y: cfg.log ? { distr: 3 } : {} },
-      axes: [{ values: (u, vals) => vals.map((v) => fmtTime(v)) }, cfg.log ? { size: 60, values: logTicks } : { size: 60 }],
+      axes: [timeAxis(), cfg.log ? { size: 60, label: cfg.unit(state.meta), labelSize: 16, labelFont: "12px system-ui", values: logTicks } : valueAxis(cfg.unit(state.meta))],
       series: [{ label: "t", value: (u, v) => (v == null ? "" : fmtTime(v)) },
         ...cfg.series.map(([, label, colour]) => ({ label, stroke: colour, width: 1.2, spanGaps: false }))],
       legend: { show: false },
@@ -192,6 +230,8 @@ async function load() {
     get("/api/meta"), get("/api/field"), get("/api/frames"), get("/api/panels"), get("/api/events")]);
   Object.assign(state, { meta, frames: frames.frames, panels, events: events.events });
   map.bounds = meta.bounds;
+  map.lengthUnit = meta.length_unit || "";
+  map.fieldLabel = meta.field_label || "T";
   map.setField(field);
   legend();
   buildPanels();

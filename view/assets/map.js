@@ -1,6 +1,7 @@
-// The map of a run on a canvas: the field (colour map and contours), trails, the virtual
-// body, the design slots and the formation outline, the vehicles by contact state, comms
-// pulses, the optimum. Hand-written, no library.
+// The map of a run on a canvas: the field (colour map and contours, its colour bar), trails,
+// the virtual body, the design slots and the formation outline, the vehicles by contact
+// state, comms pulses, the optimum, a scale bar. Hand-written, no library (ticks.js for
+// round numbers).
 "use strict";
 
 const CONTACT_COLOURS = ["#2ca02c", "#17becf", "#1f4e9c", "#ff7f0e", "#777777", "#d62728", "#000000"];
@@ -60,6 +61,9 @@ class RunMap {
     this.drawn = [];        // [{id, px, py, vehicle}] of the last draw (hover, tests)
     this.mode = "whole";    // "whole": the map (zoom with the wheel, drag to pan); "fleet": follow the fleet
     this.userBounds = null; // the map zoomed or panned by the user
+    this.lengthUnit = "";   // the mission's length unit ("m"; "" non-dimensional)
+    this.fieldLabel = "T";  // the field's label with its unit ("T (°C)")
+    this.overlay = {};      // what the scale bar and colour bar said in the last draw (tests)
   }
 
   // The region shown for frame f.
@@ -216,6 +220,52 @@ class RunMap {
       cx.fillStyle = "#000"; cx.font = "11px system-ui"; cx.fillText(String(v[0]), x + 8, y - 6);
       this.drawn.push({ id: v[0], px: x, py: y, vehicle: v });
     }
+    this.drawScaleBar(cx);
+    this.drawColourBar(cx);
+  }
+
+  // A scale bar in the bottom-left corner: a round length (1, 2 or 5 × 10^k) about a fifth
+  // of the map's width, labelled with its unit ("2 km").
+  drawScaleBar(cx) {
+    const w = this.canvas.clientWidth, h = this.canvas.clientHeight;
+    const bar = VbapTicks.scaleBar((this.shown[2] - this.shown[0]) / 5, this.lengthUnit);
+    const px = bar.length * this.scale, x = 14, y = h - 16;
+    if (!(px > 0 && px < w)) return;
+    cx.fillStyle = "rgba(255,255,255,0.85)";
+    cx.fillRect(x - 6, y - 24, px + 12, 32);
+    cx.strokeStyle = "#000"; cx.lineWidth = 2;
+    cx.beginPath(); cx.moveTo(x, y - 5); cx.lineTo(x, y); cx.lineTo(x + px, y); cx.lineTo(x + px, y - 5); cx.stroke();
+    cx.fillStyle = "#000"; cx.font = "12px system-ui"; cx.textAlign = "center";
+    cx.fillText(bar.label, x + px / 2, y - 9);
+    cx.textAlign = "start";
+    this.overlay.scaleBar = { label: bar.label, px };
+  }
+
+  // The field's colour bar in the top-right corner: the colour scale of the map from the
+  // field's smallest to its largest value, ticks at round values, the field's label.
+  drawColourBar(cx) {
+    const g = this.field;
+    if (!g || !(g.max > g.min)) return;
+    const w = this.canvas.clientWidth, bw = 14, bh = Math.min(160, this.canvas.clientHeight / 3);
+    const x = w - 70, y = 30;
+    const ticks = VbapTicks.linear(g.min, g.max, 4);
+    cx.fillStyle = "rgba(255,255,255,0.85)";
+    cx.fillRect(x - 10, y - 24, 78, bh + 34);
+    for (let i = 0; i < bh; i++) {
+      const [R, G, B] = fieldColour(1 - i / (bh - 1));
+      cx.fillStyle = `rgb(${R},${G},${B})`;
+      cx.fillRect(x, y + i, bw, 1);
+    }
+    cx.strokeStyle = "#000"; cx.lineWidth = 1; cx.strokeRect(x, y, bw, bh);
+    cx.fillStyle = "#000"; cx.font = "11px system-ui";
+    for (let j = 0; j < ticks.values.length; j++) {
+      const ty = y + bh * (1 - (ticks.values[j] - g.min) / (g.max - g.min));
+      cx.beginPath(); cx.moveTo(x + bw, ty); cx.lineTo(x + bw + 4, ty); cx.stroke();
+      cx.fillText(ticks.labels[j], x + bw + 6, ty + 4);
+    }
+    cx.font = "12px system-ui";
+    cx.fillText(this.fieldLabel, x - 6, y - 9);
+    this.overlay.colourBar = { label: this.fieldLabel, ticks: ticks.labels };
   }
 
   // The vehicle drawn nearest to (x, y) canvas pixels, within 12 px.

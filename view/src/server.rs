@@ -58,6 +58,11 @@ const ASSETS: &[(&str, &str, &[u8])] = &[
         include_bytes!("../assets/app.js"),
     ),
     (
+        "/ticks.js",
+        "text/javascript; charset=utf-8",
+        include_bytes!("../assets/ticks.js"),
+    ),
+    (
         "/map.js",
         "text/javascript; charset=utf-8",
         include_bytes!("../assets/map.js"),
@@ -118,6 +123,12 @@ pub struct Meta {
     pub link_drops: u64,
     /// Contact states by their code.
     pub contacts: Vec<String>,
+    /// The mission's length unit ("m"; "" when non-dimensional), for axes and the scale bar.
+    #[serde(default)]
+    pub length_unit: String,
+    /// The field's label with its unit ("T (°C)"), for the colour bar and the axes.
+    #[serde(default)]
+    pub field_label: String,
 }
 
 fn read(app: &App) -> std::sync::RwLockReadGuard<'_, Model> {
@@ -146,6 +157,8 @@ pub fn meta_of(model: &Model, live: bool) -> Meta {
         bounds: bounds(model),
         link_drops: model.link_drops(),
         contacts: CONTACTS.iter().map(|s| s.to_string()).collect(),
+        length_unit: model.mission.mission.length_unit.clone(),
+        field_label: model.mission.mission.field_label.clone(),
     }
 }
 

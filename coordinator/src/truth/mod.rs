@@ -5,7 +5,7 @@
 //! from [`crate::tick::plan_tick`], so `vbap sim` and `vbap run` write the same bytes; its
 //! running state ([`TruthStats`]) is checkpointed with the recorder's.
 //!
-//! Thresholds (documented in README.md):
+//! Thresholds (documented in docs/guide/runs.md):
 //! - in formation: slot error ≤ [`IN_FORMATION`] × spacing;
 //! - near collision: a pair closer than [`NEAR_COLLISION`] × spacing;
 //! - stall: ṡ below [`STALL_FRACTION`] × v0 for longer than [`TruthStats::stall_after`]

@@ -200,21 +200,29 @@ pub fn nice_step(raw: f64) -> f64 {
 }
 
 /// A tick label for value `v` on an axis whose ticks are `step` apart: as many decimals as
-/// the step needs ("0.25", "7.5", "200"), scientific outside [1e-4, 1e6), never "-0".
+/// the step needs ("0.25", "7.5", "200"), scientific outside [1e-4, 1e6) with as many
+/// mantissa digits as the step needs ("1.5e-5"; "1.001e-5" beside "1.002e-5"), never "-0":
+/// two ticks never read the same. The viewer's `view/assets/ticks.js` follows the same
+/// rules; `ticks_cases.json` holds the cases both are tested on.
 pub fn fmt_tick(v: f64, step: f64) -> String {
     if v == 0.0 {
         return "0".into();
     }
     let a = v.abs();
+    // A step of 2.5 × 10^k needs one digit more than its power of ten (2.5, 7.5, ...).
+    let quarter = |step: f64| {
+        let m = step / 10f64.powf(step.log10().floor());
+        usize::from((m - 2.5).abs() < 1e-6)
+    };
     if !(1e-4..1e6).contains(&a) {
-        return format!("{v:.1e}").replace(".0e", "e");
+        let apart = (a.log10().floor() - step.abs().log10().floor()).max(0.0) as usize;
+        let digits = (apart + quarter(step.abs())).clamp(1, 15);
+        return format!("{v:.digits$e}").replace(".0e", "e");
     }
     let decimals = if step >= 1.0 {
-        // A step of 2.5 needs one decimal (2.5, 7.5, ...).
         usize::from(step.fract().abs() > 1e-9)
     } else {
-        let m = step / 10f64.powf(step.log10().floor());
-        (-step.log10() - 1e-9).ceil().max(0.0) as usize + usize::from((m - 2.5).abs() < 1e-6)
+        (-step.log10() - 1e-9).ceil().max(0.0) as usize + quarter(step)
     };
     let s = format!("{v:.decimals$}");
     if s.starts_with('-') && s.trim_start_matches(['-', '0', '.']).is_empty() {

@@ -96,6 +96,19 @@ pub(super) fn field_unit(label: &str) -> String {
     }
 }
 
+/// The unit of the field's gradient, "°C/m"; F and L stand in for a unit not given;
+/// `""` when neither is.
+fn gradient_unit(mission: &Mission) -> String {
+    let m = &mission.mission;
+    let (funit, len) = (field_unit(&m.field_label), m.length_unit.as_str());
+    match (funit.is_empty(), len.is_empty()) {
+        (true, true) => String::new(),
+        (false, false) => format!("{funit}/{len}"),
+        (false, true) => format!("{funit}/L"),
+        (true, false) => format!("F/{len}"),
+    }
+}
+
 fn with_unit(what: &str, unit: &str) -> String {
     if unit.is_empty() {
         what.to_string()
@@ -234,7 +247,7 @@ fn k_panel(cx: &Ctx, i: &Inputs<'_>) -> Panel {
         "Formation scale k (resolution adaptation dk/ds)",
         cx.time_axis(false),
         Axis {
-            label: "k".into(),
+            label: "scale k (× design)".into(),
             ..Axis::default()
         },
     );
@@ -292,15 +305,8 @@ fn n_panel(cx: &Ctx, i: &Inputs<'_>) -> Panel {
 
 /// The gradient-estimate error against the true gradient.
 fn g_panel(cx: &Ctx, i: &Inputs<'_>) -> Panel {
-    let (m, s) = (&i.mission.mission, i.s);
-    let len = m.length_unit.as_str();
-    let funit = field_unit(&m.field_label);
-    let grad_unit = match (funit.is_empty(), len.is_empty()) {
-        (true, true) => String::new(),
-        (false, false) => format!("{funit}/{len}"),
-        (false, true) => format!("{funit}/L"),
-        (true, false) => format!("F/{len}"),
-    };
+    let s = i.s;
+    let grad_unit = gradient_unit(i.mission);
     let mut g_panel = Panel::new(
         "Gradient estimate error at the body centre (Lemma 5.4 filter)",
         cx.time_axis(false),
@@ -331,11 +337,21 @@ fn g_panel(cx: &Ctx, i: &Inputs<'_>) -> Panel {
 /// The trace of the Kalman covariance P.
 fn p_panel(cx: &Ctx, i: &Inputs<'_>) -> Panel {
     let s = i.s;
+    // P is the covariance of (∇T, T): its trace adds gradient and field variances.
+    let (funit, grad_unit) = (
+        field_unit(&i.mission.mission.field_label),
+        gradient_unit(i.mission),
+    );
+    let label = if funit.is_empty() {
+        "tr P".to_string()
+    } else {
+        format!("tr P (({grad_unit})², {funit}²)")
+    };
     let mut p_panel = Panel::new(
         "Trace of the Kalman covariance P",
         cx.time_axis(false),
         Axis {
-            label: "tr P".into(),
+            label,
             log: true,
             ..Axis::default()
         },

@@ -119,3 +119,67 @@ fn figures_are_deterministic_and_show_titles_series_and_legends() {
         assert!(a.contains(text), "{text} missing");
     }
 }
+
+/// The cases the viewer's `view/assets/ticks.js` is tested on too (`ticks_cases.json`): the
+/// same ranges give the same ticks and labels in the report and in the browser.
+#[test]
+fn ticks_match_the_cases_shared_with_the_viewer() {
+    let cases: serde_json::Value =
+        serde_json::from_str(include_str!("ticks_cases.json")).expect("ticks_cases.json");
+    let cases = cases["cases"].as_array().expect("cases");
+    assert!(cases.len() >= 10);
+    for c in cases {
+        let (lo, hi) = (c["lo"].as_f64().unwrap(), c["hi"].as_f64().unwrap());
+        let target = c["target"].as_u64().unwrap() as usize;
+        let (ticks, step, unit) = if c["time"].as_bool().unwrap() {
+            let unit = TimeUnit::for_span(hi - lo);
+            let (t, step) = linear_ticks(unit.of(lo), unit.of(hi), target, false, Some(unit));
+            (t, step, unit.symbol)
+        } else {
+            let (t, step) = linear_ticks(lo, hi, target, false, None);
+            (t, step, "")
+        };
+        let labels: Vec<String> = ticks.iter().map(|v| style::fmt_tick(*v, step)).collect();
+        let want: Vec<&str> = c["labels"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|l| l.as_str().unwrap())
+            .collect();
+        assert_eq!(labels, want, "case {c}");
+        assert_eq!(unit, c["unit"].as_str().unwrap_or(""), "case {c}");
+        let mut distinct = labels.clone();
+        distinct.dedup();
+        assert_eq!(distinct.len(), labels.len(), "two ticks read the same: {c}");
+    }
+}
+
+/// A time axis without its label (a panel above the last) carries its unit on its last tick.
+#[test]
+fn an_unlabelled_time_axis_says_its_unit() {
+    let scale = Scale {
+        lo: 0.0,
+        hi: 11.11,
+        log: false,
+        p0: 0.0,
+        p1: 100.0,
+    };
+    let axis = Axis {
+        time: Some(TimeUnit::H),
+        ..Axis::default()
+    };
+    let labels: Vec<String> = scale
+        .ticks(&axis, 6)
+        .into_iter()
+        .filter_map(|(_, l, _)| l)
+        .collect();
+    assert_eq!(labels, ["0", "2", "4", "6", "8", "10 h"]);
+    let labelled = Axis {
+        label: "mission time t (h)".into(),
+        ..axis
+    };
+    assert_eq!(
+        scale.ticks(&labelled, 6).last().unwrap().1.as_deref(),
+        Some("10")
+    );
+}

@@ -21,7 +21,8 @@ pub fn linear_ticks(
         step = step.max(1.0).round();
     }
     let mut ticks = Vec::new();
-    let mut v = (lo / step).ceil() * step;
+    // A bound a rounding error inside a tick keeps that tick.
+    let mut v = (lo / step - 1e-9).ceil() * step;
     while v <= hi + step * 1e-9 {
         ticks.push(if v.abs() < step * 1e-9 { 0.0 } else { v });
         v += step;
@@ -114,10 +115,19 @@ impl Scale {
                 .collect()
         } else {
             let (ticks, step) = linear_ticks(self.lo, self.hi, target, axis.integer, axis.time);
-            ticks
+            let mut out: Vec<_> = ticks
                 .into_iter()
                 .map(|v| (v, Some(style::fmt_tick(v, step)), true))
-                .collect()
+                .collect();
+            // A time axis without its label (a panel above the figure's last) still says
+            // its unit: on its last tick ("36 h").
+            if let (Some(unit), true) = (axis.time, axis.label.is_empty()) {
+                if let Some((_, Some(last), _)) = out.last_mut() {
+                    last.push(' ');
+                    last.push_str(unit.symbol);
+                }
+            }
+            out
         }
     }
 }
