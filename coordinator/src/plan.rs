@@ -6,6 +6,7 @@
 use vbap_math::body::VirtualBody;
 use vbap_math::formation::FormationDesign;
 use vbap_math::kalman::GradientFilter;
+use vbap_math::Vec3;
 use vbap_mission::config::{LawKind, Mission};
 
 use crate::planner::{Command, Planner, PlannerError, Report};
@@ -26,6 +27,13 @@ pub trait Plan {
     ) -> Result<Command, PlannerError>;
     /// The virtual body the next step starts from.
     fn body(&self) -> &VirtualBody;
+    /// The point that moves with the body's MOTION (length unit): what a member out of
+    /// contact is dead-reckoned by (`Fleet::track_body`). The body centre `r` by default;
+    /// a plan that moves `r` by jumps (a bumpless redesign lays the body on the vehicles)
+    /// leaves the jumps out, since no vehicle moved with them.
+    fn motion_point(&self) -> Vec3 {
+        self.body().r
+    }
     /// The formation design in use.
     fn design(&self) -> &FormationDesign;
     /// The gradient filter, once a first estimate was made (its covariance P gives the
@@ -66,6 +74,9 @@ impl Plan for Planner {
     }
     fn body(&self) -> &VirtualBody {
         Planner::body(self)
+    }
+    fn motion_point(&self) -> Vec3 {
+        Planner::motion_point(self)
     }
     fn design(&self) -> &FormationDesign {
         Planner::design(self)

@@ -49,7 +49,7 @@ pub fn plan_tick(
     let t = k as f64 * dt;
     let fates = fleet.receive_told(k, dt, truth, told);
     recorder.uplink(k, &fates)?;
-    fleet.track_body(k, planner.body().r);
+    fleet.track_body(k, planner.motion_point());
     let joined: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
     let (members, fresh) = fleet.deliver(t, dt);
     let command = planner.step(k, &members, &fresh, &joined, dt)?;

@@ -111,6 +111,33 @@ impl FormationDesign {
         }
     }
 
+    /// The design with the slots `holes` (indices into `slots`) left empty (beyond the
+    /// paper): the same leaders and potentials, the other slots in their order, `v_eq`
+    /// the potential energy of (II.2) with a vehicle in each slot kept.
+    ///
+    /// What a formation that lost vehicles flies under `control.law = "robust"`: in both
+    /// kinds of design every active pair of the equilibrium sits at its `d0` (zero force)
+    /// and every other beyond `d1`, so the vehicles left in their slots are still at an
+    /// equilibrium of (II.1), with `V = 0`; a regular design for fewer vehicles would
+    /// move every slot, and `V` at the switch with it. A vehicle that comes back flies
+    /// to a hole, and the design gets its slot back.
+    pub fn without_slots(&self, holes: &[usize]) -> Self {
+        let slots = self
+            .slots
+            .iter()
+            .enumerate()
+            .filter(|(m, _)| !holes.contains(m))
+            .map(|(_, p)| *p)
+            .collect();
+        Self::at_equilibrium(
+            self.dim,
+            self.leaders.clone(),
+            slots,
+            self.inter,
+            self.leader,
+        )
+    }
+
     /// Number of vehicles `N` the design is for.
     pub fn n(&self) -> usize {
         self.slots.len()
@@ -605,6 +632,45 @@ mod tests {
             order.push(c);
         }
         order.into_iter().map(|i| slots[i]).collect()
+    }
+
+    #[test]
+    fn a_design_with_holes_keeps_the_vehicles_left_at_rest_with_v_zero() {
+        for dim in [2, 3] {
+            for n in 3..=16 {
+                let full = design_regular(n, dim, 1.5, 60.0, 60.0).unwrap();
+                for hole in [0, n / 2, n - 1] {
+                    let holed = full.without_slots(&[hole]);
+                    assert_eq!(holed.n(), n - 1);
+                    assert_eq!(holed.leaders, full.leaders);
+                    let e =
+                        potential_energy(&holed.slots, &holed.leaders, &holed.inter, &holed.leader);
+                    assert_eq!(e, holed.v_eq, "V = 0 with every vehicle in its slot");
+                    for (i, x) in holed.slots.iter().enumerate() {
+                        let others: Vec<Vec3> = holed
+                            .slots
+                            .iter()
+                            .enumerate()
+                            .filter(|(j, _)| *j != i)
+                            .map(|(_, p)| *p)
+                            .collect();
+                        let u = control_law(
+                            x,
+                            &Vec3::zeros(),
+                            &others,
+                            &holed.leaders,
+                            &holed.inter,
+                            &holed.leader,
+                            5.0,
+                        );
+                        assert!(
+                            u.norm() < 1e-6,
+                            "n {n} dim {dim} hole {hole} slot {i}: u {u}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

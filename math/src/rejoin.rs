@@ -99,6 +99,65 @@ pub fn homing_velocity(
     body_velocity + e * (approach / dist)
 }
 
+/// Where a vehicle at `x` flying home to its slot `target` aims now (length), around the
+/// formation of the `others` (the other vehicles' positions) and not through it, for a
+/// neighbour spacing `spacing` (length, > 0).
+///
+/// The blend keeps every pair's repulsion ([`add_repulsion`]), and a straight line from
+/// outside to a slot on the far side crosses the formation: the vehicle would stop against
+/// a member's repulsion, balanced by its own pull home, and the body would wait for it for
+/// ever (seen in random missions). So, with `c` the centre of the others and the slot and
+/// `R` their largest distance from it plus a spacing: when the segment from `x` to the
+/// slot passes farther than half a spacing from every other vehicle, or `x` is inside the
+/// formation (`|x − c| < R − spacing`), it aims at the slot; else at the point of the
+/// sphere of radius `R` about `c` halfway (in direction) between `x` and the slot, which
+/// walks it round the formation to the slot's side, where it comes in from outside.
+pub fn approach_point(x: &Vec3, target: &Vec3, others: &[Vec3], spacing: f64) -> Vec3 {
+    if others.is_empty() || spacing.is_nan() || spacing <= 0.0 {
+        return *target;
+    }
+    let clear = others
+        .iter()
+        .all(|p| distance_to_segment(p, x, target) > 0.5 * spacing);
+    let count = others.len() as f64 + 1.0;
+    let c = (others.iter().sum::<Vec3>() + target) / count;
+    let reach = others
+        .iter()
+        .chain(std::iter::once(target))
+        .map(|p| (p - c).norm())
+        .fold(0.0, f64::max)
+        + spacing;
+    let from = x - c;
+    let to = target - c;
+    if clear || from.norm() < reach - spacing || to.norm() <= 0.0 || from.norm() <= 0.0 {
+        return *target;
+    }
+    let (u_x, u_s) = (from.normalize(), to.normalize());
+    let mut w = u_x + u_s;
+    if w.norm() < 1e-3 {
+        // Opposite sides: go round in the plane of the formation (about z), or about x.
+        let axis = if u_x.cross(&Vec3::z()).norm() > 1e-3 {
+            Vec3::z()
+        } else {
+            Vec3::x()
+        };
+        w = axis.cross(&u_x);
+    }
+    c + reach * w.normalize()
+}
+
+/// The distance (length) from `p` to the segment from `a` to `b`.
+fn distance_to_segment(p: &Vec3, a: &Vec3, b: &Vec3) -> f64 {
+    let ab = b - a;
+    let len2 = ab.norm_squared();
+    let t = if len2 > 0.0 {
+        ((p - a).dot(&ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - (a + t * ab)).norm()
+}
+
 /// How vehicle `i` rejoins: its homing weight `σ_i` and reference velocity `v_ref,i`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Homing {
@@ -123,6 +182,28 @@ impl Homing {
         Self {
             sigma: homing_weight((target - x).norm(), spacing),
             velocity: homing_velocity(x, target, body_velocity, damping, speed),
+        }
+    }
+}
+
+impl Homing {
+    /// [`Homing::towards`] the slot `target`, its reference velocity aimed at the
+    /// [`approach_point`] round the `others` (length): `σ` is that of the distance to the
+    /// slot itself.
+    #[allow(clippy::too_many_arguments)]
+    pub fn around(
+        x: &Vec3,
+        target: &Vec3,
+        others: &[Vec3],
+        spacing: f64,
+        body_velocity: &Vec3,
+        damping: f64,
+        speed: f64,
+    ) -> Self {
+        let aim = approach_point(x, target, others, spacing);
+        Self {
+            sigma: homing_weight((target - x).norm(), spacing),
+            velocity: homing_velocity(x, &aim, body_velocity, damping, speed),
         }
     }
 }
@@ -172,6 +253,10 @@ pub fn blended_control_law(
     let sigma_i = homing.map_or(0.0, |h| h.sigma);
     let own = 1.0 - sigma_i;
     let mut u = Vec3::zeros();
+    for n in neighbours {
+        let real = own * (1.0 - n.sigma);
+        add_repulsion(&mut u, x_i, &n.position, inter, 1.0 - real);
+    }
     if own > 0.0 {
         for n in neighbours {
             let real = own * (1.0 - n.sigma);
@@ -208,6 +293,58 @@ fn add_force(u: &mut Vec3, x: &Vec3, p: &Vec3, pot: &PairPotential, w: f64) {
     } else {
         *u -= (w * f / dist) * d;
     }
+}
+
+/// Adds the repulsive part only of `− w f(|x − p|) (x − p)/|x − p|` to `u`: nothing
+/// where `f ≥ 0` (at or beyond the potential's `d0`), for `w ≤ 0` or at distance 0.
+///
+/// Collision avoidance while vehicles rejoin (beyond the paper): the blend weighs the
+/// pair term of a rejoining vehicle and a true neighbour by `(1 − σ_i)(1 − σ_j) < 1`,
+/// down to 0 far from the slot, which would let a vehicle flying home pass through
+/// another. The weight the blend takes away, `w = 1 − (1 − σ_i)(1 − σ_j)`, is given back
+/// to the repulsion, so every pair of real vehicles repels at full strength inside `d0`,
+/// whatever their homing; with nobody rejoining `w = 0` and nothing is added. It is the
+/// gradient of the term [`blended_lyapunov_terms`] adds to `V_w` (the repulsive part of
+/// `V_I`, below `d0`, weighted by `w`), so the speed law (IV.4) sees it.
+pub(crate) fn add_repulsion(u: &mut Vec3, x: &Vec3, p: &Vec3, pot: &PairPotential, w: f64) {
+    if w.is_nan() || w <= 0.0 {
+        return;
+    }
+    let d = x - p;
+    let dist = d.norm();
+    if dist <= 0.0 || dist >= pot.d0 {
+        return;
+    }
+    let f = pot.force(dist);
+    if f < 0.0 {
+        *u -= (w * f / dist) * d;
+    }
+}
+
+/// The energy of the repulsion the blend gives back ([`add_repulsion`]), energy per unit
+/// mass, and its `∂/∂k` at fixed positions: `Σ_{i<j} c_ij V_I(d_ij)` over the pairs of true
+/// positions closer than `d0`, `c_ij = 1 − (1 − σ_i)(1 − σ_j)` (`V_I(d0) = 0`, so the term
+/// and its force vanish at `d0`: `V_w` plus this term is the potential whose gradient the
+/// blended law follows, and the power of [`blended_lyapunov_terms`] stays exact). Zero
+/// when nobody rejoins.
+fn repulsion_energy(
+    positions: &[Vec3],
+    homings: &[Option<(Homing, Vec3)>],
+    inter: &PairPotential,
+) -> (f64, f64) {
+    let sigma = |h: &Option<(Homing, Vec3)>| h.as_ref().map_or(0.0, |(h, _)| h.sigma);
+    let (mut energy, mut d_scale) = (0.0, 0.0);
+    for (i, (xi, hi)) in positions.iter().zip(homings).enumerate() {
+        for (xj, hj) in positions[i + 1..].iter().zip(&homings[i + 1..]) {
+            let c = 1.0 - (1.0 - sigma(hi)) * (1.0 - sigma(hj));
+            let dist = (xi - xj).norm();
+            if c > 0.0 && dist > 0.0 && dist < inter.d0 {
+                energy += c * inter.value(dist);
+                d_scale += c * inter.d_value_d_scale(dist);
+            }
+        }
+    }
+    (energy, d_scale)
 }
 
 /// The factor on `ṡ` of (IV.4) while vehicles rejoin: `1 − max_j σ_j` over the
@@ -326,6 +463,9 @@ pub fn blended_lyapunov_terms(
             }
         }
     }
+    let (repulsion, d_repulsion) = repulsion_energy(positions, homings, &inter);
+    potential += repulsion;
+    dv_ds += d_repulsion / k * rates.dk_ds;
     let raw = 0.5 * kinetic + potential - design.equilibrium_energy(positions.len());
     LyapunovTerms {
         v: raw.max(0.0),
@@ -536,12 +676,13 @@ mod tests {
             0.5,
         );
         assert_eq!(homing.sigma, 1.0);
-        // A neighbour almost on top of it and a leader close by: no force from either.
+        // A neighbour within reach but beyond d0 and a leader close by: no force from
+        // either (the attraction is blended away).
         let u = blended_control_law(
             &Vec3::zeros(),
             &Vec3::new(0.0, 1.0, 0.0),
             Some(&homing),
-            &[Neighbour::member(Vec3::new(1e-3, 0.0, 0.0))],
+            &[Neighbour::member(Vec3::new(1.2, 0.0, 0.0))],
             &[Vec3::new(0.0, 0.5, 0.0)],
             &inter,
             &leader,
@@ -551,9 +692,27 @@ mod tests {
             u,
             2.0 * (Vec3::new(0.5, 0.0, 0.0) - Vec3::new(0.0, 1.0, 0.0))
         );
-        // A member next to a far rejoining vehicle feels its ghost in the slot, not it.
+        // A neighbour closer than d0 still repels it at full strength (no collision).
+        let u = blended_control_law(
+            &Vec3::zeros(),
+            &Vec3::zeros(),
+            Some(&homing),
+            &[Neighbour::member(Vec3::new(0.5, 0.0, 0.0))],
+            &[],
+            &inter,
+            &leader,
+            2.0,
+        );
+        assert_relative_eq!(
+            u,
+            2.0 * Vec3::new(0.5, 0.0, 0.0) + Vec3::new(inter.force(0.5), 0.0, 0.0),
+            max_relative = 1e-12
+        );
+        assert!(inter.force(0.5) < 0.0);
+        // A member next to a far rejoining vehicle (beyond d0) feels its ghost in the
+        // slot, not it.
         let ghost = Neighbour {
-            position: Vec3::new(0.05, 0.0, 0.0),
+            position: Vec3::new(-1.3, 0.0, 0.0),
             sigma: 1.0,
             slot: Vec3::new(1.2, 0.0, 0.0),
         };
@@ -651,9 +810,10 @@ mod tests {
         assert_relative_eq!(waiting_factor(&homings), 1.0 - h.sigma);
     }
 
-    /// A vehicle 47 lengths away, at rest, flies the blended law to its slot of a hexagon
-    /// whose five others hold their slots: it arrives within the capture radius, never
-    /// faster than the approach speed, and settles in the slot.
+    /// A vehicle 47 lengths away, at rest, on the far side of a hexagon whose five others
+    /// hold their slots, flies the blended law to its slot: round the formation, not into
+    /// a member's repulsion; it arrives within the capture radius, never faster than the
+    /// approach speed, and settles in the slot.
     #[test]
     fn a_far_vehicle_is_brought_into_its_slot() {
         let design = design_regular(6, 2, 1.0, 2.0, 2.0).unwrap();
@@ -670,7 +830,16 @@ mod tests {
         let mut max_speed: f64 = 0.0;
         let mut captured_at = None;
         for step in 0..40_000 {
-            let h = Homing::towards(&x, &target, spacing, &Vec3::zeros(), damping, speed);
+            let others: Vec<Vec3> = members.iter().map(|m| m.position).collect();
+            let h = Homing::around(
+                &x,
+                &target,
+                &others,
+                spacing,
+                &Vec3::zeros(),
+                damping,
+                speed,
+            );
             if h.sigma == 0.0 && captured_at.is_none() {
                 captured_at = Some(step);
             }

@@ -34,6 +34,7 @@
 
 use super::law::{ControlInputs, ControlLaw, PaperLaw};
 use super::potential::PairPotential;
+use super::rejoin::add_repulsion;
 use super::Vec3;
 
 /// The fade `w(a) = exp(−a/τ)` of information `age` seconds old for a memory `memory` =
@@ -146,6 +147,13 @@ pub fn robust_control_law(x_i: &Vec3, v_i: &Vec3, inputs: &ControlInputs<'_>, me
             predict_neighbour(x_j, v_j, &inputs.body_velocity, age, k)
         });
         add_force(&mut u, x_i, &seen, &inputs.inter, own * w * (1.0 - sigma_j));
+        add_repulsion(
+            &mut u,
+            x_i,
+            &seen,
+            &inputs.inter,
+            1.0 - own * (1.0 - sigma_j),
+        );
         if sigma_j > 0.0 {
             let ghost = inputs.neighbour_slots.get(j).copied().unwrap_or(seen);
             add_force(&mut u, x_i, &ghost, &inputs.inter, own * sigma_j);

@@ -238,9 +238,11 @@ impl Vehicle {
             None => (g.inter, g.leader, g.velocity),
         };
         let homing = g.target.map(|t| {
-            Homing::towards(
+            let others: Vec<Vec3> = g.neighbours.iter().map(moved).collect();
+            Homing::around(
                 &self.reported().position,
                 &moved(&t),
+                &others,
                 inter.d0,
                 &body_velocity,
                 g.damping,

@@ -254,6 +254,17 @@ pub struct Planner {
     /// The field's drift estimate (`body.track_drift` in force; None otherwise).
     #[serde(default)]
     drift: Option<DriftEstimator>,
+    /// The sum of the jumps of the body centre `r` at bumpless redesigns (length unit):
+    /// `r − jumps` moves only with the body's motion ([`Planner::motion_point`]).
+    #[serde(default = "Vec3::zeros")]
+    jumps: Vec3,
+    /// Under law robust, once vehicles were lost: the design the formation had before
+    /// (`design` is it with the slots `holes` left empty, `FormationDesign::without_slots`).
+    #[serde(default)]
+    base: Option<FormationDesign>,
+    /// The empty slots of `base` (indices), ascending.
+    #[serde(default)]
+    holes: Vec<usize>,
 }
 
 impl Planner {
@@ -298,12 +309,23 @@ impl Planner {
             settling: false,
             curvature: None,
             drift: None,
+            jumps: Vec3::zeros(),
+            base: None,
+            holes: Vec::new(),
         })
     }
 
     /// The current virtual body.
     pub fn body(&self) -> &VirtualBody {
         &self.body
+    }
+    /// The body centre less its jumps at bumpless redesigns (length unit): it moves with
+    /// the body's motion only, as the members do. A member out of contact is dead-reckoned
+    /// by its change since the member's report (`Fleet::track_body`); by `r` itself, a
+    /// redesign that lays the body 3 L away would move every stale report 3 L, onto other
+    /// vehicles (a robust-law vehicle then felt a neighbour 0.5 L away that was 4 L away).
+    pub fn motion_point(&self) -> Vec3 {
+        self.body.r - self.jumps
     }
     /// The current formation design.
     pub fn design(&self) -> &FormationDesign {

@@ -13,6 +13,7 @@ use std::collections::BTreeMap;
 use vbap_math::assign::assign_nearest;
 use vbap_math::body::VirtualBody;
 use vbap_math::bumpless::bumpless_body;
+use vbap_math::fit::held_slots;
 use vbap_math::formation::{design_regular, FormationDesign};
 use vbap_math::rejoin::{
     choose_slot, clearance, fit_turn, homing_weight, is_central, turned_slots,
@@ -43,11 +44,77 @@ impl Planner {
                     && !joined.contains(id)
             })
             .collect();
+        if self.params.law == LawKind::Robust && !members.is_empty() {
+            if let Some(changed) = self.keep_design_with_holes(members, ids, joined, &anchors) {
+                return Ok(changed);
+            }
+        }
         let reconfigured = self.follow_membership(ids, members.is_empty(), joined)?;
         if reconfigured && self.params.law == LawKind::Robust && !members.is_empty() {
             self.lay_new_design(members, &anchors);
         }
         Ok(reconfigured)
+    }
+
+    /// A change of the `members` (ids `ids`; `joined` admitted back at this tick) that the
+    /// design in force can hold, under law robust (beyond the paper): the vehicles that
+    /// hold the formation (`anchors`) keep their slots of the design the formation had
+    /// before it lost anyone (`base`), every other member (back or new) is given the free
+    /// slot nearest to it (optimal assignment), and the slots nobody holds are left empty
+    /// (`FormationDesign::without_slots`). The body is not moved: the anchors stay at an
+    /// equilibrium, so a loss moves no slot and costs no V; a vehicle that comes back
+    /// flies home to a hole (`vbap_math::rejoin`) and enters V in full only near it.
+    /// Some(true) when the members changed, Some(false) when not; None when the design
+    /// cannot hold them (more members than its slots, an anchor without a slot): then
+    /// the formation is redesigned.
+    fn keep_design_with_holes(
+        &mut self,
+        members: &[Report],
+        ids: &[u32],
+        joined: &[u32],
+        anchors: &[u32],
+    ) -> Option<bool> {
+        let rejoined = joined.iter().any(|id| ids.contains(id));
+        if ids == self.members.as_slice() && !rejoined {
+            return Some(false);
+        }
+        let base = self.base.clone().unwrap_or_else(|| self.design.clone());
+        if ids.len() > base.n() || anchors.is_empty() {
+            return None;
+        }
+        let (held, others): (Vec<&Report>, Vec<&Report>) =
+            members.iter().partition(|q| anchors.contains(&q.id));
+        let positions: Vec<Vec3> = held.iter().map(|q| q.position).collect();
+        let fit = held_slots(&positions, &base, &self.body, base.dim);
+        let mut taken: Vec<usize> = fit.slot.iter().flatten().copied().collect();
+        if taken.len() != held.len() {
+            return None;
+        }
+        let all = self.body.slot_positions(&base);
+        let free: Vec<usize> = (0..base.n()).filter(|m| !taken.contains(m)).collect();
+        let free_slots: Vec<Vec3> = free.iter().map(|&m| all[m]).collect();
+        let from: Vec<Vec3> = others.iter().map(|q| q.position).collect();
+        taken.extend(
+            assign_nearest(&from, &free_slots)?
+                .into_iter()
+                .map(|j| free[j]),
+        );
+        let holes: Vec<usize> = (0..base.n()).filter(|m| !taken.contains(m)).collect();
+        self.design = base.without_slots(&holes);
+        self.base = (!holes.is_empty()).then_some(base);
+        self.holes = holes;
+        for id in ids {
+            if !self.members.contains(id) || joined.contains(id) {
+                self.rejoining.insert(*id, None);
+            }
+        }
+        self.rejoining.retain(|id, _| ids.contains(id));
+        for slot in self.rejoining.values_mut() {
+            *slot = None;
+        }
+        self.members = ids.to_vec();
+        self.reconfigurations += 1;
+        Some(true)
     }
 
     /// Lays the new design on the `anchors` (ids of the vehicles that hold the formation)
@@ -88,6 +155,7 @@ impl Planner {
         if p.dim == 2 {
             body.r.z = 0.0;
         }
+        self.jumps += body.r - self.body.r;
         self.body = body;
         self.turn = 0.0;
         for (q, &m) in held.iter().zip(&slots) {

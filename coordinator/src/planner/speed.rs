@@ -38,9 +38,15 @@ impl Planner {
             .iter()
             .map(|q| {
                 rejoining.iter().find(|(id, _)| *id == q.id).map(|(_, t)| {
-                    let h = Homing::towards(
+                    let others: Vec<Vec3> = members
+                        .iter()
+                        .filter(|o| o.id != q.id)
+                        .map(|o| o.position)
+                        .collect();
+                    let h = Homing::around(
                         &q.position,
                         t,
+                        &others,
                         spacing,
                         &self.last_velocity,
                         p.damping,

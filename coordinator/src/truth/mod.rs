@@ -19,9 +19,12 @@
 
 use std::collections::BTreeSet;
 
+use vbap_math::body::BodyRates;
 use vbap_math::fit::potential_energy_sparse;
 pub use vbap_math::fit::{IN_FORMATION, NEAR_COLLISION};
 use vbap_math::formation::FormationDesign;
+use vbap_math::rejoin::{blended_lyapunov_terms, homing_weight, Homing};
+use vbap_math::Vec3;
 use vbap_mission::config::Mission;
 use vbap_mission::rundir::{Event, FormationRow, TruthRow};
 
@@ -222,17 +225,24 @@ pub fn tick(
 /// `command` with `design` (field-independent energy units, not yet ÷ V_U):
 /// max(0, ½ Σ|v|² + potential − E_n), as `lyapunov_terms` (the sparse sum of the
 /// potential costs O(n) per vehicle near the formation instead of O(n²)).
+///
+/// A member still flying home to its slot (`command.rejoining`, `vbap_math::rejoin`) is
+/// not yet admitted into the formation: it counts as the coordinator's `V_w` counts it,
+/// weight `1 − σ` at its TRUE position and `σ` at its slot, `σ` the homing weight of its
+/// true distance from the slot. So it enters V in full only within the capture radius of
+/// its slot (a tenth of the spacing): V at the switch counts its true offset there, not
+/// the plateaus of every pair with a vehicle that is still far away.
 fn true_lyapunov(
     truth: &[Report],
     members: &BTreeSet<u32>,
     command: &Command,
     design: &FormationDesign,
 ) -> f64 {
-    let (pos, vel): (Vec<_>, Vec<_>) = truth
-        .iter()
-        .filter(|q| members.contains(&q.id))
-        .map(|q| (q.position, q.velocity))
-        .unzip();
+    let admitted: Vec<&Report> = truth.iter().filter(|q| members.contains(&q.id)).collect();
+    if !command.rejoining.is_empty() {
+        return true_blended_lyapunov(&admitted, command, design);
+    }
+    let (pos, vel): (Vec<_>, Vec<_>) = admitted.iter().map(|q| (q.position, q.velocity)).unzip();
     let kinetic: f64 = vel.iter().map(|v| v.norm_squared()).sum();
     let potential = potential_energy_sparse(
         &pos,
@@ -241,6 +251,39 @@ fn true_lyapunov(
         &command.body.scaled_leader(design),
     );
     (0.5 * kinetic + potential - design.equilibrium_energy(pos.len())).max(0.0)
+}
+
+/// [`true_lyapunov`] while members rejoin: `V_w` of `vbap_math::rejoin` from the true
+/// states, each rejoining member's `σ` from its true distance to its slot.
+fn true_blended_lyapunov(members: &[&Report], command: &Command, design: &FormationDesign) -> f64 {
+    let spacing = command.body.scale * design.neighbour_spacing();
+    let positions: Vec<Vec3> = members.iter().map(|q| q.position).collect();
+    let velocities: Vec<Vec3> = members.iter().map(|q| q.velocity).collect();
+    let homings: Vec<Option<(Homing, Vec3)>> = members
+        .iter()
+        .map(|q| {
+            command
+                .rejoining
+                .iter()
+                .find(|(id, _)| *id == q.id)
+                .map(|(_, slot)| {
+                    let sigma = homing_weight((slot - q.position).norm(), spacing);
+                    // The reference velocity only enters the power, not V.
+                    let velocity = q.velocity;
+                    (Homing { sigma, velocity }, *slot)
+                })
+        })
+        .collect();
+    blended_lyapunov_terms(
+        &positions,
+        &velocities,
+        &homings,
+        &command.body,
+        &BodyRates::zero(),
+        design,
+        0.0,
+    )
+    .v
 }
 
 /// True for the verdicts that mean converged: the body within tolerance of the optimum AND
