@@ -16,7 +16,8 @@
 //!    formation broken` and `converged, near collisions` fail criteria 1–2 instead); or the
 //!    field has no optimum (verdict `formation kept` / `formation broken`: a front, which
 //!    the body crosses for ever); or the verdict is `converged to a stationary point`; or
-//!    the verdict is `stalled` and the stall's reason (`why: …` in `reasons`) is not V
+//!    the verdict is `stalled` (or `stalled, formation broken`, whose formation is criterion
+//!    2's) and the stall's reason (`why: …` in `reasons`) is not V
 //!    (`V above V_U`, `V above V_U/2`): a body that stops on a flat or a local bump, or
 //!    holds for reports, stopped for a reason of the field or the links, not because its
 //!    formation was deformed. Everything else fails: `not converged` (out of time),
@@ -152,7 +153,7 @@ pub fn judge(summary: &Summary, truth_csv: Option<&str>, v_bound: f64) -> Judgem
         // body that ended in M (and did not move away, nor break its formation) has what
         // the paper guarantees, whatever the mission's tolerance.
         || (summary.verdict == "not converged" && summary.in_set_m == Some(true))
-        || (summary.verdict == "stalled"
+        || (summary.verdict.starts_with("stalled")
             && stall
                 .as_deref()
                 .is_some_and(|w| w != "V above V_U" && w != "V above V_U/2"));

@@ -545,7 +545,8 @@ pub struct Summary {
     /// Body commands the agents rejected (from their logs).
     pub agent_rejected: u64,
     /// The outcome in a word or three, judged from the true states: "converged",
-    /// "converged, near collisions", "converged, formation broken", "stalled", "diverged",
+    /// "converged, near collisions", "converged, formation broken", "stalled", "stalled,
+    /// formation broken", "diverged",
     /// "not converged, formation broken", "not converged", "interrupted", and "formation
     /// kept" / "formation broken" for a field without an optimum (see
     /// `coordinator::truth::verdict`).

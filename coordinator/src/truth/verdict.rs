@@ -174,6 +174,8 @@ pub fn choose(facts: &Facts) -> &'static str {
         "converged, formation broken"
     } else if stalled && several_optima {
         "converged to a stationary point"
+    } else if stalled && broken {
+        "stalled, formation broken"
     } else if stalled {
         "stalled"
     } else if diverged {
@@ -366,6 +368,15 @@ mod tests {
                 x.diverged = true
             }),
             "stalled"
+        );
+        // A stall with survivors out of formation says so.
+        assert_eq!(
+            f(|x| {
+                x.within = false;
+                x.stalled = true;
+                x.broken = true
+            }),
+            "stalled, formation broken"
         );
         // A stall on a field with several local optima is a stop at a local one.
         assert_eq!(
