@@ -9,6 +9,7 @@
 //! - [`campaign`]: every draw parsed and validated by the real mission parser (an invalid
 //!   draw is redrawn, counted by the validator's key), flown on worker threads by an
 //!   injected flyer (the in-process simulator lives in `vbap-cli`), resumable;
+//! - [`results`]: what a campaign records (plan, dimensions, each flight's result);
 //! - [`judge`]: pass or fail by the truth (`summary.json`, `truth.csv`), naming the criterion;
 //! - [`shrink`]: a failure simplified one step at a time while it still fails the same way;
 //! - [`table`]: pass rates overall, by law and by each dimension of the space;
@@ -20,6 +21,7 @@ pub mod campaign;
 pub mod draw;
 pub mod grid;
 pub mod judge;
+pub mod results;
 pub mod shrink;
 pub mod space;
 pub mod table;
@@ -27,8 +29,9 @@ pub mod table;
 #[cfg(test)]
 mod tests;
 
-pub use campaign::{run, BadInput, Config, FlightResult, Flyer, Outcome};
+pub use campaign::{run, BadInput, Config, Flyer, Outcome};
 pub use draw::Draw;
 pub use judge::{judge, Judgement};
+pub use results::FlightResult;
 pub use space::Space;
 pub use table::Table;

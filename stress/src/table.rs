@@ -7,8 +7,8 @@ use std::fmt::Write;
 
 use serde::Serialize;
 
-use crate::campaign::{flight_name, Dims, FlightResult, Plan};
 use crate::judge::CRITERIA;
+use crate::results::{flight_name, Dims, FlightResult, Plan};
 
 /// Flights and passes of one bin (overall, and per law in plan order).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]

@@ -230,7 +230,7 @@ fn a_resumed_campaign_gives_the_table_of_one_shot() {
     for r in &a.results {
         let dir = one
             .join("runs")
-            .join(campaign::flight_name(r.mission, &r.law));
+            .join(crate::results::flight_name(r.mission, &r.law));
         assert_eq!(dir.exists(), !r.pass, "{dir:?}");
         if !r.pass {
             assert!(one.join(r.file.as_ref().unwrap()).exists());
