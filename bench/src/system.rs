@@ -314,7 +314,22 @@ pub fn run(mission: &Mission, work: &Path, stop: &StopFlag, sample_pss: bool) ->
             wall_s,
         ));
     }
-    let run_dir = RunDir { root: dir.clone() };
+    finished(&dir, wall_s, launch_ns, n, pss)
+}
+
+/// The measurements of a `vbap run` that ended well in `dir` (after `wall_s` s, launched
+/// at `launch_ns` of the wall clock, `n` vehicles, `pss` the last memory sample): its
+/// summary, message records and start-up marks.
+fn finished(
+    dir: &Path,
+    wall_s: f64,
+    launch_ns: u64,
+    n: usize,
+    pss: Option<PssSample>,
+) -> Result<SystemRun> {
+    let run_dir = RunDir {
+        root: dir.to_path_buf(),
+    };
     let summary = Summary::read(&run_dir)
         .with_context(|| format!("reading {}", run_dir.summary().display()))?;
     let report = analyze(&run_dir)?;
@@ -328,7 +343,7 @@ pub fn run(mission: &Mission, work: &Path, stop: &StopFlag, sample_pss: bool) ->
         )
     });
     Ok(SystemRun {
-        dir: dir.clone(),
+        dir: dir.to_path_buf(),
         error: None,
         note,
         rejected: summary.messages.rejected,

@@ -149,16 +149,15 @@ fn simulate_parts(
     let plan = FaultPlan::new(mission);
     let ids: Vec<u32> = (0..mission.vehicles.count as u32).collect();
     let kin = Kinematics::of(mission);
+    // A vehicle's process from its first state at tick k (at the start, or restarted).
+    let spawn = |agent: Agent, k: u64| {
+        Vehicle::new(agent, initial.clone(), k)
+            .with_law(law.clone())
+            .with_motion(kin.clone(), dt)
+    };
     let mut vehicles: BTreeMap<u32, Vehicle> = ids
         .iter()
-        .map(|&id| {
-            (
-                id,
-                Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0)
-                    .with_law(law.clone())
-                    .with_motion(kin.clone(), dt),
-            )
-        })
+        .map(|&id| (id, spawn(initial_agent(mission, &design, id), 0)))
         .collect();
     let mut sensors = Sensors::in_world(mission, World::with_field(mission, field.clone()));
     let mut fleet = Fleet::new(mission, &ids);
@@ -172,37 +171,17 @@ fn simulate_parts(
         }
         let t = k as f64 * dt;
         recorder.faults_starting(k)?;
-        for v in plan.kills_at(k).collect::<Vec<_>>() {
-            if let Some(event) = membership::lose(&mut fleet, k, dt, v, &Loss::scheduled_kill()) {
-                if let Some(gone) = vehicles.remove(&v) {
-                    tally.add_downlink(gone.counts.delivered, gone.counts.dropped);
-                }
-                recorder.event(event)?;
-            }
-        }
-        for v in plan.restarts_at(k).collect::<Vec<_>>() {
-            if let Some((restore, event)) = membership::rejoin(&mut fleet, k, dt, v) {
-                let agent = Agent {
-                    id: v,
-                    dim,
-                    position: restore.position,
-                    velocity: restore.velocity,
-                };
-                vehicles.insert(
-                    v,
-                    Vehicle::new(agent, initial.clone(), k)
-                        .with_law(law.clone())
-                        .with_motion(kin.clone(), dt),
-                );
-                recorder.event(event)?;
-            }
-        }
+        let mut world = FaultWorld {
+            fleet: &mut fleet,
+            vehicles: &mut vehicles,
+            tally: &mut tally,
+            recorder: &mut recorder,
+        };
+        world.apply(&plan, k, dt, dim, &spawn)?;
         let sensing = Instant::now();
         let (truth, told) = read_sensors(&vehicles, &fleet, &mut sensors, k, t);
         let planning = Instant::now();
-        let TickOutcome {
-            command, snapshot, ..
-        } = plan_tick(
+        let outcome = plan_tick(
             k,
             dt,
             &truth,
@@ -212,20 +191,7 @@ fn simulate_parts(
             &mut recorder,
         )?;
         let stepping = Instant::now();
-        for (&id, veh) in vehicles.iter_mut() {
-            let guidance = Guidance::of_command(
-                k,
-                command.leaders.clone(),
-                command.inter,
-                command.leader,
-                command.damping,
-                command.velocity,
-                mission.body.v0,
-            )
-            .with_neighbours(id, &snapshot)
-            .with_plan(command.schedule.clone(), command.body.r, command.body.scale);
-            veh.on_command(fleet.model(), guidance, k, dt);
-        }
+        step_vehicles(&mut vehicles, &fleet, &outcome, k, dt, mission.body.v0);
         let stepped = Instant::now();
         fleet.end_tick();
         parts.ticks += 1;
@@ -235,7 +201,7 @@ fn simulate_parts(
         if k.is_multiple_of(every) || k + 1 == ticks {
             let distance = field
                 .optimum(t, mission.mission.goal)
-                .map(|o| (command.body.r - o).norm());
+                .map(|o| (outcome.command.body.r - o).norm());
             progress(k + 1, ticks, t, distance);
         }
     }
@@ -250,6 +216,78 @@ fn simulate_parts(
     vbap_report::draw_run_with(dir, None, plugins.field.as_deref())
         .context("drawing the run's pictures")?;
     Ok(summary)
+}
+
+/// What the scheduled faults of a tick change in the in-process simulator.
+struct FaultWorld<'a> {
+    fleet: &'a mut Fleet,
+    vehicles: &'a mut BTreeMap<u32, Vehicle>,
+    tally: &'a mut LinkTally,
+    recorder: &'a mut Recorder,
+}
+
+impl FaultWorld<'_> {
+    /// The kills, then the restarts, of tick `k` (length `dt`, s) in `plan`: a killed
+    /// vehicle is lost (its downlink counts kept), a restarted one is admitted back at its
+    /// restore state and its process started again by `spawn` (mission dimension `dim`).
+    fn apply(
+        &mut self,
+        plan: &FaultPlan,
+        k: u64,
+        dt: f64,
+        dim: usize,
+        spawn: &dyn Fn(Agent, u64) -> Vehicle,
+    ) -> Result<()> {
+        for v in plan.kills_at(k).collect::<Vec<_>>() {
+            if let Some(event) = membership::lose(self.fleet, k, dt, v, &Loss::scheduled_kill()) {
+                if let Some(gone) = self.vehicles.remove(&v) {
+                    self.tally
+                        .add_downlink(gone.counts.delivered, gone.counts.dropped);
+                }
+                self.recorder.event(event)?;
+            }
+        }
+        for v in plan.restarts_at(k).collect::<Vec<_>>() {
+            if let Some((restore, event)) = membership::rejoin(self.fleet, k, dt, v) {
+                let agent = Agent {
+                    id: v,
+                    dim,
+                    position: restore.position,
+                    velocity: restore.velocity,
+                };
+                self.vehicles.insert(v, spawn(agent, k));
+                self.recorder.event(event)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Every vehicle takes the command of tick `k` (with the swarm snapshot of `outcome`, through its
+/// downlink in `fleet`'s link model) and steps to k + 1 (length `dt`, s; cruise `v0`).
+fn step_vehicles(
+    vehicles: &mut BTreeMap<u32, Vehicle>,
+    fleet: &Fleet,
+    outcome: &TickOutcome,
+    k: u64,
+    dt: f64,
+    v0: f64,
+) {
+    let (command, snapshot) = (&outcome.command, &outcome.snapshot);
+    for (&id, veh) in vehicles.iter_mut() {
+        let guidance = Guidance::of_command(
+            k,
+            command.leaders.clone(),
+            command.inter,
+            command.leader,
+            command.damping,
+            command.velocity,
+            v0,
+        )
+        .with_neighbours(id, snapshot)
+        .with_plan(command.schedule.clone(), command.body.r, command.body.scale);
+        veh.on_command(fleet.model(), guidance, k, dt);
+    }
 }
 
 /// The true state and sensor reading (taken at the true position) at tick `k` (time `t`,
