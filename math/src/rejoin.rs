@@ -190,7 +190,6 @@ impl Homing {
     /// [`Homing::towards`] the slot `target`, its reference velocity aimed at the
     /// [`approach_point`] round the `others` (length): `σ` is that of the distance to the
     /// slot itself.
-    #[allow(clippy::too_many_arguments)]
     pub fn around(
         x: &Vec3,
         target: &Vec3,

@@ -74,8 +74,7 @@ impl Planner {
         joined: &[u32],
         anchors: &[u32],
     ) -> Option<bool> {
-        let rejoined = joined.iter().any(|id| ids.contains(id));
-        if ids == self.members.as_slice() && !rejoined {
+        if !self.members_changed(ids, joined) {
             return Some(false);
         }
         let base = self.base.clone().unwrap_or_else(|| self.design.clone());
@@ -103,6 +102,22 @@ impl Planner {
         self.design = base.without_slots(&holes);
         self.base = (!holes.is_empty()).then_some(base);
         self.holes = holes;
+        self.mark_rejoining(ids, joined);
+        self.members = ids.to_vec();
+        self.reconfigurations += 1;
+        Some(true)
+    }
+
+    /// True when the members `ids` of this tick differ from the formation's, or one of the
+    /// vehicles `joined` (admitted back at this tick) is among them.
+    fn members_changed(&self, ids: &[u32], joined: &[u32]) -> bool {
+        ids != self.members.as_slice() || joined.iter().any(|id| ids.contains(id))
+    }
+
+    /// A vehicle that becomes a member after the start, or is admitted back (also when
+    /// lost at this very tick), comes back from wherever it is: it rejoins. Only members
+    /// `ids` rejoin, and every rejoining vehicle's slot is chosen again.
+    fn mark_rejoining(&mut self, ids: &[u32], joined: &[u32]) {
         for id in ids {
             if !self.members.contains(id) || joined.contains(id) {
                 self.rejoining.insert(*id, None);
@@ -112,9 +127,6 @@ impl Planner {
         for slot in self.rejoining.values_mut() {
             *slot = None;
         }
-        self.members = ids.to_vec();
-        self.reconfigurations += 1;
-        Some(true)
     }
 
     /// Lays the new design on the `anchors` (ids of the vehicles that hold the formation)
@@ -201,23 +213,11 @@ impl Planner {
         none: bool,
         joined: &[u32],
     ) -> Result<bool, PlannerError> {
-        let p = &self.params;
-        let rejoined = joined.iter().any(|id| ids.contains(id));
-        if ids == self.members.as_slice() && !rejoined {
+        if !self.members_changed(ids, joined) {
             return Ok(false);
         }
-        // A vehicle that becomes a member after the start, or is admitted back (also
-        // when lost at this very tick), comes back from wherever it is: it rejoins.
-        // Every slot is chosen again.
-        for id in ids {
-            if !self.members.contains(id) || joined.contains(id) {
-                self.rejoining.insert(*id, None);
-            }
-        }
-        self.rejoining.retain(|id, _| ids.contains(id));
-        for slot in self.rejoining.values_mut() {
-            *slot = None;
-        }
+        self.mark_rejoining(ids, joined);
+        let p = &self.params;
         if !none {
             self.design =
                 design_regular(ids.len(), p.dim, p.radius, p.alpha, p.alpha).map_err(|source| {
