@@ -169,6 +169,27 @@ impl GradientFilter {
         Ok(())
     }
 
+    /// Carries the state along a move of the estimation point by `shift` (length unit; z
+    /// ignored in 2-D) through a field of Hessian `hessian` (field unit per length unit²),
+    /// on top of [`Self::predict`] (beyond the paper, whose model has ∇T constant between
+    /// readings): `∇T ← ∇T + H·shift`, `T ← T + ½ shiftᵀ H shift`, exact on a quadratic
+    /// field. A known input: `P` is unchanged. Without it a body moving at `v` sees its
+    /// estimate lag the gradient by the filter's time constant τ, an error `|H| v τ`; the
+    /// climb then overshoots the optimum by about `v τ`. Non-finite input leaves the state
+    /// unchanged.
+    pub fn carry(&mut self, hessian: &Mat3, shift: &Vec3) {
+        let s = project(self.dim, shift);
+        let hs = hessian * s;
+        let half = 0.5 * s.dot(&hs);
+        if !(hs.iter().all(|v| v.is_finite()) && half.is_finite()) {
+            return;
+        }
+        for j in 0..self.dim {
+            self.x[j] += hs[j];
+        }
+        self.x[self.dim] += half;
+    }
+
     /// Measurement update with the time-varying C of Remark 5.8: rows `(p_iᵀ, 1)`
     /// (`rel_positions` relative to the estimation point, z ignored in 2-D), `R =
     /// diag(meas_var)` (field unit², the variances, e.g. the diagonal of DDᵀ of Lemma 5.4).
@@ -420,6 +441,42 @@ mod tests {
             f.grad_covariance(),
             f.covariance().view((0, 0), (2, 2)).into_owned()
         );
+    }
+
+    /// On a quadratic field T(x) = ½ (x − c)ᵀ H (x − c), a filter started exact at the
+    /// origin and only predicted and carried along a path (no reading) holds the exact
+    /// gradient H (x − c) and value at every point of it; predicted alone it keeps the
+    /// gradient of the start (the lag the carry removes).
+    #[test]
+    fn carry_follows_a_quadratic_field_exactly_along_a_path() {
+        let h = Mat3::new(2.0, 0.5, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0, 0.0);
+        let c = Vec3::new(3.0, -1.0, 0.0);
+        let field = |x: &Vec3| 0.5 * (x - c).dot(&(h * (x - c)));
+        let grad = |x: &Vec3| h * (x - c);
+        let start = LsEstimate {
+            grad: grad(&Vec3::zeros()),
+            value: field(&Vec3::zeros()),
+            residual_ss: 0.0,
+            dof: 1,
+        };
+        let mut carried = GradientFilter::new(2, &start, 1.0);
+        let mut plain = GradientFilter::new(2, &start, 1.0);
+        let mut x = Vec3::zeros();
+        for i in 0..200 {
+            let step = Vec3::new(0.03 * (i as f64 * 0.1).cos(), 0.02, 0.0);
+            carried.predict(0.05, 0.1, &step);
+            carried.carry(&h, &step);
+            plain.predict(0.05, 0.1, &step);
+            x += step;
+        }
+        assert_relative_eq!(carried.grad(), grad(&x), epsilon = 1e-12);
+        assert_relative_eq!(carried.value(), field(&x), epsilon = 1e-12);
+        assert_eq!(plain.grad(), grad(&Vec3::zeros()));
+        assert!((plain.grad() - grad(&x)).norm() > 1.0);
+        // A non-finite move changes nothing.
+        let before = carried.state();
+        carried.carry(&h, &Vec3::new(f64::NAN, 0.0, 0.0));
+        assert_eq!(carried.state(), before);
     }
 
     #[test]

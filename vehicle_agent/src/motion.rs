@@ -153,6 +153,13 @@ impl Moving {
     /// is (deployed or restarted with a fix). Deployed (k = 0) it is at rest in the water,
     /// drifting with the current (`agent`'s velocity becomes the current); restarted, its
     /// water velocity is its velocity less the current there.
+    ///
+    /// With `vehicles.current_estimate` it starts with the current where it is as its
+    /// estimate: at the surface its GPS gives its ground velocity, and the difference to
+    /// its velocity through the water (zero when just deployed, its own log when restarted)
+    /// is the surface drift, as a glider measures it before its first dive. Without it the
+    /// first dive is flown blind: the whole formation drifts a dive's current (2.7 spacings
+    /// in `dive3d`) from the body before the first fix can say so.
     pub fn start(kin: Arc<Kinematics>, agent: &mut Agent, k: u64, dt: f64) -> Self {
         if let Some(d) = &kin.dive {
             agent.position.z = d.z(k as f64 * dt);
@@ -165,8 +172,12 @@ impl Moving {
             belief: agent.position,
             water: agent.velocity - current,
             current,
+            estimate: if kin.estimate_current {
+                current
+            } else {
+                Vec3::zeros()
+            },
             kin,
-            estimate: Vec3::zeros(),
             since_fix: 0.0,
         }
     }

@@ -8,7 +8,7 @@
 use vbap_math::body::{BodyRates, VirtualBody};
 use vbap_math::schedule::Segment;
 use vbap_math::speed::information_confidence;
-use vbap_math::Vec3;
+use vbap_math::{Mat3, Vec3};
 use vbap_mission::config::{Goal, LawKind};
 
 use super::{Planner, Report};
@@ -47,6 +47,24 @@ impl Planner {
         if *grad_est == Vec3::zeros() {
             return *grad_est;
         }
+        let Some(curvature) = self.known_curvature() else {
+            return *grad_est;
+        };
+        let (r_end, _) = sched.predict(k, sched.end_tick(), self.body.r, self.body.scale, dt);
+        let mut g = grad_est + curvature * (r_end - self.body.r);
+        if self.params.dim == 2 {
+            g.z = 0.0;
+        }
+        g
+    }
+
+    /// The field's Hessian where the data or the mission say it (field unit per length
+    /// unit²): the online curvature estimate Ĥ once the data determine it (its posterior
+    /// spread below half its size: `vbap_math::curvature`), else a configured
+    /// `formation.hessian_guess` H of (V.6) with the sign of an optimum (−H towards a
+    /// maximum, +H towards a minimum); None otherwise (the identity that stands in for a
+    /// missing guess can be far off).
+    pub(super) fn known_curvature(&self) -> Option<Mat3> {
         let sign = match self.params.goal {
             Goal::Max => -1.0,
             Goal::Min => 1.0,
@@ -55,17 +73,11 @@ impl Planner {
             .curvature
             .as_ref()
             .and_then(|c| c.hessian_if_determined(0.5));
-        let curvature = match estimated {
-            Some(h) => h,
-            None if self.params.hessian_configured => self.params.hessian_guess * sign,
-            None => return *grad_est,
-        };
-        let (r_end, _) = sched.predict(k, sched.end_tick(), self.body.r, self.body.scale, dt);
-        let mut g = grad_est + curvature * (r_end - self.body.r);
-        if self.params.dim == 2 {
-            g.z = 0.0;
+        match estimated {
+            Some(h) => Some(h),
+            None if self.params.hessian_configured => Some(self.params.hessian_guess * sign),
+            None => None,
         }
-        g
     }
 
     /// The members' last reports as the vehicles out of contact are now (None without a

@@ -38,8 +38,15 @@ impl Planner {
         let mut estimate_failed = false;
         let shift = r - self.last_r;
         self.last_r = r;
+        // Under a committed path (links that are not ideal: the estimate waits on late
+        // readings) the filter carries its estimate along the body's move by the known
+        // curvature (`GradientFilter::carry`); on ideal links it is the paper's filter.
+        let carry = self.schedule.as_ref().and_then(|_| self.known_curvature());
         if let Some(f) = self.filter.as_mut() {
             f.predict(dt, p.kalman_b, &shift);
+            if let Some(h) = &carry {
+                f.carry(h, &shift);
+            }
         }
         let hessian = self.follow_curvature(&shift);
         let p = &self.params;
