@@ -58,6 +58,16 @@ use super::Vec3;
 /// still captured.
 pub const CAPTURE: f64 = 0.1;
 
+/// How far the repulsion kept between real vehicles while some rejoin reaches, as a
+/// fraction of `d0` ([`add_repulsion`]): the repulsive part of `V_I` scaled by it (the
+/// same force law, `d0` and `d1` times `REPULSION_REACH`). At `d0` itself it would wall a
+/// hole off: a vehicle coming into its slot from inside a ring passes about 6 % inside
+/// `d0` of both of the slot's neighbours, and was held there, its pull home balanced by
+/// their repulsion, while the body waited for it (seen in random missions). Half a
+/// spacing still stops a vehicle flying home at its homing speed well short of a near
+/// collision (the energy from `d0/2` to `d0/10` is `(4 − ln 5) α ≈ 2.4 α`).
+pub const REPULSION_REACH: f64 = 0.5;
+
 /// A slot is free for a rejoining vehicle when no member or slot already given to another
 /// lies within this fraction of the spacing of it ([`choose_slot`]).
 pub const FREE: f64 = 0.75;
@@ -294,21 +304,23 @@ fn add_force(u: &mut Vec3, x: &Vec3, p: &Vec3, pot: &PairPotential, w: f64) {
     }
 }
 
-/// Adds the repulsive part only of `− w f(|x − p|) (x − p)/|x − p|` to `u`: nothing
-/// where `f ≥ 0` (at or beyond the potential's `d0`), for `w ≤ 0` or at distance 0.
+/// Adds the repulsive part only of `− w f(|x − p|) (x − p)/|x − p|` to `u`, `f` the force
+/// of `pot` scaled by [`REPULSION_REACH`]: nothing where `f ≥ 0` (at or beyond
+/// `REPULSION_REACH · d0`), for `w ≤ 0` or at distance 0.
 ///
 /// Collision avoidance while vehicles rejoin (beyond the paper): the blend weighs the
 /// pair term of a rejoining vehicle and a true neighbour by `(1 − σ_i)(1 − σ_j) < 1`,
 /// down to 0 far from the slot, which would let a vehicle flying home pass through
 /// another. The weight the blend takes away, `w = 1 − (1 − σ_i)(1 − σ_j)`, is given back
-/// to the repulsion, so every pair of real vehicles repels at full strength inside `d0`,
+/// to the repulsion, so every pair of real vehicles repels inside `REPULSION_REACH · d0`,
 /// whatever their homing; with nobody rejoining `w = 0` and nothing is added. It is the
-/// gradient of the term [`blended_lyapunov_terms`] adds to `V_w` (the repulsive part of
-/// `V_I`, below `d0`, weighted by `w`), so the speed law (IV.4) sees it.
+/// gradient of the term [`blended_lyapunov_terms`] adds to `V_w` (that repulsion's
+/// energy, weighted by `w`), so the speed law (IV.4) sees it.
 pub(crate) fn add_repulsion(u: &mut Vec3, x: &Vec3, p: &Vec3, pot: &PairPotential, w: f64) {
     if w.is_nan() || w <= 0.0 {
         return;
     }
+    let pot = pot.scaled(REPULSION_REACH);
     let d = x - p;
     let dist = d.norm();
     if dist <= 0.0 || dist >= pot.d0 {
@@ -321,17 +333,19 @@ pub(crate) fn add_repulsion(u: &mut Vec3, x: &Vec3, p: &Vec3, pot: &PairPotentia
 }
 
 /// The energy of the repulsion the blend gives back ([`add_repulsion`]), energy per unit
-/// mass, and its `∂/∂k` at fixed positions: `Σ_{i<j} c_ij V_I(d_ij)` over the pairs of true
-/// positions closer than `d0`, `c_ij = 1 − (1 − σ_i)(1 − σ_j)` (`V_I(d0) = 0`, so the term
-/// and its force vanish at `d0`: `V_w` plus this term is the potential whose gradient the
-/// blended law follows, and the power of [`blended_lyapunov_terms`] stays exact). Zero
-/// when nobody rejoins.
+/// mass, and its `∂/∂k` at fixed positions: `Σ_{i<j} c_ij V_r(d_ij)` over the pairs of true
+/// positions closer than `d_r = REPULSION_REACH · d0`, `V_r` the potential `V_I` scaled by
+/// [`REPULSION_REACH`], `c_ij = 1 − (1 − σ_i)(1 − σ_j)` (`V_r(d_r) = 0`, so the term and
+/// its force vanish at `d_r`: `V_w` plus this term is the potential whose gradient the
+/// blended law follows, and the power of [`blended_lyapunov_terms`] stays exact; `V_r`
+/// scales with `k` as `V_I` does). Zero when nobody rejoins.
 fn repulsion_energy(
     positions: &[Vec3],
     homings: &[Option<(Homing, Vec3)>],
     inter: &PairPotential,
 ) -> (f64, f64) {
     let sigma = |h: &Option<(Homing, Vec3)>| h.as_ref().map_or(0.0, |(h, _)| h.sigma);
+    let inter = &inter.scaled(REPULSION_REACH);
     let (mut energy, mut d_scale) = (0.0, 0.0);
     for (i, (xi, hi)) in positions.iter().zip(homings).enumerate() {
         for (xj, hj) in positions[i + 1..].iter().zip(&homings[i + 1..]) {
@@ -691,23 +705,31 @@ mod tests {
             u,
             2.0 * (Vec3::new(0.5, 0.0, 0.0) - Vec3::new(0.0, 1.0, 0.0))
         );
-        // A neighbour closer than d0 still repels it at full strength (no collision).
-        let u = blended_control_law(
-            &Vec3::zeros(),
-            &Vec3::zeros(),
-            Some(&homing),
-            &[Neighbour::member(Vec3::new(0.5, 0.0, 0.0))],
-            &[],
-            &inter,
-            &leader,
-            2.0,
-        );
+        // A neighbour closer than REPULSION_REACH·d0 still repels it at full strength (no
+        // collision), with the force of V_I scaled by the reach.
+        let close = |at: f64| {
+            blended_control_law(
+                &Vec3::zeros(),
+                &Vec3::zeros(),
+                Some(&homing),
+                &[Neighbour::member(Vec3::new(at, 0.0, 0.0))],
+                &[],
+                &inter,
+                &leader,
+                2.0,
+            )
+        };
+        let repulsion = inter.scaled(REPULSION_REACH);
         assert_relative_eq!(
-            u,
-            2.0 * Vec3::new(0.5, 0.0, 0.0) + Vec3::new(inter.force(0.5), 0.0, 0.0),
+            close(0.3),
+            2.0 * Vec3::new(0.5, 0.0, 0.0) + Vec3::new(repulsion.force(0.3), 0.0, 0.0),
             max_relative = 1e-12
         );
-        assert!(inter.force(0.5) < 0.0);
+        assert!(repulsion.force(0.3) < 0.0);
+        // Between the reach and d0 it feels nothing from it: a hole's neighbours at d0 from
+        // the slot do not wall it off.
+        assert_eq!(close(0.6), 2.0 * Vec3::new(0.5, 0.0, 0.0));
+        assert!(inter.force(0.6) < 0.0);
         // A member next to a far rejoining vehicle (beyond d0) feels its ghost in the
         // slot, not it.
         let ghost = Neighbour {
