@@ -14,8 +14,12 @@ use vbap_math::lyapunov::LyapunovTerms;
 use vbap_math::potential::PairPotential;
 use vbap_math::schedule::{BodySchedule, Segment};
 use vbap_math::speed::formation_speed_informed;
+use vbap_math::vehicle::{BodyLimits, GliderLimits};
 use vbap_math::{Mat3, Vec3};
-use vbap_mission::config::{CurvatureSource, Goal, LawKind, Mission};
+use vbap_mission::config::{
+    CurvatureSource, Goal, LawKind, Mission, DEFAULT_MAX_ACCEL, DEFAULT_MAX_SPEED,
+    DEFAULT_MAX_TURN_RATE,
+};
 
 mod commit;
 mod direction;
@@ -114,6 +118,11 @@ pub struct PlannerParams {
     /// `Mission::speed_budget` (only the drift's feed-forward is bounded by it).
     #[serde(default)]
     pub speed_budget: f64,
+    /// How fast the body may turn and speed up so that gliders follow it
+    /// (`vbap_math::vehicle::BodyLimits`): the robust law with the glider model; None
+    /// otherwise (the paper's vehicle follows any body).
+    #[serde(default)]
+    pub body_limits: Option<BodyLimits>,
 }
 
 fn default_curvature_memory() -> f64 {
@@ -160,8 +169,24 @@ impl PlannerParams {
                 && m.control.law == LawKind::Robust
                 && m.field_may_move(),
             speed_budget: m.body.v0.min(m.speed_budget().unwrap_or(f64::INFINITY)),
+            body_limits: body_limits(m),
         }
     }
+}
+
+/// The limits of the body's motion for the gliders of `m` under the robust law
+/// ([`PlannerParams::body_limits`]).
+fn body_limits(m: &Mission) -> Option<BodyLimits> {
+    let v = &m.vehicles;
+    if m.control.law != LawKind::Robust || v.model.is_ideal() {
+        return None;
+    }
+    let gliders = GliderLimits {
+        max_speed: m.speed_budget().unwrap_or(DEFAULT_MAX_SPEED),
+        max_accel: v.max_accel.unwrap_or(DEFAULT_MAX_ACCEL),
+        max_turn_rate: v.max_turn_rate.unwrap_or(DEFAULT_MAX_TURN_RATE),
+    };
+    BodyLimits::for_gliders(&gliders, m.body.v0)
 }
 
 /// What the planner decided for one tick: the virtual body the agents steer by for the
@@ -237,6 +262,9 @@ pub struct Planner {
     /// of the rejoining vehicles' homing as the planner models it.
     #[serde(default = "Vec3::zeros")]
     last_velocity: Vec3,
+    /// The body velocity dr/ds·ṡ of the last decision (length unit/s), from which
+    /// [`PlannerParams::body_limits`] bound the next.
+    last_decision: Vec3,
     /// The committed body path (robust law with a plan horizon; None otherwise).
     #[serde(default)]
     schedule: Option<BodySchedule>,
@@ -304,6 +332,7 @@ impl Planner {
             rejoining: BTreeMap::new(),
             turn: 0.0,
             last_velocity: Vec3::zeros(),
+            last_decision: Vec3::zeros(),
             schedule,
             committed,
             settling: false,
@@ -398,13 +427,17 @@ impl Planner {
         let (grad_est, estimate_failed) = self.estimate(k, fresh, dt);
         self.observe_drift(k, dt);
         let p = &self.params;
+        let mut dr_ds = direction(
+            &self.gradient_ahead(&grad_est, k, dt),
+            p.goal,
+            p.grad_saturation,
+            holding,
+        );
+        if let Some(limits) = &p.body_limits {
+            dr_ds = limits.turn(&self.last_decision, &dr_ds, dt);
+        }
         let rates = BodyRates {
-            dr_ds: direction(
-                &self.gradient_ahead(&grad_est, k, dt),
-                p.goal,
-                p.grad_saturation,
-                holding,
-            ),
+            dr_ds,
             omega_ds: Vec3::zeros(),
             dk_ds: self.scale_rate(holding, self.decision_scale(k, dt)),
         };
@@ -417,6 +450,14 @@ impl Planner {
             waiting * formation_speed_informed(&terms, p.v0, p.v_u, p.delta, confidence)
         };
         let sdot = self.hold_until_settled(terms.v, sdot);
+        let sdot = match &self.params.body_limits {
+            Some(limits) if rates.dr_ds.norm() > 0.0 => {
+                let most = limits.speed_after(self.last_decision.norm(), dt);
+                sdot.min(most / rates.dr_ds.norm())
+            }
+            _ => sdot,
+        };
+        self.last_decision = rates.dr_ds * sdot;
         let drift = self.drift_feed_forward(&(rates.dr_ds * sdot), holding);
         let in_force = self.commit(k, &rates, sdot, drift, oldest, dt);
         let (sdot_now, velocity) = match (in_force, drift) {

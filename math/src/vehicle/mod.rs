@@ -29,6 +29,53 @@ pub struct GliderLimits {
     pub max_turn_rate: f64,
 }
 
+/// How fast the virtual body may change its velocity so that gliders can follow it
+/// (beyond the paper, whose vehicles accelerate and turn without limit).
+///
+/// A glider turns its heading at most `Ω = max_turn_rate`: a body that sets off from rest
+/// at full speed, or turns sharply, leaves its gliders looping behind it for `π/Ω`
+/// seconds (2.5 s at 1.26 rad/s, a body at 0.9 L/s is then 2 L away: a formation broken
+/// at the start of random missions, the failures concentrated at the lowest turn rates).
+/// The body therefore turns at most at half the gliders' rate and accelerates at most at
+/// `min(max_accel/4, v0 Ω/π)`: from rest to `v0` in no less than a glider's half turn,
+/// leaving each glider three quarters of its acceleration for its own slot.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BodyLimits {
+    /// Largest acceleration of the body centre, length unit/s² (> 0).
+    pub max_accel: f64,
+    /// Largest turn rate of the body's velocity, rad/s (> 0).
+    pub max_turn_rate: f64,
+}
+
+impl BodyLimits {
+    /// The limits for gliders of `limits` flying a body of nominal speed `v0` (length
+    /// unit/s); None when a limit is not positive and finite.
+    pub fn for_gliders(limits: &GliderLimits, v0: f64) -> Option<Self> {
+        let omega = limits.max_turn_rate;
+        let accel = (0.25 * limits.max_accel).min(v0 * omega / std::f64::consts::PI);
+        let ok = |x: f64| x.is_finite() && x > 0.0;
+        (ok(accel) && ok(omega)).then_some(Self {
+            max_accel: accel,
+            max_turn_rate: 0.5 * omega,
+        })
+    }
+
+    /// The direction `wanted` (any norm, kept) turned from that of the body's previous
+    /// velocity `previous` by at most `max_turn_rate · dt` (`dt` in s); `wanted` as it is
+    /// when the body was (almost) at rest, when either is zero, or when it turns less.
+    pub fn turn(&self, previous: &Vec3, wanted: &Vec3, dt: f64) -> Vec3 {
+        if previous.norm() <= 1e-9 || wanted.norm() == 0.0 {
+            return *wanted;
+        }
+        turn_towards(previous, wanted, self.max_turn_rate * dt)
+    }
+
+    /// The largest speed (length unit/s) after a step of `dt` s from the speed `previous`.
+    pub fn speed_after(&self, previous: f64, dt: f64) -> f64 {
+        previous + self.max_accel * dt
+    }
+}
+
 /// How the control u_i of the law moves the vehicle through the water.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum VehicleModel {

@@ -119,3 +119,36 @@ fn slide_keeps_a_move_off_land() {
     );
     assert_eq!(slide(&from, &Vec3::new(3.0, -1.0, 0.0), land, None), from);
 }
+
+#[test]
+fn the_body_turns_and_speeds_up_no_faster_than_gliders_follow() {
+    let gliders = GliderLimits {
+        max_speed: 2.0,
+        max_accel: 4.0,
+        max_turn_rate: 1.0,
+    };
+    let l = BodyLimits::for_gliders(&gliders, 0.5).unwrap();
+    assert_eq!(l.max_turn_rate, 0.5);
+    assert!((l.max_accel - 0.5 / std::f64::consts::PI).abs() < 1e-15);
+    // Fast gliders: a quarter of their acceleration.
+    let quick = GliderLimits {
+        max_turn_rate: 100.0,
+        ..gliders
+    };
+    assert_eq!(BodyLimits::for_gliders(&quick, 0.5).unwrap().max_accel, 1.0);
+    // A reversal turns by max_turn_rate·dt, the norm of the wanted direction kept.
+    let turned = l.turn(&Vec3::new(1.0, 0.0, 0.0), &Vec3::new(-3.0, 0.0, 0.0), 0.1);
+    assert!((turned.norm() - 3.0).abs() < 1e-12);
+    assert!((turned.y.atan2(turned.x).abs() - 0.05).abs() < 1e-12);
+    // From rest, any direction; a small turn is not touched.
+    let wanted = Vec3::new(0.0, 2.0, 0.0);
+    assert_eq!(l.turn(&Vec3::zeros(), &wanted, 0.1), wanted);
+    let small = Vec3::new(1.0, 0.01, 0.0);
+    assert_eq!(l.turn(&Vec3::new(1.0, 0.0, 0.0), &small, 0.1), small);
+    assert_eq!(l.speed_after(0.2, 0.5), 0.2 + 0.5 * l.max_accel);
+    let bad = GliderLimits {
+        max_turn_rate: 0.0,
+        ..gliders
+    };
+    assert_eq!(BodyLimits::for_gliders(&bad, 0.5), None);
+}
