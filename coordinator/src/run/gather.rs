@@ -146,6 +146,21 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         if missing.is_empty() {
             return Ok(None);
         }
+        // A vehicle heard before and silent past the limit is lost now, however recent this
+        // gather (or this coordinator process, resumed with the silence it inherited).
+        let overdue: Vec<u32> = missing
+            .iter()
+            .copied()
+            .filter(|&v| {
+                self.inbox.peers[v as usize]
+                    .last_recv
+                    .is_some_and(|t| t.elapsed() >= LOCKSTEP_TIMEOUT)
+            })
+            .collect();
+        if !overdue.is_empty() {
+            self.lose_silent(&overdue)?;
+            return Ok(Some(Duration::ZERO));
+        }
         let left = wait_limit.saturating_sub(gather_start.elapsed());
         if !left.is_zero() {
             return Ok(Some(left.min(SUSPECT_AFTER)));
@@ -155,6 +170,13 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             ?missing,
             "lockstep timeout: going on without the silent vehicles"
         );
+        self.lose_silent(missing)?;
+        Ok(None)
+    }
+
+    /// Loses the vehicles of `missing` heard from before as `silent` (their next word is a
+    /// join request); a vehicle never heard from is still starting up.
+    fn lose_silent(&mut self, missing: &[u32]) -> Result<()> {
         for &v in missing {
             let peer = &mut self.inbox.peers[v as usize];
             let Some(last) = peer.last_recv else {
@@ -164,7 +186,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             let silent_ms = last.elapsed().as_secs_f64() * 1e3;
             self.lose(v, Loss::found("silent", "silence", pid, Some(silent_ms)))?;
         }
-        Ok(None)
+        Ok(())
     }
 
     /// How long a paced gather waits next; None at the tick's deadline (the tick is late
