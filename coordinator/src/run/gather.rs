@@ -16,6 +16,10 @@ use super::{Coordinator, Flow, GO, LOCKSTEP_TIMEOUT, STOP};
 use crate::membership::Loss;
 use crate::plan::Plan;
 
+/// Least wait of a lockstep gather for a member before its silence (counted across
+/// coordinator restarts) may lose it: an agent answers a command within it.
+const OVERDUE_GRACE: Duration = Duration::from_secs(1);
+
 impl<P: Plan + Serialize> Coordinator<'_, P> {
     /// Gathers the states of the tick; `admitted`: the vehicles admitted at this tick (no
     /// state of theirs is waited for). [`STOP`] on a termination signal.
@@ -146,15 +150,18 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         if missing.is_empty() {
             return Ok(None);
         }
-        // A vehicle heard before and silent past the limit is lost now, however recent this
-        // gather (or this coordinator process, resumed with the silence it inherited).
+        // A vehicle heard before and silent past the limit is lost, however recent this
+        // gather (or this coordinator process, resumed with the silence it inherited) once
+        // the gather has waited OVERDUE_GRACE for it: a coordinator that was itself held
+        // up (a field server's outage) gives every agent that long to answer its command.
         let overdue: Vec<u32> = missing
             .iter()
             .copied()
             .filter(|&v| {
-                self.inbox.peers[v as usize]
-                    .last_recv
-                    .is_some_and(|t| t.elapsed() >= LOCKSTEP_TIMEOUT)
+                gather_start.elapsed() >= OVERDUE_GRACE
+                    && self.inbox.peers[v as usize]
+                        .last_recv
+                        .is_some_and(|t| t.elapsed() >= LOCKSTEP_TIMEOUT)
             })
             .collect();
         if !overdue.is_empty() {
