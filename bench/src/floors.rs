@@ -270,7 +270,7 @@ fn encode(s: &VehicleState) -> [u8; WIRE] {
         &h.seq.to_le_bytes(),
         &h.sent_ns.to_le_bytes(),
         &s.pid.to_le_bytes(),
-        &s._pad.to_le_bytes(),
+        &s.incarnation.to_le_bytes(),
     ];
     let mut at = 0;
     for f in fields {

@@ -35,9 +35,15 @@ pub struct ChaosArgs {
     /// Restart policies of the vehicle agents, comma-separated: never, on-failure, always.
     #[arg(long, default_value = "never,on-failure,always")]
     pub policies: String,
-    /// What may be hit, comma-separated: agents, coordinator, field_server.
+    /// What may be hit, comma-separated: agents, coordinator, field_server; or all.
     #[arg(long, default_value = "agents")]
     pub targets: String,
+    /// Compound faults per run: a death during another recovery, each of a seeded case:
+    /// an agent killed during a coordinator restart, during a field-server restart, or
+    /// while it is stopped (SIGSTOP then SIGKILL of the same process). Whatever
+    /// `--targets` says.
+    #[arg(long, default_value_t = 0)]
+    pub compound: usize,
     /// Wall time window of the actions after the process set is up, s.
     #[arg(long, default_value_t = 4.0)]
     pub window: f64,
@@ -105,6 +111,58 @@ pub(super) fn parse_target(s: &str) -> Option<Target> {
     }
 }
 
+/// `--targets`: a list of targets, or `all`.
+pub(super) fn parse_targets(text: &str) -> Result<Vec<Target>> {
+    let all = [Target::Agents, Target::Coordinator, Target::FieldServer];
+    let items = parse_list("--targets", text, |s| match s {
+        "all" => Some(all.to_vec()),
+        _ => parse_target(s).map(|t| vec![t]),
+    })?;
+    let set: std::collections::BTreeSet<Target> = items.into_iter().flatten().collect();
+    Ok(set.into_iter().collect())
+}
+
+/// A compound fault: a death during another recovery.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Compound {
+    /// SIGKILL of the coordinator, then of an agent while the coordinator restarts.
+    DuringCoordinatorRestart,
+    /// SIGKILL of the field server, then of an agent while the field server restarts.
+    DuringFieldServerRestart,
+    /// SIGSTOP of an agent, then SIGKILL of that same stopped process.
+    WhileStopped,
+}
+
+impl Compound {
+    /// Its name in `chaos.json` and the tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Compound::DuringCoordinatorRestart => "kill during coordinator restart",
+            Compound::DuringFieldServerRestart => "kill during field-server restart",
+            Compound::WhileStopped => "kill while stopped",
+        }
+    }
+}
+
+/// The seeded compound faults of one run: (planned wall offset s, case), sorted; drawn
+/// from a stream of their own, so the single actions of a seed do not change.
+pub fn compound_plan(seed: u64, index: usize, n: usize, window: f64) -> Vec<(f64, Compound)> {
+    let mut rng = run_rng(seed, index, 2);
+    let cases = [
+        Compound::DuringCoordinatorRestart,
+        Compound::DuringFieldServerRestart,
+        Compound::WhileStopped,
+    ];
+    let mut out: Vec<(f64, Compound)> = (0..n)
+        .map(|_| {
+            let at = FIRST_ACTION + rng.random::<f64>() * (window - FIRST_ACTION);
+            (at, cases[rng.random_range(0..cases.len())])
+        })
+        .collect();
+    out.sort_by(|a, b| a.0.total_cmp(&b.0));
+    out
+}
+
 pub(super) fn target_name(t: Target) -> &'static str {
     match t {
         Target::Agents => "agents",
@@ -149,11 +207,7 @@ pub(super) fn run_rng(seed: u64, index: usize, stream: u64) -> StdRng {
 /// `--policies` and `--targets` (sorted, each once), after checking every other argument.
 pub(super) fn check(args: &ChaosArgs) -> Result<(Vec<RestartPolicy>, Vec<Target>)> {
     let policies = parse_list("--policies", &args.policies, parse_policy)?;
-    let targets: Vec<Target> = parse_list("--targets", &args.targets, parse_target)?
-        .into_iter()
-        .collect::<std::collections::BTreeSet<_>>()
-        .into_iter()
-        .collect();
+    let targets = parse_targets(&args.targets)?;
     if args.runs == 0 {
         return Err(InvalidInput("--runs 0: need at least one run".into()).into());
     }
@@ -181,8 +235,11 @@ pub(super) fn check(args: &ChaosArgs) -> Result<(Vec<RestartPolicy>, Vec<Target>
         ))
         .into());
     }
-    if args.kills + args.stops > 1000 {
-        return Err(InvalidInput("--kills + --stops: at most 1000 actions per run".into()).into());
+    if args.kills + args.stops + 2 * args.compound > 1000 {
+        return Err(InvalidInput(
+            "--kills + --stops + 2 × --compound: at most 1000 actions per run".into(),
+        )
+        .into());
     }
     Ok((policies, targets))
 }

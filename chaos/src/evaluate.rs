@@ -126,7 +126,9 @@ pub(super) fn evaluate(
             }
             a.recovered = Some(problems.is_empty());
         } else {
-            ev.judge_stop(a, slot, &mut problems);
+            if a.group.is_none() {
+                ev.judge_stop(a, slot, &mut problems);
+            } // else: the stop of a stopped-then-killed agent, judged by its kill
             if !completed {
                 problems.push("the run failed".into());
             }

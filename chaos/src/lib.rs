@@ -26,6 +26,14 @@
 //! belongs to exactly one action. An action finds no target, or
 //! the mission already over, is listed as not sent.
 //!
+//! Compound faults (`--compound N` per run, at seeded times in the same window, each of a
+//! seeded case, whatever `--targets` says): a kill of the coordinator (or the field server)
+//! followed 30 ms later by the kill of an agent, inside the restart; or a SIGSTOP of an
+//! agent followed 0.3 s later by the SIGKILL of that same stopped process (never
+//! continued). Each of their actions is judged as a single one of its kind would be (the
+//! stop of a stopped-then-killed agent by its kill only), and listed with its case
+//! (`compound` in `chaos.json`, `act+` in the table).
+//!
 //! # Rules of the table
 //!
 //! - **Agent kill, detected**: the coordinator wrote a `lost` event for that vehicle (any
@@ -83,7 +91,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use vbap_mission::config::{FaultKind, Mission, Overrides, Pace, RestartPolicy};
 
-pub use args::{plan, run_name, ChaosArgs};
+pub use args::{compound_plan, plan, run_name, ChaosArgs, Compound};
 pub use output::{table, CSV_HEADER};
 pub use procs::{slot_of, Slot, Target};
 pub use report::{Action, Campaign, RunReport, Totals};
@@ -121,6 +129,7 @@ pub fn main(args: &ChaosArgs) -> Result<i32> {
             policy: base.restart.vehicles,
             seed: args.seed,
             plan: &[],
+            compounds: &[],
             calibration: true,
             targets: &targets,
         };
@@ -142,12 +151,14 @@ pub fn main(args: &ChaosArgs) -> Result<i32> {
                     args.window,
                     args.max_stop,
                 );
+                let compounds = compound_plan(seed, index, args.compound, args.window);
                 let spec = RunSpec {
                     index,
                     pace: *pace,
                     policy: *policy,
                     seed,
                     plan: &plan,
+                    compounds: &compounds,
                     calibration: false,
                     targets: &targets,
                 };
@@ -206,6 +217,7 @@ fn new_campaign(
         host: host_description(),
         seed: args.seed,
         kills_per_run: args.kills,
+        compound_per_run: args.compound,
         stops_per_run: args.stops,
         paces: args.paces.iter().map(|p| p.to_string()).collect(),
         policies: policies

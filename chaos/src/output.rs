@@ -117,7 +117,7 @@ fn action_table(c: &Campaign) -> String {
         "(det: kill detected, or stopped process survived; det t: mission time of the `lost` \
          event; det ms: SIGKILL to the coordinator's first command after its verdict, or to \
          the new process of a coordinator or field server; restart: SIGKILL to a new process \
-         in the slot)\n\n",
+         in the slot; act+: part of a compound fault, see chaos.json `compound`)\n\n",
     );
     s
 }
@@ -138,7 +138,11 @@ fn action_line(r: &RunReport, a: &Action) -> String {
         r.index,
         r.pace,
         r.policy,
-        a.action,
+        if a.compound.is_some() {
+            format!("{}+", a.action)
+        } else {
+            a.action.clone()
+        },
         if a.target.is_empty() { "-" } else { &a.target },
         o(a.at_s, 2),
         if a.action == "stop" {
@@ -229,11 +233,13 @@ fn totals(c: &Campaign) -> String {
     };
     format!(
         "\n{} runs ({} failed); kills: {} sent, {} judged, {} detected, {} undetected, {} recovered; stops: {} sent, {} ok; {} not sent, {} unjudged; {} judged action(s) failed\n\
-         agent detection ms: {}; the coordinators' own detection_latency_ms: {}; restart ms (coordinator, field server): {}\nlate ticks {}; leftovers: {} files, {} processes\n",
+         agent detection ms: {}; the coordinators' own detection_latency_ms: {}; restart ms (coordinator, field server): {}\ncompound faults: {} action(s) sent, {} failed; late ticks {}; leftovers: {} files, {} processes\n",
         t.runs, t.runs_failed, t.kills_sent, t.kills_judged, t.kills_detected, t.kills_undetected, t.kills_recovered, t.stops_sent, t.stops_ok, t.not_sent, t.unjudged, t.actions_failed,
         dist(t.agent_detection_n, &t.agent_detection_ms),
         dist(t.coordinator_detection_n, &t.coordinator_detection_ms),
         dist(t.restart_n, &t.restart_ms),
+        t.compound_sent,
+        t.compound_failed,
         t.late_ticks,
         t.leftover_files,
         t.leftover_processes

@@ -48,6 +48,16 @@ pub struct Action {
     pub declared_lost: Option<bool>,
     /// "ok", "not sent: …", "unjudged: …" or what failed.
     pub outcome: String,
+    /// The compound fault this action is part of (`args::Compound::name`), if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub compound: Option<String>,
+    /// The actions of one compound fault share a group (internal).
+    #[serde(skip)]
+    pub(super) group: Option<usize>,
+    /// The target kind a compound fault's action must hit, whatever `--targets` says
+    /// (internal).
+    #[serde(skip)]
+    pub(super) forced: Option<super::procs::Target>,
     /// Wall time of SIGCONT, s since the Unix epoch (internal).
     #[serde(skip)]
     pub(super) cont_unix_s: Option<f64>,
@@ -127,6 +137,9 @@ pub struct Totals {
     pub late_ticks: u64,
     pub leftover_files: usize,
     pub leftover_processes: usize,
+    /// Actions of compound faults sent, and of them judged and failed.
+    pub compound_sent: usize,
+    pub compound_failed: usize,
 }
 
 /// `chaos.json`.
@@ -139,6 +152,7 @@ pub struct Campaign {
     pub seed: u64,
     pub kills_per_run: usize,
     pub stops_per_run: usize,
+    pub compound_per_run: usize,
     pub paces: Vec<String>,
     pub policies: Vec<String>,
     pub targets: Vec<String>,
@@ -243,6 +257,10 @@ impl Totals {
         }
         if a.failed() {
             self.actions_failed += 1;
+        }
+        if a.compound.is_some() {
+            self.compound_sent += 1;
+            self.compound_failed += usize::from(a.failed());
         }
         if a.action != "kill" {
             self.stops_sent += 1;

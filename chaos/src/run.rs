@@ -13,12 +13,12 @@ use rand::Rng;
 use vbap_ipc::topics::Domain;
 use vbap_mission::config::{Mission, Pace, RestartPolicy};
 
-use super::args::{policy_name, run_name, run_rng, target_name};
+use super::args::{policy_name, run_name, run_rng, target_name, Compound};
 use super::evaluate::evaluate;
 use super::procs::{alive, children, cmdline, epoch_s, is_up, leftover_processes, send, slot_of};
 use super::procs::{Seen, Slot, Target};
 use super::report::{Action, RunReport};
-use super::timing::{MIN_STOP, POLL, UP_TIMEOUT};
+use super::timing::{COMPOUND_GAP, MIN_STOP, POLL, STOPPED_BEFORE_KILL, UP_TIMEOUT};
 
 /// What a run is: its place in the campaign, its pace, policy, seed and plan.
 pub(super) struct RunSpec<'a> {
@@ -27,6 +27,8 @@ pub(super) struct RunSpec<'a> {
     pub policy: RestartPolicy,
     pub seed: u64,
     pub plan: &'a [(f64, bool, f64)],
+    /// The compound faults: (planned wall offset s, case).
+    pub compounds: &'a [(f64, Compound)],
     pub calibration: bool,
     pub targets: &'a [Target],
 }
@@ -199,7 +201,7 @@ struct Acting<'a> {
 
 impl<'a> Acting<'a> {
     fn new(m: &Mission, spec: &'a RunSpec, run_dir: &'a Path) -> Self {
-        let actions = spec
+        let mut actions: Vec<Action> = spec
             .plan
             .iter()
             .map(|&(at, kill, pause)| Action {
@@ -209,6 +211,10 @@ impl<'a> Acting<'a> {
                 ..Action::default()
             })
             .collect();
+        for (g, &(at, case)) in spec.compounds.iter().enumerate() {
+            actions.extend(compound_actions(g, at, case));
+        }
+        actions.sort_by(|a, b| a.planned_s.total_cmp(&b.planned_s));
         Acting {
             run_dir,
             targets: spec.targets,
@@ -322,7 +328,10 @@ impl<'a> Acting<'a> {
             return Err("not sent: the mission was over".into());
         }
         let kill = self.actions[a].action == "kill";
-        let (pid, slot) = self.pick(kill, current)?;
+        let (pid, slot) = match self.stopped_of_group(a, current)? {
+            Some(target) => target,
+            None => self.pick(kill, current, self.actions[a].forced)?,
+        };
         // The pid is still the process we saw (no reuse since).
         if cmdline(pid).as_ref() != self.seen.get(&pid).map(|s| &s.cmd) {
             return Err("not sent: the target ended just before".into());
@@ -349,6 +358,8 @@ impl<'a> Acting<'a> {
         act.at_s = Some(t0.elapsed().as_secs_f64());
         if kill {
             self.killed_slots.insert(slot);
+            // A stopped process killed: never continued.
+            self.stopped.retain(|s| s.0 != pid);
         } else {
             self.stopped_slots.insert(slot);
             let pause = Duration::from_secs_f64(act.pause_s.unwrap_or(MIN_STOP));
@@ -357,16 +368,61 @@ impl<'a> Acting<'a> {
         Ok(())
     }
 
-    /// The seeded target of a kill (`kill`) or stop: a kind among those with a candidate,
-    /// then a candidate of it. Err: why there is none.
-    fn pick(&mut self, kill: bool, current: &[(u32, Slot)]) -> Result<(u32, Slot), String> {
-        let candidates = self.candidates(kill, current);
-        let kinds: Vec<Target> = self
-            .targets
+    /// The kill of a compound "kill while stopped" (action `a`): the process its stop
+    /// stopped, still stopped (Ok(None): not such a kill; Err: its stop was not sent, the
+    /// process is gone, or agents are spared at `floor` alive).
+    fn stopped_of_group(
+        &self,
+        a: usize,
+        current: &[(u32, Slot)],
+    ) -> Result<Option<(u32, Slot)>, String> {
+        let act = &self.actions[a];
+        let Some(g) = act.group.filter(|_| act.action == "kill") else {
+            return Ok(None);
+        };
+        let Some(stop) = self
+            .actions
             .iter()
-            .copied()
-            .filter(|t| candidates.iter().any(|(_, s)| s.kind() == *t))
-            .collect();
+            .find(|b| b.group == Some(g) && b.action == "stop")
+        else {
+            return Ok(None); // a kill during a restart: its target is picked
+        };
+        let agents_alive = current
+            .iter()
+            .filter(|(_, s)| matches!(s, Slot::Agent(_)))
+            .count();
+        if agents_alive <= self.floor {
+            return Err(format!(
+                "not sent: agents are spared at {} = dim + 1 alive",
+                self.floor
+            ));
+        }
+        match (stop.sent, stop.pid, stop.slot) {
+            (true, Some(pid), Some(slot)) if self.stopped.iter().any(|s| s.0 == pid) => {
+                Ok(Some((pid, slot)))
+            }
+            (true, ..) => Err("not sent: the stopped process was continued or is gone".into()),
+            _ => Err("not sent: its stop was not sent".into()),
+        }
+    }
+
+    /// The seeded target of a kill (`kill`) or stop: a kind among those with a candidate
+    /// (`forced`: that kind, whatever `--targets` says), then a candidate of it. Err: why
+    /// there is none.
+    fn pick(
+        &mut self,
+        kill: bool,
+        current: &[(u32, Slot)],
+        forced: Option<Target>,
+    ) -> Result<(u32, Slot), String> {
+        let candidates = self.candidates(kill, current, forced);
+        let kinds: Vec<Target> = match forced {
+            Some(t) => vec![t],
+            None => self.targets.to_vec(),
+        }
+        .into_iter()
+        .filter(|t| candidates.iter().any(|(_, s)| s.kind() == *t))
+        .collect();
         if kinds.is_empty() {
             return Err(if kill {
                 format!(
@@ -388,7 +444,12 @@ impl<'a> Acting<'a> {
     /// Live processes of a target kind, up by their own log and not stopped; an agent
     /// only while more than `floor` are alive for a kill, never one already killed or
     /// stopped for a stop.
-    fn candidates(&self, kill: bool, current: &[(u32, Slot)]) -> Vec<(u32, Slot)> {
+    fn candidates(
+        &self,
+        kill: bool,
+        current: &[(u32, Slot)],
+        forced: Option<Target>,
+    ) -> Vec<(u32, Slot)> {
         let paused: BTreeSet<u32> = self.stopped.iter().map(|s| s.0).collect();
         let agents_alive = current
             .iter()
@@ -398,7 +459,7 @@ impl<'a> Acting<'a> {
             .iter()
             .copied()
             .filter(|(p, s)| {
-                self.targets.contains(&s.kind())
+                forced.map_or(self.targets.contains(&s.kind()), |t| t == s.kind())
                     && !paused.contains(p)
                     && is_up(self.run_dir, *p, *s)
                     && match (kill, s) {
@@ -412,5 +473,34 @@ impl<'a> Acting<'a> {
                     }
             })
             .collect()
+    }
+}
+
+/// The actions of compound fault `g` of case `case` planned at `at` (s after the set was
+/// up).
+fn compound_actions(g: usize, at: f64, case: Compound) -> Vec<Action> {
+    let part = |action: &str, planned_s: f64, forced: Target| Action {
+        action: action.into(),
+        planned_s,
+        compound: Some(case.name().into()),
+        group: Some(g),
+        forced: Some(forced),
+        ..Action::default()
+    };
+    match case {
+        Compound::DuringCoordinatorRestart => vec![
+            part("kill", at, Target::Coordinator),
+            part("kill", at + COMPOUND_GAP, Target::Agents),
+        ],
+        Compound::DuringFieldServerRestart => vec![
+            part("kill", at, Target::FieldServer),
+            part("kill", at + COMPOUND_GAP, Target::Agents),
+        ],
+        Compound::WhileStopped => {
+            let mut stop = part("stop", at, Target::Agents);
+            // Continued only if its kill was not sent.
+            stop.pause_s = Some(STOPPED_BEFORE_KILL + 2.0);
+            vec![stop, part("kill", at + STOPPED_BEFORE_KILL, Target::Agents)]
+        }
     }
 }

@@ -88,3 +88,34 @@ fn run_missions_last_the_window_and_tail_in_wall_time() {
     let slow = args::run_mission(&base, Pace::Lockstep, 4.0, Some(1e-6));
     assert!((slow.mission.duration - 20.0 * 0.1).abs() < 1e-9);
 }
+
+#[test]
+fn compound_plans_are_seeded_and_leave_the_single_actions_unchanged() {
+    let a = compound_plan(7, 3, 6, 4.0);
+    assert_eq!(a, compound_plan(7, 3, 6, 4.0));
+    assert_eq!(a.len(), 6);
+    assert!(a.windows(2).all(|w| w[0].0 <= w[1].0));
+    assert!(a.iter().all(|(at, _)| (FIRST_ACTION..=4.0).contains(at)));
+    assert!(compound_plan(7, 3, 0, 4.0).is_empty());
+    // Drawn from a stream of their own: a seed's single actions are what they were.
+    assert_eq!(plan(7, 3, 5, 2, 4.0, 2.0), plan(7, 3, 5, 2, 4.0, 2.0));
+    let names: std::collections::BTreeSet<&str> = compound_plan(1, 0, 60, 4.0)
+        .iter()
+        .map(|(_, c)| c.name())
+        .collect();
+    assert_eq!(names.len(), 3, "every case is drawn: {names:?}");
+}
+
+#[test]
+fn targets_all_is_every_target_and_a_bad_one_is_named() {
+    use super::args::parse_targets;
+    let all = vec![Target::Agents, Target::Coordinator, Target::FieldServer];
+    assert_eq!(parse_targets("all").unwrap(), all);
+    assert_eq!(parse_targets("agents,all").unwrap(), all);
+    assert_eq!(
+        parse_targets("field_server,agents").unwrap(),
+        vec![Target::Agents, Target::FieldServer]
+    );
+    let e = parse_targets("agents,robots").unwrap_err().to_string();
+    assert!(e.contains("--targets") && e.contains("robots"), "{e}");
+}

@@ -17,3 +17,8 @@ pub const MIN_STOP: f64 = 0.2;
 pub const POLL: Duration = Duration::from_millis(2);
 /// Longest wait for the process set to come up.
 pub const UP_TIMEOUT: Duration = Duration::from_secs(120);
+/// A compound fault's agent kill comes this long after the coordinator's or field
+/// server's kill (inside its restart: the restart backoff is 0.2 s by default), s.
+pub const COMPOUND_GAP: f64 = 0.03;
+/// A compound fault's agent is killed this long after it was stopped, s.
+pub const STOPPED_BEFORE_KILL: f64 = 0.3;

@@ -37,6 +37,15 @@ pub struct PeerMark {
     /// new sequence numbers, to a restarted coordinator).
     #[serde(default)]
     pub used_tick: Option<u64>,
+    /// Incarnation of the process `pid` (`VehicleState::incarnation`; 0: unknown).
+    #[serde(default)]
+    pub incarnation: u32,
+    /// How long the vehicle had been silent (no message of it) at this checkpoint, ns
+    /// (None: never heard). A resumed coordinator goes on counting from it, so restarts do
+    /// not reset the liveness limit; the outage itself is not counted (nobody could hear
+    /// the vehicle, nor command it).
+    #[serde(default)]
+    pub silent_ns: Option<u64>,
 }
 
 /// One checkpoint, of a coordinator with planner `P`.

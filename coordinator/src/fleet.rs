@@ -346,7 +346,7 @@ impl Fleet {
                 id: r.id,
                 alive,
                 rejoining: u32::from(target.is_some()),
-                _pad: 0,
+                incarnation: 0,
                 position: from_vec3(&r.position),
                 velocity: from_vec3(&r.velocity),
                 target: from_vec3(&target.unwrap_or_else(Vec3::zeros)),

@@ -7,11 +7,13 @@
 //! never sees. [`tick::plan_tick`] is one tick of both, as the simulator and the
 //! coordinator process run it, with any planner of the trait [`plan::Plan`].
 //! [`membership`] (losses and rejoins) and [`tally`] (message counts) are the bookkeeping
-//! both share. [`run`] wires the ports; [`handover`] passes the summary to `vbap run`.
+//! both share. [`run`] wires the ports; [`handover`] passes the summary to `vbap run`; [`exits`] is the
+//! supervisor's durable record of deaths and restarts a resumed coordinator reads.
 
 pub mod checkpoint;
 pub mod cli;
 pub mod command;
+pub mod exits;
 pub mod fleet;
 pub mod handover;
 pub mod membership;

@@ -247,3 +247,89 @@ fn bad_arguments_exit_2_naming_the_argument() {
         .expect("running vbap chaos");
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// The compound faults in CI (issue 33): every target, and per run three deaths during
+/// another recovery (an agent killed during a coordinator restart, during a field-server
+/// restart, or while it is stopped), lockstep and pace 10, agents restarted on failure.
+/// Every compound action is listed with its case, every judged one detected and
+/// recovered (every killed agent readmitted), nothing left behind: the campaign passes.
+#[test]
+fn a_small_compound_campaign_recovers_from_every_death_during_another_recovery() {
+    let tmp = TempDir::new("chaos_cmp");
+    let name = unique_name("chaoscmp");
+    let file = paper_named(&tmp, &name);
+    let out = tmp.join("campaign");
+    let output = vbap()
+        .args(["chaos"])
+        .arg(&file)
+        .args([
+            "--kills",
+            "1",
+            "--stops",
+            "0",
+            "--compound",
+            "3",
+            "--targets",
+            "all",
+            "--seed",
+            "11",
+            "--paces",
+            "lockstep,10",
+            "--policies",
+            "on-failure",
+            "--window",
+            "3",
+            "--quiet",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .expect("running vbap chaos");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    eprintln!("{stdout}\n{stderr}");
+    let json: Value = serde_json::from_str(&read(&out.join("chaos.json"))).expect("chaos.json");
+    assert_eq!(
+        json["runs"].as_array().unwrap().len(),
+        3,
+        "calibration + 2 runs"
+    );
+    assert_eq!(
+        json["targets"].as_array().unwrap().len(),
+        3,
+        "--targets all"
+    );
+    let all = actions(&json);
+    let cases = [
+        "kill during coordinator restart",
+        "kill during field-server restart",
+        "kill while stopped",
+    ];
+    let compound: Vec<_> = all
+        .iter()
+        .filter(|(_, a)| a["compound"].is_string())
+        .collect();
+    // Two actions per compound fault, three faults per run, two runs.
+    assert_eq!(compound.len(), 12, "{compound:?}");
+    let mut sent = 0;
+    for (r, a) in &compound {
+        let what = format!("run {} {}", r["index"], a);
+        assert!(cases.contains(&a["compound"].as_str().unwrap()), "{what}");
+        if a["sent"] == true {
+            sent += 1;
+            if a["action"] == "kill" && a["vehicle"].is_u64() && a["judged"] == true {
+                assert_eq!(a["detected"], true, "{what}");
+                assert_eq!(a["rejoined"], true, "{what}");
+            }
+        }
+    }
+    assert!(sent >= 6, "most compound actions were sent: {compound:?}");
+    assert_eq!(json["totals"]["compound_sent"], sent);
+    for r in json["runs"].as_array().unwrap() {
+        let m = r["mission_name"].as_str().unwrap();
+        assert!(leftover_files(m).is_empty(), "files of {m} left behind");
+    }
+    assert!(processes_mentioning(&out.to_string_lossy()).is_empty());
+    assert_eq!(json["passed"], true, "{stdout}");
+    assert_eq!(output.status.code(), Some(0), "{stdout}");
+}

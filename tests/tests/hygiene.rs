@@ -133,7 +133,7 @@ v_u = 10.0
                 sent_ns: 0,
             },
             pid: 1,
-            _pad: 0,
+            incarnation: 0,
             position: [0.0; 3],
             velocity: [0.0; 3],
             commands_read: 0,

@@ -1,5 +1,5 @@
-//! The vehicle agent's command line (`vehicle_agent --mission FILE --id I [--rejoin] [--log
-//! FILE] [--parent PID]`), as a library: the shipped binary and a user's own executable
+//! The vehicle agent's command line (`vehicle_agent --mission FILE --id I [--rejoin]
+//! [--incarnation N] [--log FILE] [--parent PID]`), as a library: the shipped binary and a user's own executable
 //! (flying its own control law) parse and run it alike.
 
 use std::path::PathBuf;
@@ -21,6 +21,11 @@ pub struct Args {
     /// This process is a restart: ask to join the mission under way.
     #[arg(long)]
     pub rejoin: bool,
+    /// Incarnation of this process in the vehicle's slot: 1 for the first process, one
+    /// more per restart (the supervisor says which); 0 (default) when unknown. Carried in
+    /// every state, so the coordinator tells a new process from the one it knew.
+    #[arg(long, default_value_t = 0)]
+    pub incarnation: u32,
     /// JSON-lines log file (default: stderr).
     #[arg(long)]
     pub log: Option<PathBuf>,
@@ -61,7 +66,12 @@ fn main_flying(args: &Args, law: Option<Arc<dyn ControlLaw>>) -> ! {
     let log = vbap_ipc::telemetry::init(&process, args.log.as_deref());
     let msgs = vbap_ipc::process::message_log(args.log.as_deref());
     let law = law.unwrap_or_else(|| crate::mission_law(&mission));
-    let result = crate::run::run_with(&mission, args.id, args.rejoin, law, msgs, announce_ready);
+    let start = crate::run::Start {
+        id: args.id,
+        rejoin: args.rejoin,
+        incarnation: args.incarnation,
+    };
+    let result = crate::run::run_with(&mission, start, law, msgs, announce_ready);
     vbap_ipc::process::leave_domain();
     finish(&process, result.err().map(|e| format!("{e:#}")), log)
 }

@@ -1,5 +1,5 @@
-//! `vehicle_agent --mission FILE --id I [--rejoin] [--log FILE]`: one vehicle of a mission,
-//! flying the mission's control law (`control.law`).
+//! `vehicle_agent --mission FILE --id I [--rejoin] [--incarnation N] [--log FILE]`: one
+//! vehicle of a mission, flying the mission's control law (`control.law`).
 
 use clap::Parser;
 

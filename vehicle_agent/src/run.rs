@@ -37,37 +37,37 @@ use self::commands::{CommandFilter, NewCommand};
 use self::outbox::{Announce, Outbox};
 use crate::{initial_agent, initial_design, Agent, Guidance, Vehicle};
 
-/// Runs vehicle `id` of `mission` under the mission's control law ([`crate::mission_law`])
-/// until the mission ends or
-/// a termination signal. `rejoin`: the process is a restart (the supervisor says so) and
-/// asks to join the mission under way instead of starting at tick 0. `msgs` receives the
-/// message records; `on_ready` is called once every port exists.
-pub fn run(
-    mission: &Mission,
-    id: u32,
-    rejoin: bool,
-    msgs: MsgLog,
-    on_ready: impl FnOnce(),
-) -> Result<()> {
-    run_with(
-        mission,
-        id,
-        rejoin,
-        crate::mission_law(mission),
-        msgs,
-        on_ready,
-    )
+/// Which process of which vehicle an agent is.
+#[derive(Clone, Copy, Debug)]
+pub struct Start {
+    /// The vehicle's id.
+    pub id: u32,
+    /// The process is a restart (the supervisor says so): it asks to join the mission under
+    /// way instead of starting at tick 0.
+    pub rejoin: bool,
+    /// The process's incarnation in the vehicle's slot (`VehicleState::incarnation`; 0:
+    /// unknown).
+    pub incarnation: u32,
+}
+
+/// Runs the vehicle `start` names of `mission` under the mission's control law
+/// ([`crate::mission_law`]) until the mission ends or a termination signal. `msgs` receives
+/// the message records; `on_ready` is called once every port exists.
+pub fn run(mission: &Mission, start: Start, msgs: MsgLog, on_ready: impl FnOnce()) -> Result<()> {
+    run_with(mission, start, crate::mission_law(mission), msgs, on_ready)
 }
 
 /// [`run`] with the vehicle flying `law` (a user's own control law).
 pub fn run_with(
     mission: &Mission,
-    id: u32,
-    rejoin: bool,
+    start: Start,
     law: Arc<dyn ControlLaw>,
     msgs: MsgLog,
     on_ready: impl FnOnce(),
 ) -> Result<()> {
+    let Start {
+        id, incarnation, ..
+    } = start;
     let domain = Domain::new(&mission.mission.name)?;
     let limits = Limits::for_fleet(mission.vehicles.count);
     let node = domain.agent_node(&topics::agent_node_name(id))?;
@@ -79,10 +79,9 @@ pub fn run_with(
 
     let mut pilot = Pilot::new(
         mission,
-        id,
-        rejoin,
+        start,
         law,
-        Outbox::new(state, id, mission.mission.dt),
+        Outbox::new(state, id, incarnation, mission.mission.dt),
         msgs,
     )?;
     info!(
@@ -95,14 +94,11 @@ pub fn run_with(
         "agent up"
     );
     on_ready();
-    let flags = if pilot.joining {
-        VehicleState::JOINING
+    if pilot.joining {
+        pilot.ask_to_join()?;
     } else {
-        0
-    };
-    pilot
-        .out
-        .publish(&pilot.vehicle, 0, flags, 0, Announce::Now)?;
+        pilot.out.publish(&pilot.vehicle, 0, 0, 0, Announce::Now)?;
+    }
 
     // Check for commands first, wait only when there is nothing to act on.
     let mut idle = false;
@@ -139,8 +135,18 @@ pub fn run_with(
         let ran_ahead = pilot.lockstep_step()?;
         idle = !(stepped || ran_ahead);
         pilot.log_fates();
+        if pilot.joining && pilot.asked.elapsed() >= JOIN_AGAIN {
+            // Not admitted yet: the request may have been lost (a coordinator that was
+            // down, or restarted and has not read it): asked again, until admitted.
+            pilot.ask_to_join()?;
+        }
     }
 }
+
+/// How often a joining agent asks again while it is not admitted (wall time; it also asks
+/// again at once when a restarted coordinator re-sends its last command). A request is
+/// one message, and a coordinator that was down, or restarted, may never have read it.
+const JOIN_AGAIN: Duration = Duration::from_millis(200);
 
 /// One vehicle agent between two waits: the vehicle, its clock and what it has read and
 /// reported.
@@ -160,6 +166,11 @@ struct Pilot<'m> {
     hold_after: Option<Duration>,
     /// A restarted process waits to be admitted back.
     joining: bool,
+    /// This process's incarnation (`VehicleState::incarnation`; 0: unknown): only an
+    /// admission naming it (or 0) is ours.
+    incarnation: u32,
+    /// When the last join request went out.
+    asked: std::time::Instant,
     /// The vehicle's tick: its state is that of t = k·dt.
     k: u64,
     /// Lockstep: the newest command received bounds how far the vehicle may run ahead.
@@ -174,8 +185,11 @@ struct Pilot<'m> {
 impl<'m> Pilot<'m> {
     fn new(
         mission: &'m Mission,
-        id: u32,
-        rejoin: bool,
+        Start {
+            id,
+            rejoin,
+            incarnation,
+        }: Start,
         law: Arc<dyn ControlLaw>,
         out: Outbox,
         msgs: MsgLog,
@@ -204,6 +218,8 @@ impl<'m> Pilot<'m> {
             // A restarted process asks to join the mission under way; the coordinator
             // admits it by handing its last known state back in the snapshot.
             joining: rejoin,
+            incarnation,
+            asked: std::time::Instant::now(),
             k: 0,
             newest_command: None,
             reported_read: 0,
@@ -264,9 +280,33 @@ impl<'m> Pilot<'m> {
         );
     }
 
+    /// Asks to join the mission under way (a state flagged `JOINING`: the vehicle as it was
+    /// deployed, this process's pid and incarnation).
+    fn ask_to_join(&mut self) -> Result<()> {
+        self.asked = std::time::Instant::now();
+        self.out
+            .publish(&self.vehicle, 0, VehicleState::JOINING, 0, Announce::Now)
+    }
+
+    /// Whether `own` (this vehicle's entry of a command's snapshot) admits this process:
+    /// flagged [`SnapshotEntry::ADMITTED`] for this incarnation (or an unknown one). An
+    /// admission of an earlier process of the vehicle (read from the body service's
+    /// history by a process restarted at once) is not ours.
+    fn admits_me(&self, own: Option<&SnapshotEntry>) -> bool {
+        own.is_some_and(|e| {
+            e.alive == SnapshotEntry::ADMITTED
+                && (e.incarnation == 0
+                    || self.incarnation == 0
+                    || e.incarnation == self.incarnation)
+        })
+    }
+
     /// A restarted coordinator re-sent its last command (of tick `after`): our states
-    /// since, again.
+    /// since, again (a joining process: its request).
     fn resend_after(&mut self, after: u64) -> Result<()> {
+        if self.joining {
+            return self.ask_to_join();
+        }
         for tick in self.out.resend_after(after, self.read())? {
             info!(
                 vehicle = self.id,
@@ -281,13 +321,17 @@ impl<'m> Pilot<'m> {
     fn apply(&mut self, mut commands: Vec<NewCommand>) -> Result<bool> {
         let paced = self.hold_after.is_some();
         if paced && commands.len() > 1 {
-            // Paced: only the newest command counts (the older ones are late).
-            commands.drain(..commands.len() - 1);
+            // Paced: only the newest command counts (the older ones are late), but a
+            // joining vehicle never skips the one that admits it.
+            let admission = commands
+                .iter()
+                .rposition(|(_, _, own)| self.joining && self.admits_me(own.as_ref()));
+            commands.drain(..admission.unwrap_or(commands.len() - 1));
         }
         let mut stepped = false;
         for (tick, guidance, own) in commands {
             self.newest_command = Some(tick);
-            let admitted = own.is_some_and(|e| e.alive == SnapshotEntry::ADMITTED);
+            let admitted = self.admits_me(own.as_ref());
             if self.joining || admitted {
                 // Admitted when the coordinator hands our state back in the snapshot.
                 match own {

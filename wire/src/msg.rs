@@ -129,7 +129,12 @@ pub mod agent_to_coordinator {
         pub header: Header,
         /// OS process id of the agent (the coordinator SIGKILLs it for a scheduled kill).
         pub pid: u32,
-        pub _pad: u32,
+        /// Incarnation of the vehicle's process: 1 for the first process the supervisor
+        /// started in the vehicle's slot, one more for each restart (0: unknown, an agent
+        /// started by hand). A state of a later incarnation than the coordinator knows is a
+        /// new process (a loss then a rejoin), one of an earlier incarnation the last words
+        /// of a dead one. Was padding (always 0) before; same layout.
+        pub incarnation: u32,
         /// Position x_i, length unit.
         pub position: [f64; 3],
         /// Velocity ẋ_i, length unit/s.
@@ -192,7 +197,11 @@ pub mod coordinator_to_agent {
         pub alive: u32,
         /// 1 while the vehicle rejoins (flies to `target`, `vbap_math::rejoin`), else 0.
         pub rejoining: u32,
-        pub _pad: u32,
+        /// The incarnation of the vehicle's process this entry is about
+        /// ([`super::agent_to_coordinator::VehicleState::incarnation`]; 0: unknown): an
+        /// agent takes [`SnapshotEntry::ADMITTED`] as its own admission only when it names
+        /// its own incarnation (or 0). Was padding (always 0) before; same layout.
+        pub incarnation: u32,
         /// Position, length unit.
         pub position: [f64; 3],
         /// Velocity, length unit/s.

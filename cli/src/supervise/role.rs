@@ -26,6 +26,19 @@ impl Role {
     }
 }
 
+impl Role {
+    /// The `ProcessExit` role and vehicle of this process (None: a bridge, no process of
+    /// the coordinator's).
+    pub fn exit_role(self) -> Option<(u32, u32)> {
+        match self {
+            Role::FieldServer => Some((ProcessExit::FIELD_SERVER, 0)),
+            Role::Coordinator => Some((ProcessExit::COORDINATOR, 0)),
+            Role::Agent(id) => Some((ProcessExit::AGENT, id)),
+            Role::Bridge => None,
+        }
+    }
+}
+
 /// The report of the death of process `pid` in `role`, reaped at `died_ns`.
 pub fn exit_report(
     role: Role,
@@ -34,12 +47,8 @@ pub fn exit_report(
     died_ns: u64,
 ) -> ProcessExit {
     use std::os::unix::process::ExitStatusExt;
-    let (role, vehicle) = match role {
-        Role::FieldServer => (ProcessExit::FIELD_SERVER, 0),
-        Role::Coordinator => (ProcessExit::COORDINATOR, 0),
-        Role::Agent(id) => (ProcessExit::AGENT, id),
-        Role::Bridge => (u32::MAX, 0), // never reported (see `ProcessSet::watch`)
-    };
+    // A bridge is never reported (see `ProcessSet::watch`).
+    let (role, vehicle) = role.exit_role().unwrap_or((u32::MAX, 0));
     ProcessExit {
         header: Header::from_sender(Header::SUPERVISOR),
         role,

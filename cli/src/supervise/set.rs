@@ -5,9 +5,11 @@ use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
+use coordinator::exits::{self, Event, ExitRecord};
 use nix::sys::signal::Signal;
 use tokio::process::Child;
 use tokio::sync::{mpsc, oneshot};
+use tracing::warn;
 use vbap_ipc::msg::wall_ns;
 use vbap_mission::config::{Mission, RestartPolicy};
 use vbap_mission::rundir::{RunDir, Summary};
@@ -69,8 +71,9 @@ pub struct ProcessSet<'a> {
 }
 
 impl<'a> ProcessSet<'a> {
-    /// The program of `role` and its arguments (`restart`: a rejoining agent).
-    pub fn args(&self, role: Role, restart: bool) -> (&'a Executable, Vec<String>) {
+    /// The program of `role` and its arguments for the process of incarnation
+    /// `incarnation` in its slot (1: the first; a later agent rejoins).
+    pub fn args(&self, role: Role, incarnation: u32) -> (&'a Executable, Vec<String>) {
         let mut args = vec!["--mission".to_string(), self.mission_file.clone()];
         let exe = match role {
             Role::FieldServer => &self.exes.field_server,
@@ -83,8 +86,13 @@ impl<'a> ProcessSet<'a> {
                 &self.exes.coordinator
             }
             Role::Agent(id) => {
-                args.extend(["--id".to_string(), id.to_string()]);
-                if restart {
+                args.extend([
+                    "--id".to_string(),
+                    id.to_string(),
+                    "--incarnation".to_string(),
+                    incarnation.to_string(),
+                ]);
+                if incarnation > 1 {
                     args.push("--rejoin".to_string());
                 }
                 &self.exes.vehicle_agent
@@ -152,10 +160,25 @@ impl<'a> ProcessSet<'a> {
     /// never waits for a process nobody watches.
     pub async fn launch(&mut self, slot: usize) -> Result<oneshot::Receiver<Result<()>>> {
         let role = self.procs[slot].role;
-        let (exe, args) = self.args(role, self.procs[slot].generation > 0);
+        let (exe, args) = self.args(role, self.procs[slot].generation + 1);
         let child = spawn(exe, &role.name(), &args, self.dir).await?;
         self.procs[slot].pid = child.id();
         self.procs[slot].generation += 1;
+        let incarnation = self.procs[slot].generation;
+        if let (true, Some(pid), Some(kind)) = (incarnation > 1, child.id(), role.exit_role()) {
+            let rec = ExitRecord {
+                event: Event::Restarted,
+                role: kind.0,
+                vehicle: kind.1,
+                pid,
+                incarnation,
+                signal: 0,
+                at_ns: wall_ns(),
+            };
+            if let Err(e) = exits::append(&self.dir.root, &rec) {
+                warn!(process = %role.name(), error = %e, "recording a restart");
+            }
+        }
         Ok(self.watch(slot, child))
     }
 
@@ -169,6 +192,7 @@ impl<'a> ProcessSet<'a> {
         let notices = self.notices.clone();
         let handed = self.handed.clone();
         let stopping = self.stopping.clone();
+        let root = self.dir.root.clone();
         let (ready_tx, ready_rx) = oneshot::channel();
         tokio::spawn(async move {
             let pid = child.id();
@@ -207,6 +231,12 @@ impl<'a> ProcessSet<'a> {
             // (A bridge's end is no process of the coordinator's: not reported.)
             if let (Some(pid), false, false) = (pid, stopped, role == Role::Bridge) {
                 let report = exit_report(role, pid, &status, wall_ns());
+                // Recorded before anyone acts on it: a coordinator down at this moment
+                // learns of it from the record when it resumes.
+                let rec = ExitRecord::died(&report, generation);
+                if let Err(e) = exits::append(&root, &rec) {
+                    warn!(process = %role.name(), error = %e, "recording a death");
+                }
                 let _ = notices.send(Notice::Exit(report));
             }
             let _ = exits.send(Exit {

@@ -16,6 +16,10 @@ use super::{Coordinator, Flow, GO, LOCKSTEP_TIMEOUT, STOP};
 use crate::membership::Loss;
 use crate::plan::Plan;
 
+/// Least wait of a lockstep gather for a member before its silence (counted across
+/// coordinator restarts) may lose it: an agent answers a command within it.
+const OVERDUE_GRACE: Duration = Duration::from_secs(1);
+
 impl<P: Plan + Serialize> Coordinator<'_, P> {
     /// Gathers the states of the tick; `admitted`: the vehicles admitted at this tick (no
     /// state of theirs is waited for). [`STOP`] on a termination signal.
@@ -146,6 +150,24 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         if missing.is_empty() {
             return Ok(None);
         }
+        // A vehicle heard before and silent past the limit is lost, however recent this
+        // gather (or this coordinator process, resumed with the silence it inherited) once
+        // the gather has waited OVERDUE_GRACE for it: a coordinator that was itself held
+        // up (a field server's outage) gives every agent that long to answer its command.
+        let overdue: Vec<u32> = missing
+            .iter()
+            .copied()
+            .filter(|&v| {
+                gather_start.elapsed() >= OVERDUE_GRACE
+                    && self.inbox.peers[v as usize]
+                        .last_recv
+                        .is_some_and(|t| t.elapsed() >= LOCKSTEP_TIMEOUT)
+            })
+            .collect();
+        if !overdue.is_empty() {
+            self.lose_silent(&overdue)?;
+            return Ok(Some(Duration::ZERO));
+        }
         let left = wait_limit.saturating_sub(gather_start.elapsed());
         if !left.is_zero() {
             return Ok(Some(left.min(SUSPECT_AFTER)));
@@ -155,6 +177,13 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             ?missing,
             "lockstep timeout: going on without the silent vehicles"
         );
+        self.lose_silent(missing)?;
+        Ok(None)
+    }
+
+    /// Loses the vehicles of `missing` heard from before as `silent` (their next word is a
+    /// join request); a vehicle never heard from is still starting up.
+    fn lose_silent(&mut self, missing: &[u32]) -> Result<()> {
         for &v in missing {
             let peer = &mut self.inbox.peers[v as usize];
             let Some(last) = peer.last_recv else {
@@ -164,7 +193,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             let silent_ms = last.elapsed().as_secs_f64() * 1e3;
             self.lose(v, Loss::found("silent", "silence", pid, Some(silent_ms)))?;
         }
-        Ok(None)
+        Ok(())
     }
 
     /// How long a paced gather waits next; None at the tick's deadline (the tick is late

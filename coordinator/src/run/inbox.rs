@@ -23,6 +23,8 @@ pub(super) type StateSubscriber =
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Peer {
     pub pid: u32,
+    /// Incarnation of the process [`Peer::pid`] (`VehicleState::incarnation`; 0: unknown).
+    pub incarnation: u32,
     pub last_seq: Option<u64>,
     /// The newest tick whose state of this vehicle a tick has used ([`Inbox::used`]): a
     /// state of it or of an older tick is never kept again, whatever its sequence number
@@ -150,14 +152,11 @@ impl Inbox {
         self.msgs.recv_now(hop, &h, Header::COORDINATOR);
         let peer = &mut self.peers[id as usize];
         let joining = h.flags & VehicleState::JOINING != 0;
-        // A join request comes from a new process (another pid): flagged, or any state of
-        // a vehicle that was lost. A lost vehicle's last words from its old process are
-        // not one.
-        let new_process = s.pid != peer.pid && (joining || fleet.is_lost(id));
+        let (new_process, older) = identify(peer, &s, joining || fleet.is_lost(id));
         let replay = !new_process && peer.last_seq.is_some_and(|q| h.seq <= q);
         // Lockstep agents may run ahead by LOOKAHEAD_TICKS.
         let future = h.tick > k + 1 + Limits::LOOKAHEAD_TICKS;
-        if h.sender != id || replay || future || !s.is_finite() {
+        if h.sender != id || replay || future || older || !s.is_finite() {
             self.counts.rejected += 1;
             warn!(
                 vehicle = id,
@@ -166,6 +165,7 @@ impl Inbox {
                 seq = h.seq,
                 replay,
                 future,
+                older_incarnation = older,
                 finite = s.is_finite(),
                 "rejected a state"
             );
@@ -173,6 +173,7 @@ impl Inbox {
         }
         peer.last_seq = Some(h.seq);
         peer.pid = s.pid;
+        peer.incarnation = peer.incarnation.max(s.incarnation);
         if new_process {
             peer.restart_gap_ms = peer.last_recv.map(|t| t.elapsed().as_secs_f64() * 1e3);
         }
@@ -185,7 +186,7 @@ impl Inbox {
         if h.flags & VehicleState::ACK != 0 {
             return; // no new state, only what the agent has read
         }
-        if joining || fleet.is_lost(id) {
+        if joining || fleet.is_lost(id) || new_process {
             if new_process {
                 info!(vehicle = id, tick = h.tick, pid = s.pid, "join request");
                 peer.join_request = Some(Instant::now());
@@ -215,6 +216,11 @@ impl Inbox {
         self.states.entry(id).or_default().insert(h.tick, s);
     }
 
+    /// The incarnation of the process the coordinator takes as vehicle `v`'s (0: unknown).
+    pub fn incarnation(&self, v: u32) -> u32 {
+        self.peers.get(v as usize).map_or(0, |p| p.incarnation)
+    }
+
     /// Lockstep, command `k` just published: whether vehicle `v`'s agent must be woken for
     /// it. Not when it runs ahead (its state of tick k + 2 or later is in: it needs no
     /// command to step for now) and at most `Limits::body_buffer` − 2 commands are unread
@@ -237,6 +243,21 @@ impl Inbox {
         let unread = k.saturating_sub(self.peers[v as usize].commands_read) + 1;
         unread > self.body_buffer
     }
+}
+
+/// Who sent state `s`, against what the coordinator knows of the vehicle's process
+/// (`peer`): (a new process, the last words of an older one). A new process is another pid
+/// that asks to join (`asks`: flagged `JOINING`, or any state of a vehicle that is lost),
+/// or a later incarnation than the one known, whatever it says: a process restarted
+/// faster than its death was noticed is a loss and a rejoin, never a silent swap. A state
+/// of an earlier incarnation than the one known comes from a process already replaced.
+/// Incarnation 0 (unknown) is neither.
+fn identify(peer: &Peer, s: &VehicleState, asks: bool) -> (bool, bool) {
+    let known = peer.incarnation;
+    let later = known != 0 && s.incarnation > known;
+    let older = s.incarnation != 0 && s.incarnation < known;
+    let new_process = !older && s.pid != peer.pid && (asks || later);
+    (new_process, older)
 }
 
 #[cfg(test)]
@@ -264,7 +285,7 @@ mod tests {
                 sent_ns: 0,
             },
             pid: 100 + id,
-            _pad: 0,
+            incarnation: 0,
             position: [x, 0.0, 0.0],
             velocity: [0.0; 3],
             commands_read: tick,
@@ -324,6 +345,42 @@ mod tests {
         assert_eq!(inbox.state(0, 5, false).unwrap().header.tick, 5);
         // A vehicle with no state of tick 4 gets no mark.
         assert_eq!(inbox.peers[1].used_tick, None);
+    }
+
+    /// A process restarted faster than its death was noticed: its first state comes from
+    /// a later incarnation, unflagged even (an agent that read an old admission), while
+    /// the vehicle is still a member. It is a new process (a join request: the loss and
+    /// the rejoin follow), never a silent swap; the dead process's last words, read after
+    /// it, are rejected.
+    #[test]
+    fn a_later_incarnation_is_a_new_process_and_an_earlier_one_is_rejected() {
+        let (mut inbox, fleet) = setup();
+        let of = |inc: u32, pid: u32, tick: u64, seq: u64| VehicleState {
+            incarnation: inc,
+            pid,
+            ..state(1, tick, seq, 0.0)
+        };
+        inbox.take_in(1, of(1, 500, 10, 40), &fleet, 10);
+        assert_eq!(inbox.incarnation(1), 1);
+        assert!(inbox.joins.is_empty());
+        // The new process: incarnation 2, a new pid, sequence numbers from 1.
+        inbox.take_in(1, of(2, 501, 11, 1), &fleet, 11);
+        assert!(inbox.joins.contains(&1), "a new process asks to join");
+        assert_eq!(inbox.incarnation(1), 2);
+        assert_eq!(inbox.peers[1].pid, 501);
+        assert!(
+            inbox.state(1, 11, false).is_none(),
+            "not a report of the tick"
+        );
+        // The old one's last state, read late.
+        let rejected = inbox.counts.rejected;
+        inbox.take_in(1, of(1, 500, 11, 41), &fleet, 11);
+        assert_eq!(inbox.counts.rejected, rejected + 1);
+        assert_eq!(inbox.peers[1].pid, 501, "the old process is not taken back");
+        // Unknown incarnations (agents started by hand) keep the pid rule.
+        inbox.take_in(2, of(0, 600, 10, 1), &fleet, 10);
+        inbox.take_in(2, of(0, 601, 11, 1), &fleet, 11);
+        assert!(!inbox.joins.contains(&2));
     }
 
     /// A replay (a sequence number not above the last one) is still rejected as such.

@@ -42,6 +42,9 @@ pub(super) struct Liveness {
     pub exits: iceoryx2::port::subscriber::Subscriber<ipc::Service, ProcessExit, ()>,
     /// Agent exits heard and not acted on yet.
     pub agent_exits: Vec<ProcessExit>,
+    /// Agent deaths read from the supervisor's record ([`crate::exits`]) by a resumed
+    /// coordinator, not acted on yet: those it missed while no coordinator ran.
+    pub recorded: Vec<ProcessExit>,
     pub last_scan: Instant,
     /// Wall time the last node-list scan took.
     pub scan_cost: Duration,
@@ -67,6 +70,7 @@ impl Liveness {
         Self {
             exits,
             agent_exits: Vec::new(),
+            recorded: Vec::new(),
             last_scan: Instant::now(),
             scan_cost: Duration::ZERO,
             since: Instant::now(),
@@ -170,10 +174,17 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         Ok(self.scan()? || lost)
     }
 
-    /// Loses the vehicles whose process the supervisor reported dead; true when one was.
+    /// Loses the vehicles whose process the supervisor reported dead, or recorded dead
+    /// while no coordinator ran (`by = "record"`); true when one was.
     fn supervisor_reports(&mut self) -> Result<bool> {
         let mut lost = false;
-        for e in std::mem::take(&mut self.live.agent_exits) {
+        let recorded = std::mem::take(&mut self.live.recorded);
+        let heard = std::mem::take(&mut self.live.agent_exits);
+        let reports = recorded
+            .into_iter()
+            .map(|e| (e, "record"))
+            .chain(heard.into_iter().map(|e| (e, "supervisor")));
+        for (e, by) in reports {
             let v = e.vehicle;
             let Some(peer) = self.inbox.peers.get(v as usize) else {
                 continue;
@@ -206,7 +217,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             } else {
                 "process ended"
             };
-            self.lose(v, Loss::found(cause, "supervisor", e.pid, Some(ms)))?;
+            self.lose(v, Loss::found(cause, by, e.pid, Some(ms)))?;
             lost = true;
         }
         Ok(lost)

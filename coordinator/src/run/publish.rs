@@ -25,7 +25,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         let TickOutcome {
             fates,
             command,
-            snapshot,
+            mut snapshot,
         } = plan_tick(
             k,
             self.dt,
@@ -46,6 +46,10 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
                 }
                 _ => {}
             }
+        }
+        // Each entry names the process it is about: an admission is that process's only.
+        for e in &mut snapshot {
+            e.incarnation = self.inbox.incarnation(e.id);
         }
         Ok(BodyRecord::from_command(k, self.dt, &command, snapshot))
     }

@@ -141,6 +141,8 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
                 pid: p.pid,
                 last_seq: p.last_seq,
                 used_tick: p.used_tick,
+                incarnation: p.incarnation,
+                silent_ns: p.last_recv.map(silent_ns),
             })
             .collect();
         CheckpointRef {
@@ -177,10 +179,14 @@ fn resume<P>(
 ) -> Result<Start<P>> {
     dir.truncate_to(&cp.offsets)
         .context("cutting the run files back to the checkpoint")?;
+    let now = Instant::now();
     for (peer, mark) in inbox.peers.iter_mut().zip(&cp.peers) {
         peer.pid = mark.pid;
         peer.last_seq = mark.last_seq;
         peer.used_tick = mark.used_tick;
+        peer.incarnation = mark.incarnation;
+        // Silence goes on counting from what the dead coordinator had counted.
+        peer.last_recv = mark.silent_ns.map(|ns| heard_before(ns, now));
     }
     inbox.counts = cp.counts;
     info!(
@@ -188,6 +194,9 @@ fn resume<P>(
         "resumed from the checkpoint: re-publishing the last command"
     );
     live.resumed = true;
+    // Deaths the supervisor recorded while no coordinator listened (and older ones, of
+    // processes no longer ours: ignored as such).
+    live.recorded = crate::exits::agent_deaths(&dir.root);
     // The mission's wall clock goes on: the ticks missed while no coordinator ran are due
     // already (caught up, late), not postponed by the outage.
     let mut clock = MissionClock::default();
@@ -196,6 +205,8 @@ fn resume<P>(
         clock.start = Some(Instant::now().checked_sub(ago).unwrap_or_else(Instant::now));
         clock.start_ns = Some(ns);
     }
+    // The mission was commanded long before: silence is not counted from our first command.
+    live.commanded = Some(clock.start.unwrap_or(live.since));
     let recorder = Recorder::resume_with(mission, dir, cp.stats, truth)
         .context("opening the run directory files")?;
     Ok(Start {
@@ -212,4 +223,52 @@ fn resume<P>(
         clock,
         republish: Some(cp.body),
     })
+}
+
+/// Silence since instant `heard`, ns (what a checkpoint keeps of a vehicle's last message).
+fn silent_ns(heard: Instant) -> u64 {
+    heard.elapsed().as_nanos().min(u64::MAX as u128) as u64
+}
+
+/// The instant `silent` ns before `now` (the last message of a vehicle silent that long; the
+/// earliest instant the monotonic clock can name when that is before its origin).
+fn heard_before(silent: u64, now: Instant) -> Instant {
+    let mut ago = Duration::from_nanos(silent);
+    loop {
+        if let Some(t) = now.checked_sub(ago) {
+            return t;
+        }
+        ago /= 2;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A vehicle silent 8 s at the last checkpoint of a coordinator is silent 8 s for the
+    /// coordinator resumed from it (not 0), however long the outage between them: restarts
+    /// neither reset nor advance the liveness limit.
+    #[test]
+    fn silence_survives_a_restart_through_the_checkpoint() {
+        let now = Instant::now();
+        let start = Instant::now();
+        let Some(heard) = now.checked_sub(Duration::from_secs(8)) else {
+            return; // a monotonic clock younger than 8 s: nothing to check
+        };
+        let kept = silent_ns(heard);
+        assert!(kept >= 8_000_000_000, "{kept}");
+        let resumed = Instant::now() + Duration::from_secs(3); // after a 3 s outage
+        let restored = heard_before(kept, resumed);
+        let silence = resumed.duration_since(restored);
+        assert!(silence >= Duration::from_secs(8), "{silence:?}");
+        // Only the time this test took is added.
+        assert!(
+            silence <= Duration::from_secs(8) + start.elapsed(),
+            "{silence:?}"
+        );
+        // Never heard stays never heard; a silence longer than the clock is the clock's origin.
+        assert_eq!(heard_before(0, resumed), resumed);
+        assert!(heard_before(u64::MAX, resumed) <= resumed);
+    }
 }

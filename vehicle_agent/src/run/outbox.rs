@@ -28,6 +28,8 @@ pub(super) struct Outbox {
     sender: Sender<VehicleState>,
     id: u32,
     pid: u32,
+    /// This process's incarnation (`VehicleState::incarnation`).
+    incarnation: u32,
     /// Control period, s (a state of tick k is at t = k·dt).
     dt: f64,
     /// The sequence number of the last message sent.
@@ -39,11 +41,12 @@ pub(super) struct Outbox {
 }
 
 impl Outbox {
-    pub(super) fn new(sender: Sender<VehicleState>, id: u32, dt: f64) -> Self {
+    pub(super) fn new(sender: Sender<VehicleState>, id: u32, incarnation: u32, dt: f64) -> Self {
         Self {
             sender,
             id,
             pid: std::process::id(),
+            incarnation,
             dt,
             seq: 0,
             recent: VecDeque::new(),
@@ -102,7 +105,7 @@ impl Outbox {
         VehicleState {
             header: Header::new(self.id, k, k as f64 * self.dt, self.seq).with_flags(flags),
             pid: self.pid,
-            _pad: 0,
+            incarnation: self.incarnation,
             position: from_vec3(&agent.position),
             velocity: from_vec3(&agent.velocity),
             commands_read: read,

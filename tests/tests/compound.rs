@@ -1,0 +1,177 @@
+//! End-to-end tests of compound faults: a death during another recovery. Real processes,
+//! real SIGKILLs and SIGSTOPs; every wait is for an event of the run (a line of its
+//! files), never a sleep; no latency is asserted.
+
+use std::path::Path;
+use std::time::Duration;
+
+use tests::mission::GaussianHill;
+use tests::*;
+
+fn mission(name: &str, n: usize, pace: &str, extra: &str) -> String {
+    GaussianHill::stiff(name, "min_scale = 0.6\n")
+        .seed(5)
+        .count(n)
+        .duration(100_000.0)
+        .dt(0.05)
+        .pace(pace)
+        .then(extra)
+        .toml()
+}
+
+fn events(dir: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(dir.join("events.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
+}
+
+/// Events of `kind` about vehicle `v`.
+fn of(dir: &Path, kind: &str, v: u64) -> Vec<serde_json::Value> {
+    events(dir)
+        .into_iter()
+        .filter(|e| e["kind"] == kind && e["vehicle"].as_u64() == Some(v))
+        .collect()
+}
+
+/// Sends `signal` to the first process whose command line mentions `needle`.
+fn signal(signal: &str, needle: &str) {
+    let pid = *processes_mentioning(needle)
+        .first()
+        .unwrap_or_else(|| panic!("no process {needle}"));
+    assert!(std::process::Command::new("kill")
+        .arg(signal)
+        .arg(pid.to_string())
+        .status()
+        .unwrap()
+        .success());
+}
+
+fn agent(out: &Path, id: u32) -> String {
+    format!("{} --id {id} --", out.join("mission.toml").display())
+}
+
+fn coordinator(out: &Path) -> String {
+    format!(
+        "coordinator --mission {}",
+        out.join("mission.toml").display()
+    )
+}
+
+/// Lines of a process's log that contain `text`.
+fn log_count(out: &Path, process: &str, text: &str) -> usize {
+    std::fs::read_to_string(out.join("logs").join(format!("{process}.jsonl")))
+        .map(|t| t.matches(text).count())
+        .unwrap_or(0)
+}
+
+/// An agent killed while the coordinator cannot listen (stopped, then killed itself) and
+/// restarted by the supervisor before any coordinator could notice: the new coordinator
+/// learns of the death from the supervisor's record (or its report) and readmits the new
+/// process, whose join request it never heard the first time. Before: the death was
+/// found only if another exit was reported later, and the restarted agent, having asked
+/// once, was never readmitted.
+#[test]
+fn an_agent_killed_and_restarted_while_the_coordinator_restarts_is_lost_then_readmitted() {
+    let tmp = TempDir::new("cmp_kill");
+    let name = unique_name("cmpkill");
+    let extra = "[restart]\nvehicles = \"on-failure\"\nbackoff = 0.05\n";
+    let file = write_mission(&tmp, "m.toml", &mission(&name, 5, "\"lockstep\"", extra));
+    let out = tmp.join("run");
+    let mut run = spawn_run(&file, &out);
+    wait_for_ticks(&out, 200);
+    // The coordinator hears nothing from here on.
+    signal("-STOP", &coordinator(&out));
+    signal("-KILL", &agent(&out, 1));
+    wait_until(
+        || log_count(&out, "vehicle_agent_1", "\"agent up\"") >= 2,
+        Duration::from_secs(60),
+        "the killed agent to be restarted",
+    );
+    // Its one join request went to a coordinator that is now killed.
+    signal("-KILL", &coordinator(&out));
+    wait_until_or(
+        || !of(&out, "rejoin", 1).is_empty(),
+        Duration::from_secs(120),
+        || {
+            format!(
+                "the restarted agent was never readmitted; events: {:?}",
+                events(&out)
+            )
+        },
+    );
+    run.signal("INT");
+    let status = run.wait();
+    assert_eq!(status.code(), Some(130), "an interrupted run: {status:?}");
+    let lost = of(&out, "lost", 1);
+    let rejoin = of(&out, "rejoin", 1);
+    eprintln!("compound kill: lost {lost:?}, rejoin {rejoin:?}");
+    assert_eq!(lost.len(), 1, "one loss: {lost:?}");
+    assert_eq!(rejoin.len(), 1, "one rejoin: {rejoin:?}");
+    let by = lost[0]["detail"]["by"].as_str().unwrap();
+    assert!(
+        ["record", "supervisor", "join", "scan"].contains(&by),
+        "{by}"
+    );
+    assert!(rejoin[0]["k"].as_u64() >= lost[0]["k"].as_u64());
+    // The new coordinator resumed, and the death it missed is in the record.
+    assert!(log_count(&out, "coordinator", "resumed from the checkpoint") >= 1);
+    let record: Vec<serde_json::Value> = read(&out.join("supervisor.exits.jsonl"))
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a record line is JSON"))
+        .collect();
+    let has = |event: &str, incarnation: u64| {
+        record.iter().any(|r| {
+            r["event"] == event
+                && r["role"] == 0
+                && r["vehicle"] == 1
+                && r["incarnation"].as_u64() == Some(incarnation)
+        })
+    };
+    assert!(has("died", 1), "the kill is recorded: {record:?}");
+    assert!(has("restarted", 2), "the restart is recorded: {record:?}");
+    assert_nothing_left(&name, &tmp);
+}
+
+/// A member that never reports again is lost after its liveness limit (10 s of silence),
+/// whatever restarts of the coordinator did meanwhile: here an agent is stopped and the
+/// coordinator killed. Before: the resumed coordinator had never heard of the stopped
+/// agent, took it for one still starting up, and waited for it forever (every lockstep
+/// tick 10 s, "waiting for reports").
+#[test]
+fn a_silent_member_is_lost_after_its_limit_across_a_coordinator_restart() {
+    let tmp = TempDir::new("cmp_silent");
+    let name = unique_name("cmpsilent");
+    let file = write_mission(&tmp, "m.toml", &mission(&name, 4, "\"lockstep\"", ""));
+    let out = tmp.join("run");
+    let mut run = spawn_run(&file, &out);
+    wait_for_ticks(&out, 200);
+    signal("-STOP", &agent(&out, 2));
+    signal("-KILL", &coordinator(&out));
+    wait_until_or(
+        || !of(&out, "lost", 2).is_empty(),
+        Duration::from_secs(120),
+        || {
+            format!(
+                "the silent member was never lost; events: {:?}",
+                events(&out)
+            )
+        },
+    );
+    signal("-CONT", &agent(&out, 2));
+    wait_until(
+        || !of(&out, "rejoin", 2).is_empty(),
+        Duration::from_secs(60),
+        "the continued agent to be readmitted",
+    );
+    run.signal("INT");
+    let status = run.wait();
+    assert_eq!(status.code(), Some(130), "an interrupted run: {status:?}");
+    let lost = of(&out, "lost", 2);
+    eprintln!("silent across a restart: {lost:?}");
+    assert_eq!(lost.len(), 1, "{lost:?}");
+    assert_eq!(lost[0]["detail"]["cause"], "silent");
+    assert!(log_count(&out, "coordinator", "resumed from the checkpoint") >= 1);
+    assert_nothing_left(&name, &tmp);
+}
