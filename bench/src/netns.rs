@@ -79,7 +79,7 @@ impl Net {
         let list =
             |r: std::ops::Range<usize>| r.map(|v| v.to_string()).collect::<Vec<_>>().join(", ");
         format!(
-            "[hosts.shore]\nendpoint = \"tcp/{}:7447\"\nprocesses = [\"coordinator\", \"field_server\"]\n\
+            "insecure = true\n[hosts.shore]\nendpoint = \"tcp/{}:7447\"\nprocesses = [\"coordinator\", \"field_server\"]\n\
              [hosts.glider_a]\nendpoint = \"tcp/{}:7447\"\nvehicles = [{}]\n\
              [hosts.glider_b]\nendpoint = \"tcp/{}:7447\"\nvehicles = [{}]\n",
             self.addr(0),

@@ -1,5 +1,6 @@
 //! The Zenoh key expressions of a mission, all under `vbap/<mission>/`, and the session's
-//! configuration (explicit endpoints, no multicast scouting).
+//! configuration (explicit endpoints, no multicast scouting, mutual TLS unless the hosts
+//! file says `insecure = true`).
 
 use anyhow::{anyhow, Result};
 use vbap_mission::hosts::Hosts;
@@ -8,6 +9,23 @@ use vbap_mission::hosts::Hosts;
 /// quarter) is gone; its liveliness token vanishes with it. A closed connection (a killed
 /// bridge) is seen at once.
 pub const LEASE_MS: u64 = 1000;
+
+/// Batches (of up to 64 KiB) in each priority's transmission queue of a link: Zenoh's
+/// maximum (default 2). At the bridge's rates a dead link's queue takes seconds to fill,
+/// many leases.
+pub const QUEUE_BATCHES: usize = 16;
+
+/// The priorities of a link's transmission queues, as Zenoh's configuration names them.
+const QUEUES: [&str; 8] = [
+    "control",
+    "real_time",
+    "interactive_high",
+    "interactive_low",
+    "data_high",
+    "data",
+    "data_low",
+    "background",
+];
 
 /// The key expressions of mission `m`.
 #[derive(Clone, Debug)]
@@ -97,7 +115,82 @@ pub fn config(hosts: &Hosts, host: &str) -> Result<zenoh::Config> {
     set(&mut c, "scouting/gossip/enabled", "false".into())?;
     set(&mut c, "transport/link/tx/lease", LEASE_MS.to_string())?;
     set(&mut c, "transport/link/tx/keep_alive", "4".into())?;
+    // A dead link never blocks a healthy one (docs/design/hosts.md, "A dead link"): every
+    // priority's queue at Zenoh's most batches, so that a vanished host's link is closed by
+    // its lease long before a blocking put to it could find its queue full ...
+    for priority in QUEUES {
+        set(
+            &mut c,
+            &format!("transport/link/tx/queue/size/{priority}"),
+            QUEUE_BATCHES.to_string(),
+        )?;
+    }
+    // ... and should one ever be full, the put waits at most a lease, not 5 s, before that
+    // one link is closed.
+    set(
+        &mut c,
+        "transport/link/tx/queue/congestion_control/block/wait_before_close",
+        (LEASE_MS * 1000).to_string(),
+    )?;
+    match &hosts.tls {
+        Some(tls) => {
+            // Mutual TLS, nothing else: a peer is accepted only with a certificate of the
+            // mission's CA, and the shore's certificate must name the address connected to.
+            set(&mut c, "transport/link/protocols", r#"["tls"]"#.into())?;
+            let path = |p: &std::path::Path| format!("{:?}", p.display().to_string());
+            let (cert, key) = match (&me.cert, &me.key) {
+                (Some(c), Some(k)) => (path(c), path(k)),
+                _ => return Err(anyhow!("host {host}: tls/ without cert and key")),
+            };
+            set(
+                &mut c,
+                "transport/link/tls/root_ca_certificate",
+                path(&tls.ca),
+            )?;
+            set(
+                &mut c,
+                "transport/link/tls/listen_certificate",
+                cert.clone(),
+            )?;
+            set(&mut c, "transport/link/tls/listen_private_key", key.clone())?;
+            set(&mut c, "transport/link/tls/connect_certificate", cert)?;
+            set(&mut c, "transport/link/tls/connect_private_key", key)?;
+            set(&mut c, "transport/link/tls/enable_mtls", "true".into())?;
+            set(
+                &mut c,
+                "transport/link/tls/verify_name_on_connect",
+                "true".into(),
+            )?;
+        }
+        None => set(&mut c, "transport/link/protocols", r#"["tcp"]"#.into())?,
+    }
     Ok(c)
+}
+
+/// Whether tracing event `event` is Zenoh's TLS listener refusing a handshake (a peer
+/// without a certificate of the mission's CA, or not speaking TLS): its message, less
+/// Zenoh's hint about open files (a handshake error reaches the same line as an accept
+/// error). None for any other event.
+pub fn refused_handshake(event: &tracing::Event<'_>) -> Option<String> {
+    let meta = event.metadata();
+    if !meta.target().starts_with("zenoh_link_tls") || *meta.level() != tracing::Level::WARN {
+        return None;
+    }
+    struct Message(String);
+    impl tracing::field::Visit for Message {
+        fn record_debug(&mut self, field: &tracing::field::Field, value: &dyn std::fmt::Debug) {
+            if field.name() == "message" {
+                self.0 = format!("{value:?}");
+            }
+        }
+    }
+    let mut m = Message(String::new());
+    event.record(&mut m);
+    const HINT: &str = ". Hint: increase the system open file limit.";
+    if let Some(reason) = m.0.strip_suffix(HINT) {
+        return Some(reason.to_string());
+    }
+    m.0.contains("TLS handshake").then_some(m.0)
 }
 
 /// `list` as a JSON array of strings.

@@ -17,7 +17,8 @@
 //! coordinator: the hosts file says so).
 //!
 //! Quality of service: every stream is a reliable, blocking (`CongestionControl::Block`),
-//! express publication over the TCP link (the acknowledgements too) — lockstep needs every state and every command
+//! express publication over the link, mutual TLS (plain TCP only with the hosts file's
+//! `insecure = true`; the acknowledgements too) — lockstep needs every state and every command
 //! (a dropped one would stall or desynchronise the tick), and the link model that drops
 //! messages lives in the application, not here. States and commands go at
 //! `Priority::RealTime`, exits at `Priority::InteractiveHigh`.

@@ -40,7 +40,12 @@ fn main() {
         vbap_mission::hosts::Hosts::load(&args.hosts, mission.vehicles.count)
             .and_then(|h| h.host(&args.host).map(|_| ()).map(|()| h)),
     );
-    let log = vbap_ipc::telemetry::init("vbap_bridge", args.log.as_deref());
+    let log = vbap_ipc::telemetry::init_watching(
+        "vbap_bridge",
+        args.log.as_deref(),
+        vbap_ipc::telemetry::DEFAULT_FILTER,
+        vbap_bridge::run::watch_handshakes,
+    );
     let result = vbap_bridge::run(&mission, &hosts, &args.host, announce_ready);
     vbap_ipc::process::leave_domain();
     finish("vbap_bridge", result.err().map(|e| format!("{e:#}")), log)

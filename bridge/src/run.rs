@@ -61,6 +61,25 @@ impl Counts {
     }
 }
 
+/// Peers refused at the TLS handshake by this host's Zenoh (no certificate of the
+/// mission's CA, or not speaking TLS): counted by [`watch_handshakes`] from Zenoh's log.
+pub static REFUSED_HANDSHAKES: AtomicU64 = AtomicU64::new(0);
+
+/// The bridge's log watcher: counts and logs every TLS handshake Zenoh's listener refused
+/// (the first ten, then every thousandth).
+pub fn watch_handshakes(event: &tracing::Event<'_>) {
+    if let Some(reason) = crate::keys::refused_handshake(event) {
+        let n = REFUSED_HANDSHAKES.fetch_add(1, Ordering::Relaxed) + 1;
+        if n <= 10 || n.is_multiple_of(1000) {
+            warn!(
+                refused_handshakes = n,
+                reason = %reason,
+                "refused a peer at the TLS handshake: no certificate of the mission's CA, or not TLS"
+            );
+        }
+    }
+}
+
 /// A message from Zenoh (the subscribers' callbacks) to the inbound loop.
 pub(crate) enum In {
     /// A frame on key `key`.
@@ -151,6 +170,7 @@ pub fn run(
         host,
         shore = place.is_shore(),
         lease_ms = keys::LEASE_MS,
+        tls = hosts.tls.is_some(),
         "zenoh session open"
     );
     let counts = Arc::new(Counts::default());
@@ -191,6 +211,7 @@ pub fn run(
         frames_out = counts.frames_out.load(Ordering::Relaxed),
         inbound = counts.inbound.load(Ordering::Relaxed),
         refused = counts.refused.load(Ordering::Relaxed),
+        refused_handshakes = REFUSED_HANDSHAKES.load(Ordering::Relaxed),
         "bridge done"
     );
     result?;

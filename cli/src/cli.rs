@@ -66,6 +66,10 @@ enum Cmd {
         #[arg(long, default_value = vbap_view::DEFAULT_ADDR)]
         addr: String,
     },
+    /// Certificates for mutual TLS between the hosts of a hosts file: a mission CA and one
+    /// certificate per host (its endpoint address as subject alternative name); prints
+    /// the lines to add to the hosts file.
+    Certs(crate::certs::CertsArgs),
     /// Timing analysis of a run from its tracing logs.
     Analyze {
         /// The run directory.
@@ -172,6 +176,7 @@ fn dispatch(cmd: Cmd, plugins: Option<&vbap_sim::Plugins>) -> Result<i32> {
         Cmd::Services(args) => crate::introspect::services(&args),
         Cmd::Echo(args) => crate::introspect::echo(&args),
         Cmd::Ocean(args) => crate::ocean::main(&args),
+        Cmd::Certs(args) => crate::certs::main(&args),
         Cmd::Analyze { run_dir, json } => vbap_report::analyze::main(&run_dir, json),
         Cmd::View { run_dir, addr } => view(&run_dir, &addr),
     }

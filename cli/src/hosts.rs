@@ -30,6 +30,12 @@ pub fn plan(
     };
     let hosts = Hosts::load(file, mission.vehicles.count).map_err(InvalidInput)?;
     let me = hosts.host(host).map_err(InvalidInput)?;
+    if hosts.tls.is_none() {
+        eprintln!(
+            "vbap: warning: {}: insecure = true: plain tcp/ between hosts, unauthenticated and unencrypted (anyone who reaches a host's port is in the mission); `vbap certs` makes what mutual TLS needs",
+            file.display()
+        );
+    }
     let file: PathBuf = std::fs::canonicalize(file)
         .map_err(|e| InvalidInput(format!("{}: {e}", file.display())))?;
     Ok(Some(HostPlan {

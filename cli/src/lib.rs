@@ -13,11 +13,13 @@
 //! - [`lock`]: one supervisor per mission name on a host.
 //! - [`introspect`]: `vbap services` and `vbap echo`, a look inside a running mission.
 //! - [`hosts`]: `vbap run --hosts FILE --host NAME`, one host's share of a mission
-//!   spread over machines (with `vbap_bridge`).
+//!   spread over machines (with `vbap_bridge`); [`certs`]: `vbap certs`, the mission's CA
+//!   and its hosts' certificates for mutual TLS between them.
 //!
 //! Pictures and timing analyses are `vbap-report`'s; the steps of the processes are the
 //! libraries of `coordinator`, `vehicle_agent` and `field_server`.
 
+pub mod certs;
 pub mod cli;
 pub mod compare;
 pub mod custom;

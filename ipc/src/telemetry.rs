@@ -21,6 +21,8 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use tracing_subscriber::fmt::MakeWriter;
+use tracing_subscriber::layer::SubscriberExt;
+use tracing_subscriber::util::SubscriberInitExt;
 use tracing_subscriber::EnvFilter;
 
 /// Target of per-message records in the JSON logs of earlier versions (the records now have
@@ -102,6 +104,28 @@ pub fn init_with(
     log_file: Option<&Path>,
     default_filter: &str,
 ) -> std::io::Result<LogGuard> {
+    init_watching(process, log_file, default_filter, |_| {})
+}
+
+/// A watcher of the events that pass the filter, called after each is written.
+struct Watch<F>(F);
+
+impl<S: tracing::Subscriber, F: Fn(&tracing::Event<'_>) + Send + Sync + 'static>
+    tracing_subscriber::Layer<S> for Watch<F>
+{
+    fn on_event(&self, event: &tracing::Event<'_>, _: tracing_subscriber::layer::Context<'_, S>) {
+        (self.0)(event)
+    }
+}
+
+/// [`init_with`], and `watch` is called with every event that passes the filter once it
+/// is written (the bridge counts the TLS handshakes its Zenoh refused by it).
+pub fn init_watching(
+    process: &str,
+    log_file: Option<&Path>,
+    default_filter: &str,
+    watch: impl Fn(&tracing::Event<'_>) + Send + Sync + 'static,
+) -> std::io::Result<LogGuard> {
     let filter =
         EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(default_filter));
     let builder = tracing_subscriber::fmt()
@@ -123,11 +147,19 @@ pub fn init_with(
                     .append(true)
                     .open(path)?,
             )));
-            let _ = builder.with_writer(SharedFile(file.clone())).try_init();
+            let subscriber = builder
+                .with_writer(SharedFile(file.clone()))
+                .finish()
+                .with(Watch(watch));
+            let _ = subscriber.try_init();
             LogGuard(Some(file))
         }
         None => {
-            let _ = builder.with_writer(std::io::stderr).try_init();
+            let subscriber = builder
+                .with_writer(std::io::stderr)
+                .finish()
+                .with(Watch(watch));
+            let _ = subscriber.try_init();
             LogGuard(None)
         }
     };

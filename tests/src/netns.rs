@@ -81,13 +81,46 @@ impl Net {
     /// [`Net::hosts_file`] with the shore's line `shore` added (e.g. `vehicles = [4, 5]`).
     pub fn hosts_file_with(&self, shore: &str) -> String {
         format!(
-            "[hosts.shore]\nendpoint = \"tcp/{}:7447\"\nprocesses = [\"coordinator\", \"field_server\"]\n{shore}\n\
+            "insecure = true\n[hosts.shore]\nendpoint = \"tcp/{}:7447\"\nprocesses = [\"coordinator\", \"field_server\"]\n{shore}\n\
              [hosts.glider_a]\nendpoint = \"tcp/{}:7447\"\nvehicles = [0, 1]\n\
              [hosts.glider_b]\nendpoint = \"tcp/{}:7447\"\nvehicles = [2, 3]\n",
             self.addr(0),
             self.addr(1),
             self.addr(2)
         )
+    }
+    /// The hosts file of mutual TLS: `tls/` endpoints, `[tls] ca` and every host's
+    /// certificate and key in folder `certs` (relative to the hosts file: `vbap certs`'s
+    /// `--out`, file names `ca.pem`, `<host>.pem`, `<host>.key`).
+    pub fn hosts_file_tls(&self, certs: &str) -> String {
+        let mut text = format!("[tls]\nca = \"{certs}/ca.pem\"\n");
+        for (i, h) in HOSTS.iter().enumerate() {
+            let placed = match i {
+                0 => "processes = [\"coordinator\", \"field_server\"]",
+                1 => "vehicles = [0, 1]",
+                _ => "vehicles = [2, 3]",
+            };
+            text.push_str(&format!(
+                "[hosts.{h}]\nendpoint = \"tls/{}:7447\"\n{placed}\ncert = \"{certs}/{h}.pem\"\nkey = \"{certs}/{h}.key\"\n",
+                self.addr(i)
+            ));
+        }
+        text
+    }
+    /// Runs `program ARGS` in host `host`'s network namespace (stdout and stderr to
+    /// `log`); killed when the guard drops.
+    pub fn spawn_in(&self, host: &str, program: &Path, args: &[&str], log: &Path) -> ChildGuard {
+        let out = std::fs::File::create(log).expect("the log of a process in a namespace");
+        ChildGuard(Some(
+            Command::new("ip")
+                .args(["netns", "exec", &self.ns(host)])
+                .arg(program)
+                .args(args)
+                .stdout(out.try_clone().unwrap())
+                .stderr(out)
+                .spawn()
+                .expect("spawning a process in a namespace"),
+        ))
     }
     /// Host `host`'s link (its veth) down or up: the host vanishes from the network, or
     /// returns (its processes live on).

@@ -1,0 +1,190 @@
+//! Hosts that trust only each other (network namespaces, root: see `tests::netns`): the
+//! certificates of `vbap certs`, a three-host lockstep mission over mutual TLS equal to
+//! `vbap sim`, a peer with a certificate of another CA and a plain-TCP peer refused at the
+//! shore's handshake (counted and logged) while the mission runs on, and plain `tcp/`
+//! refused without `insecure = true`.
+
+use std::os::unix::fs::PermissionsExt;
+use std::path::Path;
+use std::time::Duration;
+
+use tests::netns::*;
+use tests::*;
+
+/// `vbap certs HOSTS --out DIR`, which must succeed; its standard output.
+fn certs(hosts: &Path, out: &Path) -> String {
+    let o = run_ok(vbap().arg("certs").arg(hosts).arg("--out").arg(out));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// The lines of the shore bridge's log that say it refused a peer at the TLS handshake.
+fn refusals(shore: &Path) -> Vec<String> {
+    std::fs::read_to_string(shore.join("logs/vbap_bridge.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .filter(|l| l.contains("refused a peer at the TLS handshake"))
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn three_hosts_over_mutual_tls_equal_the_simulator_and_refuse_strangers() {
+    let tmp = TempDir::new("hoststls");
+    let net = Net::new();
+    let name = unique_name("hoststls");
+    let file = write(&tmp, "m.toml", &hosts_mission(&name, 6.0));
+    // The mission's certificates, made from the hosts file's endpoints.
+    let text = net.hosts_file_tls("certs");
+    let printed = certs(&write(&tmp, "hosts.toml", &text), &tmp.join("certs"));
+    assert!(
+        printed.contains("[tls]") && printed.contains("shore.pem"),
+        "{printed}"
+    );
+    for h in HOSTS {
+        let mode = std::fs::metadata(tmp.join(&format!("certs/{h}.key")))
+            .unwrap()
+            .permissions()
+            .mode();
+        assert_eq!(mode & 0o077, 0, "{h}.key is owner-only: {mode:o}");
+    }
+    let hosts = tmp.join("hosts.toml");
+    // Strangers in glider_b's namespace, on ports of their own: one with certificates of
+    // another CA (its own `vbap certs`), one speaking plain TCP.
+    let rogue_dir = tmp.join("rogue");
+    std::fs::create_dir_all(&rogue_dir).unwrap();
+    let rogue_text = text.replace(":7447\"\nvehicles = [2, 3]", ":7448\"\nvehicles = [2, 3]");
+    let rogue_hosts = rogue_dir.join("hosts.toml");
+    std::fs::write(&rogue_hosts, &rogue_text).unwrap();
+    certs(&rogue_hosts, &rogue_dir.join("certs"));
+    let plain = format!(
+        "insecure = true\n[hosts.shore]\nendpoint = \"tcp/{}:7447\"\nprocesses = [\"coordinator\", \"field_server\"]\n\
+         [hosts.glider_a]\nendpoint = \"tcp/{}:7449\"\nvehicles = [0, 1]\n\
+         [hosts.glider_b]\nendpoint = \"tcp/{}:7449\"\nvehicles = [2, 3]\n",
+        net.addr(0),
+        net.addr(1),
+        net.addr(2)
+    );
+    let plain_hosts = write(&tmp, "plain.toml", &plain);
+    vbap_quiet("sim", &file, &tmp.join("sim"));
+    // The shore first: it waits for the glider hosts, and meanwhile the strangers knock.
+    let mut shore = start_host(&net, &tmp, &file, &hosts, "shore");
+    let ping = bin_dir().join("vbap_zenoh_ping");
+    let stranger = |hosts: &Path, log: &str| {
+        net.spawn_in(
+            "glider_b",
+            &ping,
+            &[
+                "--hosts",
+                &hosts.to_string_lossy(),
+                "--host",
+                "glider_b",
+                "--vehicles",
+                "4",
+                "--samples",
+                "1",
+            ],
+            &tmp.join(log),
+        )
+    };
+    let rogue = stranger(&rogue_hosts, "rogue.log");
+    let plain_peer = stranger(&plain_hosts, "plain.log");
+    let shore_dir = tmp.join("shore");
+    wait_until(
+        || refusals(&shore_dir).len() >= 2,
+        Duration::from_secs(60),
+        "the shore refusing both strangers at the handshake",
+    );
+    let mut a = start_host(&net, &tmp, &file, &hosts, "glider_a");
+    let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
+    for (h, child) in [
+        ("shore", &mut shore),
+        ("glider_a", &mut a),
+        ("glider_b", &mut b),
+    ] {
+        let status = child.wait();
+        assert!(
+            status.success(),
+            "host {h}: {status:?}; see {}",
+            tmp.join(h).display()
+        );
+    }
+    // Still knocking all along: neither ever got an answer from the mission.
+    drop(rogue);
+    drop(plain_peer);
+    for log in ["rogue.log", "plain.log"] {
+        let text = read(&tmp.join(log));
+        assert!(
+            !text.lines().any(|l| l.parse::<f64>().is_ok()),
+            "{log}: {text}"
+        );
+    }
+    assert_same_tracks(&tmp.join("sim"), &shore_dir);
+    let s = summary(&shore_dir);
+    assert_eq!(s["mode"], "multi-process");
+    assert_eq!(s["messages"]["rejected"], 0);
+    assert_eq!(s["vehicles_lost"], 0, "{s}");
+    let log = read(&shore_dir.join("logs/vbap_bridge.jsonl"));
+    let done = log
+        .lines()
+        .find(|l| l.contains("bridge done"))
+        .expect("the shore's bridge's last line");
+    let v: serde_json::Value = serde_json::from_str(done).unwrap();
+    let counted = v["fields"]["refused_handshakes"].as_u64().unwrap_or(0);
+    assert!(counted >= 2, "refusals counted: {done}");
+    println!(
+        "refused at the shore's handshake: {counted}; first: {:?}",
+        refusals(&shore_dir).first()
+    );
+    assert_clean(net, &tmp);
+}
+
+#[test]
+fn plain_tcp_without_insecure_and_missing_certificates_exit_2_naming_the_key() {
+    let tmp = TempDir::new("hoststlsbad");
+    let name = unique_name("hoststlsbad");
+    let file = write(&tmp, "m.toml", &hosts_mission(&name, 1.0));
+    let tcp = "[hosts.shore]\nendpoint = \"tcp/10.1.0.1:7447\"\nprocesses = [\"coordinator\", \"field_server\"]\n\
+               [hosts.g]\nendpoint = \"tcp/10.1.0.2:7447\"\nvehicles = [0, 1, 2, 3]\n";
+    let tls = "[tls]\nca = \"nowhere/ca.pem\"\n\
+               [hosts.shore]\nendpoint = \"tls/10.1.0.1:7447\"\nprocesses = [\"coordinator\", \"field_server\"]\n\
+               cert = \"nowhere/shore.pem\"\nkey = \"nowhere/shore.key\"\n\
+               [hosts.g]\nendpoint = \"tls/10.1.0.2:7447\"\nvehicles = [0, 1, 2, 3]\n\
+               cert = \"nowhere/g.pem\"\nkey = \"nowhere/g.key\"\n";
+    let no_key = tls.replace("key = \"nowhere/g.key\"\n", "");
+    for (i, (text, want)) in [
+        (tcp, "hosts.g.endpoint"),
+        (tls, "tls.ca"),
+        (no_key.as_str(), "hosts.g.key"),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let hosts = write(&tmp, &format!("h{i}.toml"), text);
+        let out = vbap()
+            .arg("run")
+            .arg(&file)
+            .arg("--hosts")
+            .arg(&hosts)
+            .arg("--host")
+            .arg("shore")
+            .arg("--out")
+            .arg(tmp.join(&format!("run{i}")))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains(want), "{want:?} in {err}");
+    }
+    // `vbap certs` never overwrites: a second run into the same folder exits 2.
+    let hosts = write(&tmp, "ok.toml", tcp);
+    certs(&hosts, &tmp.join("c"));
+    let again = vbap()
+        .arg("certs")
+        .arg(&hosts)
+        .arg("--out")
+        .arg(tmp.join("c"))
+        .output()
+        .unwrap();
+    assert_eq!(again.status.code(), Some(2));
+    assert_nothing_left(&name, &tmp);
+}
