@@ -225,3 +225,23 @@ pub fn write(tmp: &TempDir, file: &str, text: &str) -> PathBuf {
     std::fs::write(&p, text).unwrap();
     p
 }
+
+/// `vbap run FILE --hosts HOSTS --host shore --out OUT` on a hosts file it must refuse:
+/// asserts exit 2 and that stderr names `want` (the key or the fault), returns stderr.
+pub fn refused_hosts_file(file: &Path, hosts: &Path, out: &Path, want: &str) -> String {
+    let done = crate::vbap()
+        .arg("run")
+        .arg(file)
+        .arg("--hosts")
+        .arg(hosts)
+        .arg("--host")
+        .arg("shore")
+        .arg("--out")
+        .arg(out)
+        .output()
+        .expect("running vbap run --hosts");
+    let err = String::from_utf8_lossy(&done.stderr).into_owned();
+    assert_eq!(done.status.code(), Some(2), "{err}");
+    assert!(err.contains(want), "{want:?} in {err}");
+    err
+}

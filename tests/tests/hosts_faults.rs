@@ -405,20 +405,7 @@ fn a_placement_that_cannot_work_exits_2_naming_the_key() {
     ];
     for (i, (text, want)) in bad.iter().enumerate() {
         let hosts = write(&tmp, &format!("h{i}.toml"), text);
-        let out = vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--hosts")
-            .arg(&hosts)
-            .arg("--host")
-            .arg("shore")
-            .arg("--out")
-            .arg(tmp.join(&format!("run{i}")))
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{err}");
-        assert!(err.contains(want), "{want:?} in {err}");
+        let err = refused_hosts_file(&file, &hosts, &tmp.join(&format!("run{i}")), want);
         assert!(err.contains(&format!("h{i}.toml")), "the file named: {err}");
     }
     assert_nothing_left(&name, &tmp);

@@ -160,20 +160,7 @@ fn plain_tcp_without_insecure_and_missing_certificates_exit_2_naming_the_key() {
     .enumerate()
     {
         let hosts = write(&tmp, &format!("h{i}.toml"), text);
-        let out = vbap()
-            .arg("run")
-            .arg(&file)
-            .arg("--hosts")
-            .arg(&hosts)
-            .arg("--host")
-            .arg("shore")
-            .arg("--out")
-            .arg(tmp.join(&format!("run{i}")))
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{err}");
-        assert!(err.contains(want), "{want:?} in {err}");
+        refused_hosts_file(&file, &hosts, &tmp.join(&format!("run{i}")), want);
     }
     // `vbap certs` never overwrites: a second run into the same folder exits 2.
     let hosts = write(&tmp, "ok.toml", tcp);
