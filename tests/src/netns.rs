@@ -245,3 +245,16 @@ pub fn refused_hosts_file(file: &Path, hosts: &Path, out: &Path, want: &str) -> 
     assert!(err.contains(want), "{want:?} in {err}");
     err
 }
+
+/// Waits for each host's `vbap run` (named) and asserts it succeeded, naming the host and
+/// its folder under `tmp` when it did not.
+pub fn wait_hosts_ok(tmp: &TempDir, hosts: [(&str, &mut ChildGuard); 3]) {
+    for (h, child) in hosts {
+        let status = child.wait();
+        assert!(
+            status.success(),
+            "host {h}: {status:?}; see {}",
+            tmp.join(h).display()
+        );
+    }
+}

@@ -21,18 +21,14 @@ fn three_hosts_in_lockstep_equal_the_simulator_and_leave_nothing() {
     let mut a = start_host(&net, &tmp, &file, &hosts, "glider_a");
     let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
     let mut shore = start_host(&net, &tmp, &file, &hosts, "shore");
-    for (h, child) in [
-        ("shore", &mut shore),
-        ("glider_a", &mut a),
-        ("glider_b", &mut b),
-    ] {
-        let status = child.wait();
-        assert!(
-            status.success(),
-            "host {h}: {status:?}; see {}",
-            tmp.join(h).display()
-        );
-    }
+    wait_hosts_ok(
+        &tmp,
+        [
+            ("shore", &mut shore),
+            ("glider_a", &mut a),
+            ("glider_b", &mut b),
+        ],
+    );
     let run = tmp.join("shore");
     assert_same_tracks(&tmp.join("sim"), &run);
     let s = summary(&run);
