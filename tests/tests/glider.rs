@@ -63,3 +63,56 @@ fn glider_keys_are_validated_naming_the_key() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("current.kind"));
 }
+
+/// Under the robust law a body flown by gliders never turns faster than half their
+/// `max_turn_rate` nor speeds up faster than min(max_accel/4, v0·Ω/π) (docs/guide/
+/// vehicles.md): the shipped diving gliders (Ω = 3 rad/s, max_accel 4 L/s², v0 0.5 L/s,
+/// ideal links, so each tick's body velocity is its decision) from the body's track. Its
+/// planner would turn as fast as the gradient estimate and start at v0 at once.
+#[test]
+fn the_body_never_turns_or_speeds_up_faster_than_its_gliders_follow() {
+    let tmp = TempDir::new("bodylim");
+    let text = read(&workspace().join("deploy/missions/dive3d.toml")).replacen(
+        "name = \"dive3d\"",
+        &format!("name = \"{}\"", unique_name("bodylim")),
+        1,
+    );
+    let file = write_mission(&tmp, "m.toml", &text);
+    vbap_quiet("sim", &file, &tmp.join("sim"));
+    let body = Table::read(&tmp.join("sim").join("body.csv"));
+    let dt = 0.05;
+    let r: Vec<(f64, f64)> = body.rows().map(|b| (b.num("rx"), b.num("ry"))).collect();
+    let v: Vec<(f64, f64)> = r
+        .windows(2)
+        .map(|w| ((w[1].0 - w[0].0) / dt, (w[1].1 - w[0].1) / dt))
+        .collect();
+    let (accel, omega) = ((0.5 * 3.0 / std::f64::consts::PI).min(1.0), 1.5);
+    let (mut fastest_turn, mut top_speed) = (0.0f64, 0.0f64);
+    for w in v.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let (sa, sb) = (a.0.hypot(a.1), b.0.hypot(b.1));
+        top_speed = top_speed.max(sb);
+        assert!(
+            sb - sa <= accel * dt * (1.0 + 1e-6) + 1e-9,
+            "the body sped up {} L/s in a tick",
+            sb - sa
+        );
+        if sa > 1e-6 && sb > 1e-6 {
+            let turn = (a.0 * b.1 - a.1 * b.0).atan2(a.0 * b.0 + a.1 * b.1).abs() / dt;
+            fastest_turn = fastest_turn.max(turn);
+            assert!(
+                turn <= omega * (1.0 + 1e-6),
+                "the body turned at {turn} rad/s"
+            );
+        }
+    }
+    // The limits were reached, so they are what held the body.
+    assert!(
+        fastest_turn > 0.9 * omega,
+        "fastest turn {fastest_turn} rad/s"
+    );
+    assert!(
+        top_speed > 0.4,
+        "the body never flew (top speed {top_speed} L/s)"
+    );
+}
