@@ -122,6 +122,15 @@ impl Limits {
     pub const EXIT_HISTORY: usize = 16;
 }
 
+/// One listing of a domain's nodes ([`Domain::node_listing`]).
+#[derive(Debug, Clone, Default)]
+pub struct NodeListing {
+    /// Every node named in the listing: true when alive, false when dead.
+    pub states: std::collections::BTreeMap<String, bool>,
+    /// True when no node was left out (see [`Domain::node_listing`]).
+    pub complete: bool,
+}
+
 /// The iceoryx2 domain of one mission.
 #[derive(Clone, Debug)]
 pub struct Domain {
@@ -311,27 +320,41 @@ impl Domain {
     }
 
     /// Every node of this domain by name: true when alive, false when dead (its process is
-    /// gone but its resources are not cleaned yet). One `Node::list`.
+    /// gone but its resources are not cleaned yet). One `Node::list`; see
+    /// [`Domain::node_listing`] for whether a node missing from it is really gone.
     pub fn node_states(&self) -> std::collections::BTreeMap<String, bool> {
+        self.node_listing().states
+    }
+
+    /// [`Domain::node_states`], and whether the listing is complete: `Node::list` ended
+    /// without an error and every node in it could be named and judged. A node being
+    /// created, one whose details cannot be read at this instant, or an interrupted
+    /// listing leaves names out, so a name missing from an incomplete listing says nothing.
+    pub fn node_listing(&self) -> NodeListing {
         use iceoryx2::node::NodeView;
-        let mut out = std::collections::BTreeMap::new();
-        let _ = Node::<ipc::Service>::list(&self.config, |state| {
-            match &state {
-                NodeState::Alive(view) => {
-                    if let Some(d) = view.details() {
-                        out.insert(d.name().to_string(), true);
-                    }
+        let mut states = std::collections::BTreeMap::new();
+        let mut complete = true;
+        let listed = Node::<ipc::Service>::list(&self.config, |state| {
+            let (details, alive) = match &state {
+                NodeState::Alive(view) => (view.details(), true),
+                NodeState::Dead(view) => (view.details(), false),
+                NodeState::Inaccessible(_) | NodeState::Undefined(_) => (&None, false),
+            };
+            match details {
+                Some(d) if alive => {
+                    states.insert(d.name().to_string(), true);
                 }
-                NodeState::Dead(view) => {
-                    if let Some(d) = view.details() {
-                        out.entry(d.name().to_string()).or_insert(false);
-                    }
+                Some(d) => {
+                    states.entry(d.name().to_string()).or_insert(false);
                 }
-                _ => {}
+                None => complete = false,
             }
             CallbackProgression::Continue
         });
-        out
+        NodeListing {
+            states,
+            complete: complete && listed.is_ok(),
+        }
     }
 
     /// Names of the live nodes of this domain (one `Node::list`: ~0.2 ms per few nodes, scan

@@ -107,7 +107,8 @@ impl Drop for TempDir {
                 .args(["-KILL", &pid.to_string()])
                 .status();
         }
-        if std::thread::panicking() {
+        // Kept after a failure, or always with `VBAP_TEST_KEEP=1` (to read a passing run).
+        if std::thread::panicking() || std::env::var_os("VBAP_TEST_KEEP").is_some() {
             if let Some(dir) = self.dir.take() {
                 eprintln!("kept for inspection: {}", dir.keep().display());
             }
@@ -310,13 +311,26 @@ pub fn assert_same_tracks(a: &Path, b: &Path) {
         let (x, y) = (read(&a.join(file)), read(&b.join(file)));
         if x != y {
             let line = x.lines().zip(y.lines()).position(|(p, q)| p != q);
+            let at = |text: &str| {
+                line.and_then(|l| text.lines().nth(l))
+                    .unwrap_or("")
+                    .to_string()
+            };
+            // What the second run's coordinator noticed (losses, rejoins, faults): why it
+            // went another way, when it did.
+            let events = std::fs::read_to_string(b.join("events.jsonl")).unwrap_or_default();
+            let events: Vec<&str> = events.lines().take(12).collect();
             panic!(
-                "{file} differs between {} and {} (first differing line {:?}; {} vs {} lines)",
+                "{file} differs between {} and {} (first differing line {:?}; {} vs {} lines)\n\
+                 {}\n{}\nevents of the second:\n{}",
                 a.display(),
                 b.display(),
                 line.map(|l| l + 1),
                 x.lines().count(),
-                y.lines().count()
+                y.lines().count(),
+                at(&x),
+                at(&y),
+                events.join("\n")
             );
         }
     }

@@ -60,6 +60,11 @@ pub(super) struct Liveness {
     /// True when this coordinator resumed from a checkpoint (every vehicle alive in it has
     /// had a process: one whose node is gone is dead).
     pub resumed: bool,
+    /// Vehicles whose node the last scan found gone (a complete listing without it): gone
+    /// at two scans in a row, the process is dead. A node missing from one listing only
+    /// may have been read at a bad instant (its details being rewritten, the listing
+    /// interrupted); a dead process's node never comes back.
+    pub gone_at_last_scan: std::collections::BTreeSet<u32>,
 }
 
 impl Liveness {
@@ -77,6 +82,7 @@ impl Liveness {
             since_ns: wall_ns(),
             commanded: None,
             resumed: false,
+            gone_at_last_scan: Default::default(),
         }
     }
 
@@ -241,24 +247,29 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
     }
 
     /// Scans the node list once for every alive vehicle: a node listed dead, or gone after
-    /// a process of it was known, is a death (`scan`); in a paced run a vehicle whose
-    /// process is alive but silent for [`SILENCE_LIMIT`] is lost as `silent`. True when a
-    /// vehicle was lost.
+    /// a process of it was known (at two scans in a row, both complete listings), is a
+    /// death (`scan`); in a paced run a vehicle whose process is alive but silent for
+    /// [`SILENCE_LIMIT`] is lost as `silent`. True when a vehicle was lost.
     fn scan(&mut self) -> Result<bool> {
         self.live.last_scan = Instant::now();
-        let states = self.ports.domain.node_states();
+        let listing = self.ports.domain.node_listing();
         self.live.scan_cost = self.live.last_scan.elapsed();
         let alive: Vec<u32> = self.fleet.alive().collect();
         let (mut lost, mut any_dead) = (false, false);
+        let gone_before = std::mem::take(&mut self.live.gone_at_last_scan);
         for v in alive {
             let peer = self.inbox.peers[v as usize];
             // A vehicle still starting up has no node yet.
             let heard = peer.last_recv.is_some() || self.live.resumed;
-            let node = states.get(&topics::agent_node_name(v));
+            let node = listing.states.get(&topics::agent_node_name(v));
+            let gone = node.is_none() && heard && listing.complete;
+            if gone {
+                self.live.gone_at_last_scan.insert(v);
+            }
             let verdict = match node {
                 Some(true) => None,
                 Some(false) => Some("process died"),
-                None => heard.then_some("process gone"),
+                None => (gone && gone_before.contains(&v)).then_some("process gone"),
             };
             if let Some(cause) = verdict {
                 let ms = peer.last_recv.map(|t| t.elapsed().as_secs_f64() * 1e3);
