@@ -69,13 +69,22 @@ impl Keys {
     pub fn all_exits(&self) -> String {
         format!("{}/exits/*", self.root)
     }
-    /// Host `host`'s liveliness token (its bridge is up and forwarding).
-    pub fn host(&self, host: &str) -> String {
-        format!("{}/host/{host}", self.root)
+    /// The liveliness token of host `host`'s bridge process `pid` (up and forwarding): a
+    /// restarted bridge's token is another key, so that it is never taken for the old
+    /// one's link reopened.
+    pub fn host(&self, host: &str, pid: u32) -> String {
+        format!("{}/host/{host}/{pid}", self.root)
     }
     /// Every host's liveliness token.
     pub fn hosts(&self) -> String {
-        format!("{}/host/*", self.root)
+        format!("{}/host/*/*", self.root)
+    }
+    /// The host and bridge pid of a liveliness token's key (None: not a token's key).
+    pub fn host_of_token(key: &str) -> Option<(&str, u32)> {
+        let mut chunks = key.rsplit('/');
+        let pid = chunks.next()?.parse().ok()?;
+        let host = chunks.next()?;
+        (chunks.next()? == "host").then_some((host, pid))
     }
     /// The last chunk of key `key` (a vehicle id, a host name).
     pub fn last(key: &str) -> &str {
@@ -197,4 +206,20 @@ pub fn refused_handshake(event: &tracing::Event<'_>) -> Option<String> {
 fn json_list(list: &[String]) -> String {
     let quoted: Vec<String> = list.iter().map(|s| format!("{s:?}")).collect();
     format!("[{}]", quoted.join(","))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_token_key_names_its_host_and_bridge_process() {
+        let keys = Keys::new("m1");
+        let key = keys.host("glider_a", 4242);
+        assert_eq!(Keys::host_of_token(&key), Some(("glider_a", 4242)));
+        // Not a token's key: another kind, or no pid.
+        assert_eq!(Keys::host_of_token(&keys.exits("glider_a")), None);
+        assert_eq!(Keys::host_of_token("vbap/m1/host/glider_a"), None);
+        assert_eq!(Keys::host_of_token("vbap/m1/states/glider_a/7"), None);
+    }
 }

@@ -7,7 +7,7 @@
 //! | body commands with the snapshot | `vbap/<m>/body` | shore → glider hosts | `<m>/body` + `Event::Body` on every local `<m>/vehicle/<id>/wake` |
 //! | acknowledgement of the mission's final command | `vbap/<m>/final_ack/<host>` | glider host → shore | none (the shore's bridge ends once every glider host's is in: `run`'s doc) |
 //! | process exits of a host's supervisor | `vbap/<m>/exits/<host>` | glider host → shore | `<m>/supervisor/exits` + `Event::Exit` |
-//! | liveliness of a host's bridge | `vbap/<m>/host/<host>` (token) | every host | proxy nodes `vehicle_agent_<id>`; `ProcessExit::UNREACHABLE` when gone |
+//! | liveliness of a host's bridge | `vbap/<m>/host/<host>/<bridge pid>` (token) | every host | proxy nodes `vehicle_agent_<id>`; `ProcessExit::UNREACHABLE` when gone |
 //!
 //! A forwarded message wakes its reader exactly as a local one does: the bridge publishes
 //! on the same service and notifies the same wake service with the same event. On the

@@ -35,7 +35,7 @@ use vbap_wire::msg::{wall_ns, Header};
 use zenoh::qos::Priority;
 use zenoh::Wait;
 
-use super::{liveliness_event, Counts, In, Place, Stop, POLL, RESEND};
+use super::{liveliness_event, Counts, In, Place, Stop, HOST_GONE_GRACE, POLL, RESEND};
 use crate::keys::Keys;
 use crate::wire::{self, RawBody, RawBytes, RawExit, RawState};
 
@@ -143,7 +143,7 @@ pub(crate) fn run(
     let liveliness = session.liveliness();
     let declare = || {
         liveliness
-            .declare_token(place.keys.host(place.host))
+            .declare_token(place.keys.host(place.host, std::process::id()))
             .wait()
             .map_err(|e| anyhow!("declaring this host's liveliness token: {e}"))
     };
@@ -165,6 +165,7 @@ pub(crate) fn run(
             Err(mpsc::RecvTimeoutError::Timeout) => {}
             Err(mpsc::RecvTimeoutError::Disconnected) => break,
         }
+        inbound.gone_for_good(place)?;
         if inbound.final_wait_over(final_wait, counts)? {
             stop.set();
         }
@@ -190,6 +191,12 @@ struct Inbound {
     glider: Option<Glider>,
     /// Each host heard of: up (its token is there) or gone.
     up: BTreeMap<String, bool>,
+    /// The bridge process whose token each host shows (or showed last).
+    bridge: BTreeMap<String, u32>,
+    /// Hosts whose token vanished, and when: gone for good (their vehicles reported
+    /// unreachable) once [`HOST_GONE_GRACE`] passes without the same bridge's token coming
+    /// back, or at once when another bridge's token comes (the host's bridge restarted).
+    vanished: BTreeMap<String, Instant>,
 }
 
 impl Inbound {
@@ -213,6 +220,8 @@ impl Inbound {
             shore,
             glider,
             up: BTreeMap::new(),
+            bridge: BTreeMap::new(),
+            vanished: BTreeMap::new(),
         })
     }
 
@@ -226,8 +235,21 @@ impl Inbound {
                 (_, Some(g)) => g.frame(&key, &bytes, counts).map(|()| false),
                 _ => Ok(false),
             },
-            In::Up(h) => {
-                info!(host = %h, "host up");
+            In::Up(h, pid) => {
+                let same = self.bridge.insert(h.clone(), pid) == Some(pid);
+                if let Some(at) = self.vanished.remove(&h) {
+                    if same {
+                        info!(
+                            host = %h,
+                            away_ms = at.elapsed().as_secs_f64() * 1e3,
+                            "host back within the grace: its link was reopened, nothing lost"
+                        );
+                        return Ok(false);
+                    }
+                    // Another bridge: the one that vanished is gone for good.
+                    self.gone(place, &h)?;
+                }
+                info!(host = %h, bridge_pid = pid, "host up");
                 self.up.insert(h.clone(), true);
                 if let Some(s) = &mut self.shore {
                     s.host_up(place, &h)?;
@@ -237,21 +259,53 @@ impl Inbound {
                 }
                 Ok(false)
             }
-            In::Down(h) => {
-                warn!(host = %h, "host gone");
-                self.up.insert(h.clone(), false);
-                if let Some(s) = &mut self.shore {
-                    s.host_down(place, &h)?;
+            In::Down(h, pid) => {
+                if self.bridge.get(&h) != Some(&pid) {
+                    return Ok(false); // a bridge already replaced
                 }
                 let finished = self.glider.as_ref().is_some_and(|g| g.finished.is_some());
                 if finished && h == place.hosts.shore {
                     info!("the shore is gone after the final command: bridge ends");
                     return Ok(true);
                 }
+                if self.up.get(&h) == Some(&true) {
+                    info!(
+                        host = %h,
+                        grace_ms = HOST_GONE_GRACE.as_millis() as u64,
+                        "host token vanished: gone unless back within the grace"
+                    );
+                    self.vanished.entry(h).or_insert_with(Instant::now);
+                }
                 Ok(false)
             }
             In::Final(frame) => Ok(self.shore.as_mut().is_some_and(|s| s.hold(place, frame))),
         }
+    }
+
+    /// The hosts whose token vanished [`HOST_GONE_GRACE`] ago and did not come back are
+    /// gone: on the shore, their vehicles are reported unreachable.
+    fn gone_for_good(&mut self, place: &Place<'_>) -> Result<()> {
+        let gone: Vec<String> = self
+            .vanished
+            .iter()
+            .filter(|(_, at)| at.elapsed() >= HOST_GONE_GRACE)
+            .map(|(h, _)| h.clone())
+            .collect();
+        for h in gone {
+            self.vanished.remove(&h);
+            self.gone(place, &h)?;
+        }
+        Ok(())
+    }
+
+    /// Host `h` is gone: on the shore, its vehicles are reported unreachable.
+    fn gone(&mut self, place: &Place<'_>, h: &str) -> Result<()> {
+        warn!(host = %h, "host gone");
+        self.up.insert(h.to_string(), false);
+        if let Some(s) = &mut self.shore {
+            s.host_down(place, h)?;
+        }
+        Ok(())
     }
 
     /// The final command's deadlines: the shore puts it again to the glider hosts that
