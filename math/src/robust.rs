@@ -30,7 +30,19 @@
 //! `w(a) κ_I a` is largest at `a = τ`, where it is `κ_I τ/e = K/e`, below the damping by
 //! a factor `e` whatever the ages. Fresh information (`a_j = 0`, ideal links) gives
 //! `w_j = 1`, no slot term and no prediction: the law is then [`super::law::PaperLaw`],
-//! bit for bit.
+//! bit for bit (unless it follows the body, below).
+//!
+//! **Following the body.** (II.1) damps each vehicle relative to the water, `−K ẋ_i`, so a
+//! formation whose body moves at `ṙ` trails it in steady state by `K |ṙ| / κ_T`, `κ_T` the
+//! leaders' stiffness against a translation (half the leader spring `α_h/h0²` for a central
+//! ring). `κ_T` goes as `1/k²`: a formation grown by adaptation to twice its size trails
+//! four times as far, a quarter of a spacing and more at the stress campaign's speeds,
+//! and a ring that far off its leader re-forms out of its slots (measured). Where the
+//! envelope holds (the robust law over impaired links, `RobustLaw::follow_body`) the law
+//! damps relative to the body instead, `−K (ẋ_i − ṙ)`: the slot spring's share of `K ṙ`
+//! above becomes the whole of it, on fresh information as well. A formation moving with
+//! its body then feels exactly the forces it feels at rest: no steady lag, whatever the
+//! scale. Each vehicle knows `ṙ` from the body it dead-reckons.
 
 use super::law::{ControlInputs, ControlLaw, PaperLaw};
 use super::potential::PairPotential;
@@ -104,12 +116,29 @@ pub struct RobustLaw {
     /// τ of [`fade`], s (`control.neighbour_memory`); None: [`derived_memory`] of each
     /// step's potentials.
     pub memory: Option<f64>,
+    /// Damp each vehicle relative to the body, `−K (ẋ_i − ṙ)`, rather than relative to the
+    /// water, `−K ẋ_i` (module docs, "Following the body"). Set where the envelope holds
+    /// (impaired links); off, the law on fresh information is the paper's.
+    pub follow_body: bool,
 }
 
 impl RobustLaw {
-    /// The robust law with memory `memory` (s; None: derived from the formation).
+    /// The robust law with memory `memory` (s; None: derived from the formation), damping
+    /// relative to the water.
     pub fn new(memory: Option<f64>) -> Self {
-        Self { memory }
+        Self {
+            memory,
+            follow_body: false,
+        }
+    }
+
+    /// The same law damping relative to the body when `follow_body`
+    /// ([`RobustLaw::follow_body`]).
+    pub fn following(self, follow_body: bool) -> Self {
+        Self {
+            follow_body,
+            ..self
+        }
     }
 }
 
@@ -120,20 +149,33 @@ impl ControlLaw for RobustLaw {
             .iter()
             .all(|a| a.is_nan() || *a <= 0.0)
         {
-            return PaperLaw.control(position, velocity, inputs);
+            let u = PaperLaw.control(position, velocity, inputs);
+            if !self.follow_body {
+                return u;
+            }
+            let own = 1.0 - inputs.homing.map_or(0.0, |h| h.sigma);
+            return u + own * inputs.damping * inputs.body_velocity;
         }
         let memory = self
             .memory
             .unwrap_or_else(|| derived_memory(&inputs.inter, inputs.damping));
-        robust_control_law(position, velocity, inputs, memory)
+        robust_control_law(position, velocity, inputs, memory, self.follow_body)
     }
 }
 
 /// `u_i` of the module docs (length/s²) for a vehicle at `x_i` (length) with velocity
 /// `v_i` (length/s), with neighbour memory `memory` (s). Neighbour `j` is at
 /// `inputs.neighbours[j]` moved with the body, `inputs.neighbour_ages[j]` s old (0 when
-/// absent), predicted with `inputs.neighbour_velocities[j]` (not when absent).
-pub fn robust_control_law(x_i: &Vec3, v_i: &Vec3, inputs: &ControlInputs<'_>, memory: f64) -> Vec3 {
+/// absent), predicted with `inputs.neighbour_velocities[j]` (not when absent). With
+/// `follow_body`, damped relative to the body: `+ K ṙ` whole, not only the slot spring's
+/// share.
+pub fn robust_control_law(
+    x_i: &Vec3,
+    v_i: &Vec3,
+    inputs: &ControlInputs<'_>,
+    memory: f64,
+    follow_body: bool,
+) -> Vec3 {
     let k = inputs.damping;
     let own = 1.0 - inputs.homing.map_or(0.0, |h| h.sigma);
     let mut u = Vec3::zeros();
@@ -164,11 +206,21 @@ pub fn robust_control_law(x_i: &Vec3, v_i: &Vec3, inputs: &ControlInputs<'_>, me
     }
     let n = inputs.neighbours.len();
     let lost = if n == 0 { 0.0 } else { 1.0 - kept / n as f64 };
+    // The body's velocity fed forward: with the slot spring's share (the slot spring is
+    // damped relative to the body), or whole when following the body.
     if let Some(slot) = inputs.slot {
         if lost > 0.0 {
             let kappa = slot_stiffness(&inputs.leader);
-            u += own * lost * (k * inputs.body_velocity - kappa * (x_i - slot));
+            let feed = if follow_body {
+                Vec3::zeros()
+            } else {
+                k * inputs.body_velocity
+            };
+            u += own * lost * (feed - kappa * (x_i - slot));
         }
+    }
+    if follow_body {
+        u += own * k * inputs.body_velocity;
     }
     if let Some(h) = inputs.homing {
         if h.sigma > 0.0 {

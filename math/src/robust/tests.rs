@@ -171,3 +171,49 @@ fn the_default_memory_is_the_damping_time_of_a_neighbour_spring() {
         .fold(0.0, f64::max);
     assert!(worst <= 1.0 / std::f64::consts::E + 1e-12, "{worst}");
 }
+
+#[test]
+fn following_the_body_damps_relative_to_it() {
+    let x = Vec3::new(1.4, 0.2, 0.0);
+    let v = Vec3::new(0.2, -0.1, 0.0);
+    let leaders = [Vec3::new(0.05, 0.0, 0.0)];
+    let nb = [Vec3::new(0.8, 1.2, 0.0), Vec3::new(0.7, -1.4, 0.0)];
+    let vel = [Vec3::new(0.5, 0.0, 0.0), Vec3::new(-0.2, 0.4, 0.0)];
+    let slot = Some(Vec3::new(1.5, 0.0, 0.0));
+    for ages in [&[0.0, 0.0][..], &[0.3, 1.2][..]] {
+        let inp = inputs(&leaders, &nb, &vel, ages, slot);
+        for memory in [None, Some(3.0)] {
+            let law = RobustLaw::new(memory).following(true);
+            // Seen from the body (every velocity less ṙ, ṙ then zero), the law is the
+            // plain one: the same forces, the damping −K(ẋ − ṙ).
+            let vr: Vec<Vec3> = vel.iter().map(|w| w - inp.body_velocity).collect();
+            let body_frame = ControlInputs {
+                neighbour_velocities: &vr,
+                body_velocity: Vec3::zeros(),
+                ..inp.clone()
+            };
+            let plain = RobustLaw::new(memory).control(&x, &(v - inp.body_velocity), &body_frame);
+            let u = law.control(&x, &v, &inp);
+            assert!((u - plain).norm() < 1e-12, "ages {ages:?}: {u} vs {plain}");
+        }
+    }
+    // A vehicle in its place, moving with the body, among neighbours doing the same and
+    // fresh: no force at all (under −K ẋ it would be braked by K ṙ and fall behind).
+    let (inter, leader) = pots();
+    let ring: Vec<Vec3> = (0..6)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::PI / 3.0;
+            Vec3::new(1.5 * a.cos(), 1.5 * a.sin(), 0.0)
+        })
+        .collect();
+    let body_v = Vec3::new(0.3, 0.1, 0.0);
+    let centre = [Vec3::zeros()];
+    let mut inp = ControlInputs::paper(&centre, &ring[1..], inter, leader, 1.0);
+    inp.body_velocity = body_v;
+    let u = RobustLaw::default()
+        .following(true)
+        .control(&ring[0], &body_v, &inp);
+    assert!(u.norm() < 1e-9, "{u}");
+    let trailing = RobustLaw::default().control(&ring[0], &body_v, &inp);
+    assert!((trailing + body_v).norm() < 1e-9, "{trailing}");
+}
