@@ -190,7 +190,7 @@ fn following_the_body_damps_relative_to_it() {
             let body_frame = ControlInputs {
                 neighbour_velocities: &vr,
                 body_velocity: Vec3::zeros(),
-                ..inp.clone()
+                ..inp
             };
             let plain = RobustLaw::new(memory).control(&x, &(v - inp.body_velocity), &body_frame);
             let u = law.control(&x, &v, &inp);
