@@ -27,14 +27,33 @@ fn inputs<'a>(
     }
 }
 
+/// A vehicle off its slot among two moving neighbours, one leader near the centre.
+struct Scene {
+    x: Vec3,
+    v: Vec3,
+    leaders: [Vec3; 1],
+    nb: [Vec3; 2],
+    vel: [Vec3; 2],
+    slot: Option<Vec3>,
+}
+
+impl Scene {
+    fn off_slot() -> Self {
+        Self {
+            x: Vec3::new(1.4, 0.2, 0.0),
+            v: Vec3::new(0.2, -0.1, 0.0),
+            leaders: [Vec3::new(0.05, 0.0, 0.0)],
+            nb: [Vec3::new(0.8, 1.2, 0.0), Vec3::new(0.7, -1.4, 0.0)],
+            vel: [Vec3::new(0.5, 0.0, 0.0), Vec3::new(-0.2, 0.4, 0.0)],
+            slot: Some(Vec3::new(1.5, 0.0, 0.0)),
+        }
+    }
+}
+
 #[test]
 fn fresh_information_gives_the_paper_law_bit_for_bit() {
-    let x = Vec3::new(1.4, 0.2, 0.0);
-    let v = Vec3::new(0.2, -0.1, 0.0);
-    let leaders = [Vec3::new(0.05, 0.0, 0.0)];
-    let nb = [Vec3::new(0.8, 1.2, 0.0), Vec3::new(0.7, -1.4, 0.0)];
-    let vel = [Vec3::new(0.5, 0.0, 0.0), Vec3::new(-0.2, 0.4, 0.0)];
-    let slot = Some(Vec3::new(1.5, 0.0, 0.0));
+    let sc = Scene::off_slot();
+    let (x, v, leaders, nb, vel, slot) = (sc.x, sc.v, sc.leaders, sc.nb, sc.vel, sc.slot);
     for ages in [&[0.0, 0.0][..], &[][..]] {
         let inp = inputs(&leaders, &nb, &vel, ages, slot);
         for memory in [None, Some(3.0)] {
@@ -174,12 +193,8 @@ fn the_default_memory_is_the_damping_time_of_a_neighbour_spring() {
 
 #[test]
 fn following_the_body_damps_relative_to_it() {
-    let x = Vec3::new(1.4, 0.2, 0.0);
-    let v = Vec3::new(0.2, -0.1, 0.0);
-    let leaders = [Vec3::new(0.05, 0.0, 0.0)];
-    let nb = [Vec3::new(0.8, 1.2, 0.0), Vec3::new(0.7, -1.4, 0.0)];
-    let vel = [Vec3::new(0.5, 0.0, 0.0), Vec3::new(-0.2, 0.4, 0.0)];
-    let slot = Some(Vec3::new(1.5, 0.0, 0.0));
+    let sc = Scene::off_slot();
+    let (x, v, leaders, nb, vel, slot) = (sc.x, sc.v, sc.leaders, sc.nb, sc.vel, sc.slot);
     for ages in [&[0.0, 0.0][..], &[0.3, 1.2][..]] {
         let inp = inputs(&leaders, &nb, &vel, ages, slot);
         for memory in [None, Some(3.0)] {
