@@ -36,16 +36,33 @@ fn actions(json: &Value) -> Vec<(&Value, &Value)> {
         .collect()
 }
 
+/// `vbap chaos FILE ARGS --quiet --out OUT`: its exit status, its standard output (both
+/// streams echoed for a failing test's log) and `OUT/chaos.json`.
+fn campaign(file: &Path, args: &[&str], out: &Path) -> (std::process::ExitStatus, String, Value) {
+    let output = vbap()
+        .arg("chaos")
+        .arg(file)
+        .args(args)
+        .args(["--quiet", "--out"])
+        .arg(out)
+        .output()
+        .expect("running vbap chaos");
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    eprintln!("{stdout}\n{stderr}");
+    let json = serde_json::from_str(&read(&out.join("chaos.json"))).expect("chaos.json");
+    (output.status, stdout, json)
+}
+
 #[test]
 fn a_small_campaign_lists_every_action_leaves_nothing_and_exits_as_its_table_says() {
     let tmp = TempDir::new("chaos");
     let name = unique_name("chaos");
     let file = paper_named(&tmp, &name);
     let out = tmp.join("campaign");
-    let output = vbap()
-        .args(["chaos"])
-        .arg(&file)
-        .args([
+    let (status, stdout, json) = campaign(
+        &file,
+        &[
             "--kills",
             "2",
             "--stops",
@@ -60,19 +77,12 @@ fn a_small_campaign_lists_every_action_leaves_nothing_and_exits_as_its_table_say
             "2",
             "--max-stop",
             "1",
-            "--quiet",
-            "--out",
-        ])
-        .arg(&out)
-        .output()
-        .expect("running vbap chaos");
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    eprintln!("{stdout}\n{stderr}");
-    let code = output.status.code().expect("an exit code");
+        ],
+        &out,
+    );
+    let code = status.code().expect("an exit code");
     assert!(code == 0 || code == 1, "exit {code}");
 
-    let json: Value = serde_json::from_str(&read(&out.join("chaos.json"))).expect("chaos.json");
     let runs = json["runs"].as_array().expect("runs");
     // The calibration run, then one run per (pace, policy).
     assert_eq!(runs.len(), 5);
@@ -259,10 +269,9 @@ fn a_small_compound_campaign_recovers_from_every_death_during_another_recovery()
     let name = unique_name("chaoscmp");
     let file = paper_named(&tmp, &name);
     let out = tmp.join("campaign");
-    let output = vbap()
-        .args(["chaos"])
-        .arg(&file)
-        .args([
+    let (status, stdout, json) = campaign(
+        &file,
+        &[
             "--kills",
             "1",
             "--stops",
@@ -279,16 +288,9 @@ fn a_small_compound_campaign_recovers_from_every_death_during_another_recovery()
             "on-failure",
             "--window",
             "3",
-            "--quiet",
-            "--out",
-        ])
-        .arg(&out)
-        .output()
-        .expect("running vbap chaos");
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    eprintln!("{stdout}\n{stderr}");
-    let json: Value = serde_json::from_str(&read(&out.join("chaos.json"))).expect("chaos.json");
+        ],
+        &out,
+    );
     assert_eq!(
         json["runs"].as_array().unwrap().len(),
         3,
@@ -331,5 +333,5 @@ fn a_small_compound_campaign_recovers_from_every_death_during_another_recovery()
     }
     assert!(processes_mentioning(&out.to_string_lossy()).is_empty());
     assert_eq!(json["passed"], true, "{stdout}");
-    assert_eq!(output.status.code(), Some(0), "{stdout}");
+    assert_eq!(status.code(), Some(0), "{stdout}");
 }
