@@ -316,13 +316,9 @@ pub fn assert_same_tracks(a: &Path, b: &Path) {
                     .unwrap_or("")
                     .to_string()
             };
-            // What the second run's coordinator noticed (losses, rejoins, faults): why it
-            // went another way, when it did.
-            let events = std::fs::read_to_string(b.join("events.jsonl")).unwrap_or_default();
-            let events: Vec<&str> = events.lines().take(12).collect();
             panic!(
                 "{file} differs between {} and {} (first differing line {:?}; {} vs {} lines)\n\
-                 {}\n{}\nevents of the second:\n{}",
+                 {}\n{}\n{}",
                 a.display(),
                 b.display(),
                 line.map(|l| l + 1),
@@ -330,10 +326,35 @@ pub fn assert_same_tracks(a: &Path, b: &Path) {
                 y.lines().count(),
                 at(&x),
                 at(&y),
-                events.join("\n")
+                why_they_differ(a, b)
             );
         }
     }
+}
+
+/// What the second run directory `b` noticed and the first `a` did not: the events of `b`
+/// absent from `a` (losses, rejoins, faults: why it went another way, and when) and the
+/// warnings of `b`'s coordinator, a dozen of each; what a CI log needs to tell a failure.
+fn why_they_differ(a: &Path, b: &Path) -> String {
+    let text = |p: PathBuf| std::fs::read_to_string(p).unwrap_or_default();
+    let (ours, theirs) = (text(a.join("events.jsonl")), text(b.join("events.jsonl")));
+    let ours: std::collections::HashSet<&str> = ours.lines().collect();
+    let extra: Vec<&str> = theirs
+        .lines()
+        .filter(|l| !ours.contains(l))
+        .take(12)
+        .collect();
+    let log = text(b.join("logs/coordinator.jsonl"));
+    let warnings: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains("\"WARN\"") || l.contains("resumed"))
+        .take(12)
+        .collect();
+    format!(
+        "events of the second run only:\n{}\nits coordinator's warnings:\n{}",
+        extra.join("\n"),
+        warnings.join("\n")
+    )
 }
 
 /// Parses `summary.json` of a run directory.

@@ -128,7 +128,10 @@ pub fn run_with(
             pilot.finish(drained.commands);
             return Ok(());
         }
-        if let (Some(after), true) = (drained.resend_after, drained.commands.is_empty()) {
+        // Whatever else this drain read: an agent that ran ahead (a submerged glider) may
+        // read the dead coordinator's last command and its re-sent copy together, and the
+        // states it published past that command died with the coordinator that read them.
+        if let Some(after) = drained.resend_after {
             pilot.resend_after(after)?;
         }
         let stepped = pilot.apply(drained.commands)?;
