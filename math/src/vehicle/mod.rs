@@ -92,8 +92,10 @@ impl VehicleModel {
     /// Ideal: w + u dt, the velocity update of (II.1) integrated by semi-implicit Euler.
     /// Glider (beyond the paper), in this order: the change u dt is clipped to
     /// `max_accel`·dt; the heading turns from that of `w` by at most `max_turn_rate`·dt
-    /// (not checked below 1 % of `max_speed`, where a heading means little); the speed
-    /// is capped at `max_speed`. The result never exceeds `max_speed`.
+    /// (not checked below 1 % of `max_speed`, where a heading means little), and when the
+    /// turn falls short the velocity is the wanted one's projection on the new heading
+    /// (`nearest_on_heading`: slower while turning, stopped rather than flying away); the
+    /// speed is capped at `max_speed`. The result never exceeds `max_speed`.
     pub fn water_velocity(&self, w: &Vec3, u: &Vec3, dt: f64) -> Vec3 {
         match self {
             VehicleModel::Ideal => w + u * dt,
@@ -105,7 +107,7 @@ impl VehicleModel {
                 }
                 let wanted = w + change;
                 let turned = if w.norm() > 0.01 * l.max_speed {
-                    turn_towards(w, &wanted, l.max_turn_rate * dt)
+                    nearest_on_heading(&wanted, &turn_towards(w, &wanted, l.max_turn_rate * dt))
                 } else {
                     wanted
                 };
@@ -127,6 +129,20 @@ pub fn cap_speed(v: &Vec3, max: f64) -> Vec3 {
         out *= 1.0 - f64::EPSILON;
     }
     out
+}
+
+/// The velocity along `heading`'s direction nearest to `wanted` (length unit/s): `wanted`
+/// projected on that direction, and zero when it points behind it; `wanted` itself when
+/// `heading` is `wanted` (the turn was within reach). A pilot whose turn is limited flies
+/// slower while it is still turning towards where it is asked to go, and stops turning
+/// round rather than carrying its speed the wrong way.
+fn nearest_on_heading(wanted: &Vec3, heading: &Vec3) -> Vec3 {
+    let n = heading.norm();
+    if heading == wanted || n == 0.0 {
+        return *heading;
+    }
+    let h = heading / n;
+    h * wanted.dot(&h).max(0.0)
 }
 
 /// `to` with its direction turned from that of `from` by at most `angle` rad, keeping the

@@ -56,10 +56,30 @@ fn a_glider_never_exceeds_its_speed_accel_or_turn_limits() {
     let w0 = Vec3::new(0.1, 0.0, 0.0);
     let n = model.water_velocity(&w0, &Vec3::new(5.0, 0.0, 0.0), dt);
     assert!((n.x - 0.2).abs() < 1e-15 && n.y == 0.0);
-    // A reversal turns by max_turn_rate·dt only.
+    // A reversal within reach of the brakes stops the glider: it does not carry its speed
+    // along a heading turned by max_turn_rate·dt only, away from where it is asked to go.
     let r = model.water_velocity(&Vec3::new(0.05, 0.0, 0.0), &Vec3::new(-1.0, 0.0, 0.0), dt);
-    let angle = r.y.atan2(r.x);
-    assert!((angle.abs() - 1.0).abs() < 1e-12, "turned {angle}");
+    assert_eq!(r, Vec3::zeros());
+}
+
+#[test]
+fn a_glider_asked_to_turn_further_than_it_can_flies_the_nearest_velocity_it_can() {
+    let model = glider(); // turns 1 rad, speeds up 0.1 in dt = 10 s
+    let dt = 10.0;
+    // Asked to turn 1.06 rad (within its acceleration): it turns 1 rad and flies the
+    // projection of the wanted velocity on its new heading.
+    let w = Vec3::new(0.05, 0.0, 0.0);
+    let u = Vec3::new(0.0, 0.009, 0.0);
+    let wanted = w + u * dt;
+    let next = model.water_velocity(&w, &u, dt);
+    let heading = next.y.atan2(next.x);
+    assert!((heading - 1.0).abs() < 1e-12, "turned {heading}");
+    let h = Vec3::new(1f64.cos(), 1f64.sin(), 0.0);
+    assert!((next - h * wanted.dot(&h)).norm() < 1e-15, "{next:?}");
+    assert!(next.norm() < wanted.norm());
+    // Within its turn it flies what it is asked.
+    let small = Vec3::new(0.0, 0.001, 0.0);
+    assert_eq!(model.water_velocity(&w, &small, dt), w + small * dt);
 }
 
 #[test]
