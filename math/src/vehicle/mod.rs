@@ -60,14 +60,21 @@ impl BodyLimits {
         })
     }
 
-    /// The direction `wanted` (any norm, kept) turned from that of the body's previous
-    /// velocity `previous` by at most `max_turn_rate · dt` (`dt` in s); `wanted` as it is
-    /// when the body was (almost) at rest, when either is zero, or when it turns less.
+    /// The rate `wanted` of the body (any norm) turned from the direction of the body's
+    /// previous velocity `previous` by at most `max_turn_rate · dt` (`dt` in s), at the
+    /// norm of `wanted`'s projection on the heading reached (none when `wanted` points
+    /// behind it: the body slows while it turns round, and stops rather than orbit an
+    /// optimum it overshot at full speed, as gliders do, `VehicleModel::water_velocity`);
+    /// `wanted` as it is when the body was (almost) at rest, when either is zero, or when
+    /// it turns less.
     pub fn turn(&self, previous: &Vec3, wanted: &Vec3, dt: f64) -> Vec3 {
         if previous.norm() <= 1e-9 || wanted.norm() == 0.0 {
             return *wanted;
         }
-        turn_towards(previous, wanted, self.max_turn_rate * dt)
+        nearest_on_heading(
+            wanted,
+            &turn_towards(previous, wanted, self.max_turn_rate * dt),
+        )
     }
 
     /// The largest speed (length unit/s) after a step of `dt` s from the speed `previous`.

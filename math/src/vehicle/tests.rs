@@ -156,10 +156,13 @@ fn the_body_turns_and_speeds_up_no_faster_than_gliders_follow() {
         ..gliders
     };
     assert_eq!(BodyLimits::for_gliders(&quick, 0.5).unwrap().max_accel, 1.0);
-    // A reversal turns by max_turn_rate·dt, the norm of the wanted direction kept.
-    let turned = l.turn(&Vec3::new(1.0, 0.0, 0.0), &Vec3::new(-3.0, 0.0, 0.0), 0.1);
-    assert!((turned.norm() - 3.0).abs() < 1e-12);
-    assert!((turned.y.atan2(turned.x).abs() - 0.05).abs() < 1e-12);
+    // A reversal stops the body (it does not carry on past an optimum it overshot).
+    let reversed = l.turn(&Vec3::new(1.0, 0.0, 0.0), &Vec3::new(-3.0, 0.0, 0.0), 0.1);
+    assert_eq!(reversed, Vec3::zeros());
+    // A turn at right angles turns by max_turn_rate·dt, at the wanted rate's projection.
+    let turned = l.turn(&Vec3::new(1.0, 0.0, 0.0), &Vec3::new(0.0, 3.0, 0.0), 0.1);
+    assert!((turned.y.atan2(turned.x) - 0.05).abs() < 1e-12);
+    assert!((turned.norm() - 3.0 * 0.05f64.sin()).abs() < 1e-12);
     // From rest, any direction; a small turn is not touched.
     let wanted = Vec3::new(0.0, 2.0, 0.0);
     assert_eq!(l.turn(&Vec3::zeros(), &wanted, 0.1), wanted);
