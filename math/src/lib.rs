@@ -26,6 +26,7 @@
 //! This crate depends on no IPC, I/O, clock or logging crate: the compiler keeps it pure.
 
 pub mod adapt;
+pub mod ascent;
 pub mod assign;
 pub mod body;
 pub mod bumpless;

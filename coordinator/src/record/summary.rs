@@ -6,7 +6,8 @@ use vbap_mission::rundir::Summary;
 
 use super::Recorder;
 use crate::plan::Plan;
-use crate::truth::{self, BodyOutcome, Tracking};
+use crate::truth::{self, BodyOutcome, LocalOptimum, Tracking};
+use vbap_math::Vec3;
 
 impl Recorder {
     /// The mission figures of `summary.json` (message counts, latency and wall time are
@@ -40,6 +41,7 @@ impl Recorder {
                 t,
                 unit: m.mission.length_unit.clone(),
                 local_optima: m.grid().map_or(0, |g| g.local_optima(m.mission.goal)),
+                local_optimum: self.local_optimum(optimum, distance),
                 moving,
             },
         );
@@ -106,5 +108,36 @@ impl Recorder {
             formation: Some(truth::summary(&self.stats.truth)),
             ..Summary::default()
         }
+    }
+}
+
+impl Recorder {
+    /// The local optimum, other than the global one `optimum`, that a noise-free climb of the
+    /// true field reaches from where the body ended (`distance` from `optimum`), when the body
+    /// ended outside the tolerance of a still field's optimum (not for diving gliders, whose
+    /// formation is horizontal over a 3-D field). Steps of a twentieth of the tolerance
+    /// ([`vbap_math::ascent::local_optimum`]).
+    fn local_optimum(&self, optimum: Option<Vec3>, distance: Option<f64>) -> Option<LocalOptimum> {
+        let m = &self.mission;
+        let tolerance = m.mission.tolerance;
+        let (o, d) = optimum.zip(distance)?;
+        if d <= tolerance || self.stats.optimum_moved || m.diving() {
+            return None;
+        }
+        let (r, t) = (self.stats.last_r, self.stats.last_t);
+        let at = vbap_math::ascent::local_optimum(
+            |x| self.field.gradient(x, t),
+            &r,
+            m.mission.goal.sign(),
+            tolerance / 20.0,
+            100_000,
+        );
+        let from_global = (at - o).norm();
+        (from_global > tolerance).then(|| LocalOptimum {
+            at,
+            distance: (r - at).norm(),
+            reach: tolerance.max(m.formation.radius * self.stats.last_scale),
+            from_global,
+        })
     }
 }

@@ -40,7 +40,7 @@ mod verdict;
 use running::At;
 use slots::Scene;
 pub use summary::summary;
-pub use verdict::{choose, verdict, BodyOutcome, Facts, Tracking};
+pub use verdict::{choose, verdict, BodyOutcome, Facts, LocalOptimum, Tracking};
 
 /// ṡ below this fraction of v0 counts as slow (a stall once it lasts).
 pub const STALL_FRACTION: f64 = 0.1;

@@ -25,6 +25,26 @@ pub struct BodyOutcome {
     pub local_optima: usize,
     /// When the field's optimum moved during the run: how the body followed it.
     pub moving: Option<Tracking>,
+    /// The local optimum a noise-free climb from where the body ended reaches, when it is
+    /// not the global one (a still field with several: a gaussian sum, a grid).
+    pub local_optimum: Option<LocalOptimum>,
+}
+
+/// A local optimum of the field other than the global one, near where the body ended
+/// (lengths in the length unit).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalOptimum {
+    /// Where it is.
+    pub at: Vec3,
+    /// The body centre's final distance from it.
+    pub distance: f64,
+    /// How near counts as having found it: the tolerance or the formation's radius at its
+    /// final scale, whichever is larger (the formation senses the field at its own
+    /// resolution: a peak narrower than the formation moves the estimate's zero by up to
+    /// about its radius).
+    pub reach: f64,
+    /// Its distance from the global optimum.
+    pub from_global: f64,
 }
 
 /// How the body followed a moving optimum (lengths in the length unit, velocities in
@@ -58,6 +78,9 @@ pub struct Facts {
     pub broken: bool,
     /// Two vehicles came closer than [`NEAR_COLLISION`] spacing at some tick.
     pub near_collisions: bool,
+    /// The body ended within reach of a local optimum that is not the global one
+    /// ([`LocalOptimum`]).
+    pub at_local_optimum: bool,
     /// The body was stalled at the end.
     pub stalled: bool,
     /// The body ended farther from the optimum than it started.
@@ -81,8 +104,9 @@ pub struct Facts {
 ///   [`NEAR_COLLISION`] spacing at some tick (a collision, at sea): still converged;
 /// - `converged, formation broken`: body within tolerance, some live vehicle out of formation;
 /// - `converged to a stationary point`: not within tolerance of the global optimum, stalled,
-///   on a field with several local optima (a gridded field): the gradient climb ended at a
-///   local one, as it may;
+///   on a field with several local optima (a gridded field), or, every live vehicle in
+///   formation, within reach of a local optimum other than the global one
+///   ([`LocalOptimum`]): the gradient climb ended at a local one, as it may;
 /// - `stalled`: not converged and the body stalled at the end (ṡ ≈ 0, see the module docs);
 /// - `diverged`: not converged and the body ended farther from the optimum than it started;
 /// - `not converged, formation broken` / `not converged`: out of time on the way;
@@ -106,6 +130,7 @@ pub fn verdict(stats: &TruthStats, body: &BodyOutcome) -> (String, Vec<String>) 
             _ => false,
         },
         several_optima: body.local_optima > 1,
+        at_local_optimum: body.local_optimum.is_some_and(|l| l.distance <= l.reach),
         moving: body.moving.is_some(),
         tracked: body
             .moving
@@ -132,6 +157,19 @@ pub fn verdict(stats: &TruthStats, body: &BodyOutcome) -> (String, Vec<String>) 
             body.local_optima
         ));
     }
+    if let Some(l) = body.local_optimum.filter(|_| facts.at_local_optimum) {
+        reasons.push(format!(
+            "the body ended {}{unit} from a local optimum of the field at ({}, {}, {}), within \
+             {}{unit} (the tolerance or the formation's radius), {}{unit} from the global one: \
+             the gradient climb found a local optimum, as it may",
+            fmt(l.distance),
+            fmt(l.at.x),
+            fmt(l.at.y),
+            fmt(l.at.z),
+            fmt(l.reach),
+            fmt(l.from_global)
+        ));
+    }
     reasons.extend(stall_reason(stats, body.t));
     reasons.extend(lyapunov_reason(&f));
     reasons.extend(near_collision_reason(&f));
@@ -149,6 +187,7 @@ pub fn choose(facts: &Facts) -> &'static str {
         stalled,
         diverged,
         several_optima,
+        at_local_optimum,
         moving,
         tracked,
     } = *facts;
@@ -172,7 +211,7 @@ pub fn choose(facts: &Facts) -> &'static str {
         "converged"
     } else if within {
         "converged, formation broken"
-    } else if stalled && several_optima {
+    } else if (stalled && several_optima) || (at_local_optimum && !broken) {
         "converged to a stationary point"
     } else if stalled && broken {
         "stalled, formation broken"
@@ -447,7 +486,61 @@ mod tests {
             unit: "m".into(),
             local_optima: 0,
             moving: None,
+            local_optimum: None,
         }
+    }
+
+    /// A body that ended by a local optimum other than the global one, on any field, found
+    /// it, stalled or not, when its formation held; farther than the reach, or with the
+    /// formation broken, it did not.
+    #[test]
+    fn a_body_by_a_local_optimum_converged_to_a_stationary_point() {
+        let c = converged();
+        let f = |g: fn(&mut Facts)| {
+            let mut x = c;
+            x.within = false;
+            g(&mut x);
+            choose(&x)
+        };
+        assert_eq!(
+            f(|x| x.at_local_optimum = true),
+            "converged to a stationary point"
+        );
+        assert_eq!(
+            f(|x| {
+                x.at_local_optimum = true;
+                x.diverged = true
+            }),
+            "converged to a stationary point"
+        );
+        assert_eq!(
+            f(|x| {
+                x.at_local_optimum = true;
+                x.broken = true
+            }),
+            "not converged, formation broken"
+        );
+        let mut b = body(Some(10.3), 100);
+        let local = LocalOptimum {
+            at: Vec3::new(-0.5, 0.2, 0.0),
+            distance: 0.45,
+            reach: 1.2,
+            from_global: 10.1,
+        };
+        b.local_optimum = Some(local);
+        let (v, reasons) = verdict(&stats(&[Some(0.0), Some(0.01)]), &b);
+        assert_eq!(v, "converged to a stationary point");
+        assert!(
+            reasons.iter().any(|r| r.contains("found a local optimum")),
+            "{reasons:?}"
+        );
+        b.local_optimum = Some(LocalOptimum {
+            distance: 1.3,
+            ..local
+        });
+        let (v, reasons) = verdict(&stats(&[Some(0.0), Some(0.01)]), &b);
+        assert_eq!(v, "diverged", "it started 10 away");
+        assert!(!reasons.iter().any(|r| r.contains("local optimum")));
     }
 
     #[test]
