@@ -368,6 +368,12 @@ mod tests {
     use super::*;
     use crate::truth::VehicleTruth;
 
+    /// The verdict of `facts` changed by `change`.
+    fn choose_after(mut facts: Facts, change: fn(&mut Facts)) -> &'static str {
+        change(&mut facts);
+        choose(&facts)
+    }
+
     fn converged() -> Facts {
         Facts {
             has_optimum: true,
@@ -380,11 +386,7 @@ mod tests {
     fn each_verdict_from_its_facts() {
         let c = converged();
         assert_eq!(choose(&c), "converged");
-        let f = |g: fn(&mut Facts)| {
-            let mut x = c;
-            g(&mut x);
-            choose(&x)
-        };
+        let f = |g| choose_after(c, g);
         assert_eq!(
             f(|x| x.near_collisions = true),
             "converged, near collisions"
@@ -496,12 +498,7 @@ mod tests {
     #[test]
     fn a_body_by_a_local_optimum_converged_to_a_stationary_point() {
         let c = converged();
-        let f = |g: fn(&mut Facts)| {
-            let mut x = c;
-            x.within = false;
-            g(&mut x);
-            choose(&x)
-        };
+        let f = |g| choose_after(Facts { within: false, ..c }, g);
         assert_eq!(
             f(|x| x.at_local_optimum = true),
             "converged to a stationary point"
@@ -551,11 +548,7 @@ mod tests {
             ..converged()
         };
         assert_eq!(choose(&c), "tracking");
-        let f = |g: fn(&mut Facts)| {
-            let mut x = c;
-            g(&mut x);
-            choose(&x)
-        };
+        let f = |g| choose_after(c, g);
         assert_eq!(f(|x| x.near_collisions = true), "tracking, near collisions");
         assert_eq!(f(|x| x.broken = true), "tracking, formation broken");
         // Within at the end but not over the whole last quarter: the rules of a still field.
