@@ -18,7 +18,7 @@ pub fn mission_law(mission: &Mission) -> Arc<dyn ControlLaw> {
     match mission.control.law {
         LawKind::Paper => Arc::new(PaperLaw),
         LawKind::Robust => Arc::new(
-            RobustLaw::new(mission.control.neighbour_memory).following(mission.envelope_holds()),
+            RobustLaw::new(mission.control.neighbour_memory).following(mission.follows_body()),
         ),
     }
 }

@@ -79,6 +79,13 @@ pub struct ControlSection {
     /// (default 0.25: one spacing; chosen by measurement on lossy_kill.toml, where 1.0 lagged
     /// the true curvature by 25 % at the top).
     pub curvature_memory: f64,
+    /// Under `law = "robust"`: damp each vehicle relative to the virtual body, −K(ẋ − ṙ),
+    /// rather than relative to the water, −K ẋ (`vbap_math::robust`, "Following the body").
+    /// Absent: where the stability envelope holds (links that are not ideal), so that on
+    /// ideal links the law is the paper's, bit for bit. `true`: on ideal links too (a
+    /// formation moving with its body then never trails it); `false`: never. Ignored by
+    /// `law = "paper"`.
+    pub follow_body: Option<bool>,
 }
 
 impl Default for ControlSection {
@@ -89,6 +96,7 @@ impl Default for ControlSection {
             plan_horizon: None,
             curvature: CurvatureSource::default(),
             curvature_memory: 0.25,
+            follow_body: None,
         }
     }
 }

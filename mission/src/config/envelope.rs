@@ -93,6 +93,16 @@ impl Mission {
         self.control.law == LawKind::Robust && self.links_impaired()
     }
 
+    /// True when the robust law damps each vehicle relative to the body
+    /// (`control.follow_body`; absent: where the envelope holds, [`Mission::envelope_holds`]).
+    pub fn follows_body(&self) -> bool {
+        self.control.law == LawKind::Robust
+            && self
+                .control
+                .follow_body
+                .unwrap_or_else(|| self.envelope_holds())
+    }
+
     /// The envelope the planner is held to ([`Mission::envelope_holds`]), if any.
     pub fn held_envelope(&self) -> Option<Envelope> {
         if self.envelope_holds() {

@@ -354,3 +354,23 @@ fn suffixed_names_fit_and_keep_the_suffix() {
     assert_eq!(long.len(), MAX_NAME_LEN);
     assert!(long.ends_with("_c012"));
 }
+
+/// The robust law follows its body where the envelope holds (links not ideal) unless
+/// `control.follow_body` says otherwise; the paper's law never does.
+#[test]
+fn the_robust_law_follows_its_body_where_the_envelope_holds_or_where_told() {
+    let follows = |extra: &str| {
+        parse_raw(&complete(extra))
+            .unwrap_or_else(|e| panic!("{extra}: {e}"))
+            .follows_body()
+    };
+    assert!(!follows(""), "ideal links: the paper's law");
+    assert!(follows("[links]\ndelay = 0.5\n"));
+    assert!(follows("[control]\nfollow_body = true\n"));
+    assert!(!follows(
+        "[control]\nfollow_body = false\n[links]\ndelay = 0.5\n"
+    ));
+    assert!(!follows(
+        "[control]\nlaw = \"paper\"\nfollow_body = true\n[links]\ndelay = 0.5\n"
+    ));
+}
