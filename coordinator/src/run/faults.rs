@@ -18,7 +18,7 @@ const KILL_TIMEOUT: Duration = Duration::from_secs(5);
 
 impl<P: Plan + Serialize> Coordinator<'_, P> {
     /// The kills scheduled at this tick: a real SIGKILL of the agent's process, then a wait
-    /// until its node is seen dead; the vehicle is lost. [`STOP`] on a termination signal.
+    /// until its node is seen dead (by a complete node listing); the vehicle is lost. [`STOP`] on a termination signal.
     pub(super) fn scheduled_kills(&mut self) -> Result<Flow> {
         let k = self.k;
         for v in self.faults.kills_at(k).collect::<Vec<_>>() {
@@ -30,9 +30,13 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             let name = topics::agent_node_name(v);
             let started = Instant::now();
             let domain = &self.ports.domain;
-            while domain.node_states().get(&name).copied().unwrap_or(false)
-                && started.elapsed() < KILL_TIMEOUT
-            {
+            // Seen dead: a complete listing without the node alive (a name missing from an
+            // incomplete one says nothing).
+            let seen_alive = || {
+                let listing = domain.node_listing();
+                !listing.complete || listing.states.get(&name).copied().unwrap_or(false)
+            };
+            while seen_alive() && started.elapsed() < KILL_TIMEOUT {
                 let mut ids = Vec::new();
                 if self.ports.wait(Duration::from_millis(2), &mut ids)? == Wake::Stop {
                     return Ok(STOP);
