@@ -282,3 +282,36 @@ fn an_interrupted_simulation_says_so() {
     assert_eq!(line_count(&body), ticks as usize + 1);
     assert_eq!(line_count(&out.join("truth.csv")), ticks as usize + 1);
 }
+
+/// A start in a side bump's basin: the climb ends on that bump, 28 L from the global peak
+/// and farther from it than it started. The verdict says the climb found a local optimum
+/// (not `diverged`), and a reason names it.
+#[test]
+fn a_climb_that_ends_on_a_side_bump_found_a_local_optimum() {
+    let tmp = TempDir::new("side-bump");
+    let text = "[mission]\nname = \"side_bump\"\nduration = 60.0\ntolerance = 1.0\n\n\
+                [field]\nkind = \"gaussian_sum\"\nnoise_std = 0.05\n\n\
+                [[field.bumps]]\ncenter = [25.0, 0.0]\namplitude = 10.0\nwidth = 8.0\n\n\
+                [[field.bumps]]\ncenter = [-3.0, 2.0]\namplitude = 3.0\nwidth = 2.0\n\n\
+                [vehicles]\ncount = 4\n";
+    let file = write_mission(&tmp, "m.toml", text);
+    run_ok(
+        vbap()
+            .arg("sim")
+            .arg(&file)
+            .arg("--out")
+            .arg(tmp.join("sim"))
+            .arg("--quiet"),
+    );
+    let s = summary(&tmp.join("sim"));
+    assert_eq!(s["verdict"], "converged to a stationary point", "{s}");
+    let reasons = s["reasons"].to_string();
+    assert!(
+        reasons.contains("from a local optimum of the field at (-2.9"),
+        "{reasons}"
+    );
+    assert!(
+        s["final_distance_to_optimum"].as_f64().unwrap() > 25.0,
+        "{s}"
+    );
+}

@@ -18,7 +18,8 @@ const KILL_TIMEOUT: Duration = Duration::from_secs(5);
 
 impl<P: Plan + Serialize> Coordinator<'_, P> {
     /// The kills scheduled at this tick: a real SIGKILL of the agent's process, then a wait
-    /// until its node is seen dead (by a complete node listing); the vehicle is lost. [`STOP`] on a termination signal.
+    /// until its node is seen dead (by a complete node listing); the vehicle is lost.
+    /// [`STOP`] on a termination signal.
     pub(super) fn scheduled_kills(&mut self) -> Result<Flow> {
         let k = self.k;
         for v in self.faults.kills_at(k).collect::<Vec<_>>() {
