@@ -151,7 +151,12 @@ fn simulate_parts(
     let kin = Kinematics::of(mission);
     // A vehicle's process from its first state at tick k (at the start, or restarted).
     let spawn = |agent: Agent, k: u64| {
-        Vehicle::new(agent, initial.clone(), k)
+        let guidance = if k == 0 {
+            initial.clone()
+        } else {
+            Guidance::restarted(mission, &design, k)
+        };
+        Vehicle::new(agent, guidance, k)
             .with_law(law.clone())
             .with_motion(kin.clone(), dt)
     };

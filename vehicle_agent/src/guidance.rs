@@ -100,6 +100,19 @@ impl Guidance {
         self
     }
 
+    /// The guidance of a vehicle admitted back at tick `tick` (a restarted process) before
+    /// its first command reaches it: no leaders and no neighbours, so the law's damping
+    /// alone brakes it where it is. [`Guidance::initial`] would pull it, at an age of the
+    /// whole outage, towards the leaders of the mission's start: seen in random missions
+    /// as a kick of 20 spacings per second and V 2.8 V_U on the first tick after a rejoin.
+    pub fn restarted(mission: &Mission, design: &FormationDesign, tick: u64) -> Self {
+        Self {
+            tick,
+            leaders: Vec::new(),
+            ..Self::initial(mission, design)
+        }
+    }
+
     /// The guidance a vehicle starts with before it hears anything: the leaders of the
     /// initial virtual body (the plan it was deployed with), no neighbours.
     pub fn initial(mission: &Mission, design: &FormationDesign) -> Self {

@@ -29,6 +29,7 @@ use vbap_ipc::msg::Header;
 use vbap_ipc::msglog::MsgLog;
 use vbap_ipc::topics::{self, Domain, Limits};
 use vbap_ipc::wait::Wake;
+use vbap_math::formation::FormationDesign;
 use vbap_math::law::ControlLaw;
 use vbap_mission::config::{Mission, Pace};
 use vbap_mission::link::{Fate, LinkModel};
@@ -159,8 +160,8 @@ struct Pilot<'m> {
     dt: f64,
     ticks: u64,
     model: LinkModel,
-    /// The guidance a (re)admitted vehicle starts from.
-    initial: Guidance,
+    /// The formation design of the start ([`Guidance::restarted`] takes its potentials).
+    design: FormationDesign,
     law: Arc<dyn ControlLaw>,
     /// The mission's motion beyond the ideal vehicle (None: the paper's vehicle).
     kin: Option<Arc<crate::motion::Kinematics>>,
@@ -201,7 +202,7 @@ impl<'m> Pilot<'m> {
         let design = initial_design(mission).context("initial formation design")?;
         let initial = Guidance::initial(mission, &design);
         let kin = crate::motion::Kinematics::of(mission);
-        let vehicle = Vehicle::new(initial_agent(mission, &design, id), initial.clone(), 0)
+        let vehicle = Vehicle::new(initial_agent(mission, &design, id), initial, 0)
             .with_law(law.clone())
             .with_motion(kin.clone(), dt);
         Ok(Self {
@@ -210,7 +211,7 @@ impl<'m> Pilot<'m> {
             dt,
             ticks: mission.ticks(),
             model: LinkModel::new(mission),
-            initial,
+            design,
             law,
             kin,
             vehicle,
@@ -372,9 +373,13 @@ impl<'m> Pilot<'m> {
             position: vbap_ipc::msg::to_vec3(&e.position),
             velocity: vbap_ipc::msg::to_vec3(&e.velocity),
         };
-        self.vehicle = Vehicle::new(agent, self.initial.clone(), tick)
-            .with_law(self.law.clone())
-            .with_motion(self.kin.clone(), self.dt);
+        self.vehicle = Vehicle::new(
+            agent,
+            Guidance::restarted(self.mission, &self.design, tick),
+            tick,
+        )
+        .with_law(self.law.clone())
+        .with_motion(self.kin.clone(), self.dt);
         self.joining = false;
         self.k = tick;
         info!(vehicle = self.id, tick, "admitted back into the formation");

@@ -416,3 +416,44 @@ fn a_glider_that_estimates_the_current_starts_with_its_surface_drift() {
         "blind error {blind}"
     );
 }
+
+#[test]
+fn a_restarted_vehicle_that_has_heard_nothing_brakes_where_it_is() {
+    // Admitted back at tick 3000 (150 s) near the mission's start: before its first
+    // command it must not be pulled towards the start's leaders (the guidance it was
+    // deployed with), only braked by its damping: its velocity keeps its direction and
+    // decays.
+    let mission = paper_mission(None);
+    let design = initial_design(&mission).unwrap();
+    let dt = mission.mission.dt;
+    let (x0, v0) = (
+        mission.start_vec() + Vec3::new(0.8, 0.3, 0.0),
+        Vec3::new(0.2, 0.1, 0.0),
+    );
+    let restored = Agent {
+        id: 0,
+        dim: 2,
+        position: x0,
+        velocity: v0,
+    };
+    let mut vehicle = Vehicle::new(restored, Guidance::restarted(&mission, &design, 3000), 3000);
+    let mut deployed = Vehicle::new(restored, Guidance::initial(&mission, &design), 3000);
+    for k in 3000..3040 {
+        vehicle.step(k, dt);
+        deployed.step(k, dt);
+    }
+    let v = vehicle.agent.velocity;
+    assert!(v.norm() < 0.5 * v0.norm(), "braked: {v:?}");
+    assert!(
+        v.cross(&v0).norm() <= 1e-12 && v.dot(&v0) > 0.0,
+        "kept its heading: {v:?}"
+    );
+    let moved = (vehicle.agent.position - x0).norm();
+    assert!(
+        moved <= v0.norm() / mission.vehicles.damping + 1e-9,
+        "coasted {moved}"
+    );
+    // The guidance it was deployed with pulls it about (towards the start's leaders).
+    let apart = (deployed.agent.position - vehicle.agent.position).norm();
+    assert!(apart > 0.01, "the deployed guidance pulls it: {apart}");
+}
