@@ -23,7 +23,8 @@
 //! ([`slot_stiffness`]) and `ṙ` the body's velocity (the slot spring is damped relative to
 //! the body, so a vehicle holding its slot does not lag it). Rejoining vehicles and
 //! neighbours blend in as in `super::rejoin` (the ghost `p*_j` of a rejoining neighbour is
-//! body-fixed, hence exact, and is not faded).
+//! body-fixed, hence exact, and is not faded; a rejoining neighbour itself, `σ_j > 0`,
+//! flies its own homing path and is not predicted).
 //!
 //! The memory `τ` (s) is `control.neighbour_memory`, or by default [`derived_memory`]
 //! `τ = K d0²/α_I = K/κ_I` of the scaled inter-vehicle potential: the anti-damping
@@ -185,9 +186,16 @@ pub fn robust_control_law(
         let w = fade(age, memory);
         kept += w;
         let sigma_j = inputs.neighbour_sigmas.get(j).copied().unwrap_or(0.0);
-        let seen = inputs.neighbour_velocities.get(j).map_or(*x_j, |v_j| {
-            predict_neighbour(x_j, v_j, &inputs.body_velocity, age, k)
-        });
+        // A rejoining neighbour flies its own homing path (round the formation, slowing
+        // into its slot), not the formation's: extrapolating its velocity put it 0.24
+        // spacing from a member it was 0.87 from, whose repulsion then threw the member at
+        // 40 spacings per second (seen in random missions). It counts where it was seen.
+        let seen = match inputs.neighbour_velocities.get(j) {
+            Some(v_j) if sigma_j == 0.0 => {
+                predict_neighbour(x_j, v_j, &inputs.body_velocity, age, k)
+            }
+            _ => *x_j,
+        };
         add_force(&mut u, x_i, &seen, &inputs.inter, own * w * (1.0 - sigma_j));
         add_repulsion(
             &mut u,

@@ -232,3 +232,29 @@ fn following_the_body_damps_relative_to_it() {
     let trailing = RobustLaw::default().control(&ring[0], &body_v, &inp);
     assert!((trailing + body_v).norm() < 1e-9, "{trailing}");
 }
+
+#[test]
+fn a_rejoining_neighbour_counts_where_it_was_seen_not_where_its_velocity_points() {
+    // Neighbour 0 rejoins (σ = 1) flying fast towards the vehicle, 0.5 s old: predicted
+    // like a member it would sit next to the vehicle and repel it hard; it flies its own
+    // homing path, so the law takes it where it was seen, whatever its velocity. A member
+    // with the same velocity and age is still predicted.
+    let sc = Scene::off_slot();
+    let ghosts = [Vec3::new(0.75, 1.3, 0.0), sc.nb[1]];
+    let towards = (sc.x - sc.nb[0]) * 1.6;
+    let fast = [towards, sc.vel[1]];
+    let still = [Vec3::new(0.3, 0.1, 0.0), sc.vel[1]]; // the body's velocity
+    let ages = [0.5, 0.0];
+    let law = RobustLaw::new(Some(3.0));
+    let with = |vel: &[Vec3], sigmas: &'static [f64]| {
+        let mut inp = inputs(&sc.leaders, &sc.nb, vel, &ages, sc.slot);
+        inp.neighbour_sigmas = sigmas;
+        inp.neighbour_slots = &ghosts;
+        law.control(&sc.x, &sc.v, &inp)
+    };
+    // Rejoining: its velocity changes nothing (the `still` one moves with the body, so its
+    // prediction is where it was seen).
+    assert_eq!(with(&fast, &[1.0, 0.0]), with(&still, &[1.0, 0.0]));
+    // A member is predicted: the same velocity moves it, and the force with it.
+    assert_ne!(with(&fast, &[0.0, 0.0]), with(&still, &[0.0, 0.0]));
+}
