@@ -10,6 +10,13 @@ use vbap_math::Vec3;
 /// [`ControlLaw`]).
 pub type AgentInputs<'a> = ControlInputs<'a>;
 
+/// How far (fraction of the spacing d0) one step's acceleration may move a vehicle before
+/// the step is split ([`Agent::step_with`]).
+pub const SUBSTEP_REACH: f64 = 0.05;
+
+/// The most substeps one step is split into.
+pub const MAX_SUBSTEPS: usize = 64;
+
 /// One vehicle: its own state and dynamics.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Agent {
@@ -33,9 +40,31 @@ impl Agent {
 
     /// One control step of length `dt` (s) under `law`: u_i = `law.control(..)`, then
     /// ẍ_i = u_i integrated (semi-implicit Euler); in 2-D z stays 0. Returns u_i.
+    ///
+    /// A step whose acceleration alone would move the vehicle by more than
+    /// [`SUBSTEP_REACH`] of the spacing d0 (`|u| dt² > SUBSTEP_REACH · d0`: a pair far
+    /// inside its repulsion, as when a restarted vehicle comes back next to a member) is
+    /// integrated in m equal substeps, u_i recomputed at each from the same inputs,
+    /// `m = ⌈√(|u| dt² / (SUBSTEP_REACH · d0))⌉` (at most [`MAX_SUBSTEPS`]): one Euler step
+    /// of that stiff force threw the vehicle at 20 spacings per second, an energy the
+    /// continuous (II.1) never gives it. Any other step is the single step it always was,
+    /// bit for bit.
     pub fn step_with(&mut self, law: &dyn ControlLaw, inputs: &AgentInputs<'_>, dt: f64) -> Vec3 {
         let u = law.control(&self.position, &self.velocity, inputs);
-        let (x, v) = integrate(&self.position, &self.velocity, &u, dt);
+        let reach = SUBSTEP_REACH * inputs.inter.d0;
+        let kick = u.norm() * dt * dt;
+        let (x, v) = if kick > reach && reach > 0.0 {
+            let m = (kick / reach).sqrt().ceil().min(MAX_SUBSTEPS as f64) as usize;
+            let h = dt / m as f64;
+            let (mut x, mut v) = integrate(&self.position, &self.velocity, &u, h);
+            for _ in 1..m {
+                let u = law.control(&x, &v, inputs);
+                (x, v) = integrate(&x, &v, &u, h);
+            }
+            (x, v)
+        } else {
+            integrate(&self.position, &self.velocity, &u, dt)
+        };
         self.position = x;
         self.velocity = v;
         if self.dim == 2 {

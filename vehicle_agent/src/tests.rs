@@ -133,7 +133,8 @@ impl ControlLaw for Doubled {
 
 #[test]
 fn the_vehicle_flies_the_law_it_is_given() {
-    let leader = PairPotential::new(60.0, 1.2, 6.0).unwrap();
+    // A pull whose step stays a single step under both laws (|2u| dt² < SUBSTEP_REACH d0).
+    let leader = PairPotential::new(20.0, 1.2, 6.0).unwrap();
     let b = [Vec3::new(2.0, 1.0, 0.0)];
     let start = Agent {
         id: 0,
@@ -152,8 +153,11 @@ fn the_vehicle_flies_the_law_it_is_given() {
     let mission = paper_mission(None);
     let design = initial_design(&mission).unwrap();
     let initial = Guidance::initial(&mission, &design);
-    let mut by_paper = Vehicle::new(start, initial.clone(), 0);
-    let mut by_ours = Vehicle::new(start, initial, 0).with_law(Arc::new(Doubled));
+    // Off its slot by a tenth of a unit: a pull that stays a single step, doubled too.
+    let mut near = crate::initial_agent(&mission, &design, 0);
+    near.position += Vec3::new(0.1, -0.05, 0.0);
+    let mut by_paper = Vehicle::new(near, initial.clone(), 0);
+    let mut by_ours = Vehicle::new(near, initial, 0).with_law(Arc::new(Doubled));
     by_paper.step(0, mission.mission.dt);
     by_ours.step(0, mission.mission.dt);
     let (dv, dv2) = (by_paper.agent.velocity, by_ours.agent.velocity);
@@ -456,4 +460,39 @@ fn a_restarted_vehicle_that_has_heard_nothing_brakes_where_it_is() {
     // The guidance it was deployed with pulls it about (towards the start's leaders).
     let apart = (deployed.agent.position - vehicle.agent.position).norm();
     assert!(apart > 0.01, "the deployed guidance pulls it: {apart}");
+}
+
+#[test]
+fn a_step_deep_inside_a_repulsion_is_split_and_gains_no_energy() {
+    // A vehicle at rest 0.15 d0 from a neighbour (a restarted vehicle next to a member):
+    // one Euler step of (II.1)'s singular repulsion threw it at ~24 spacings per second.
+    // Split into substeps, its kinetic energy after the step stays below the potential
+    // energy the continuous law could have released over the distance it moved (the
+    // damping only takes energy away).
+    let inter = PairPotential::new(60.0, 1.0, 1.5).unwrap();
+    let neighbour = [Vec3::zeros()];
+    let inputs = AgentInputs::paper(&[], &neighbour, inter, inter, 5.0);
+    let x0 = Vec3::new(0.15, 0.0, 0.0);
+    let dt = 0.05;
+    let mut agent = Agent {
+        id: 0,
+        dim: 2,
+        position: x0,
+        velocity: Vec3::zeros(),
+    };
+    let u = agent.step(&inputs, dt);
+    assert!(
+        u.norm() * dt * dt > crate::agent::SUBSTEP_REACH * inter.d0,
+        "a split step: {u:?}"
+    );
+    let released = inter.value(x0.norm()) - inter.value(agent.position.norm());
+    let kinetic = 0.5 * agent.velocity.norm_squared();
+    assert!(agent.position.x > x0.x, "pushed away: {:?}", agent.position);
+    assert!(
+        kinetic <= released,
+        "kinetic {kinetic} > released {released}"
+    );
+    // One Euler step of the same force: the energy the split removes.
+    let euler_v = u * dt;
+    assert!(0.5 * euler_v.norm_squared() > 10.0 * kinetic.max(released));
 }
