@@ -196,11 +196,14 @@ pub fn join_domain(mission: &str, expected_parent: Option<u32>) {
 /// lock is granted (a last member may remove the path between our open and our lock).
 fn lock_members(path: &std::path::Path) -> std::io::Result<std::fs::File> {
     loop {
+        use std::os::unix::fs::OpenOptionsExt;
+        // Owner-only, as every file of the domain (`Domain::restrict_to_owner`).
         let file = std::fs::OpenOptions::new()
             .read(true)
             .write(true)
             .create(true)
             .truncate(false)
+            .mode(0o600)
             .open(path)?;
         file.lock_shared()?;
         if names_file(path, &file) {

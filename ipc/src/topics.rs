@@ -234,7 +234,7 @@ impl Domain {
             name: SUPERVISOR_NODE.to_string(),
             reason: format!("{e:?}"),
         })?;
-        NodeBuilder::new()
+        let node = NodeBuilder::new()
             .name(&node_name)
             .config(&self.config)
             .signal_handling_mode(SignalHandlingMode::Disabled)
@@ -242,7 +242,39 @@ impl Domain {
             .map_err(|e| TopicError::Node {
                 node: SUPERVISOR_NODE.to_string(),
                 reason: format!("{e:?}"),
-            })
+            })?;
+        self.restrict_to_owner();
+        Ok(node)
+    }
+
+    /// Takes group and others' permissions off every file of this domain this user owns
+    /// (see [`Domain::files`]); returns how many it changed. iceoryx2 0.10 makes its
+    /// shared memory and node files owner-only, except the node counter it shares between
+    /// the nodes of a domain (`*.global_mgmt`), which it creates readable and writable by
+    /// every local user: the supervisor narrows it once its first node made it (the
+    /// processes of the mission are all this user's). Another user can then neither read
+    /// nor attach to anything of the mission (tests/tests/hygiene.rs).
+    pub fn restrict_to_owner(&self) -> usize {
+        use std::os::unix::fs::{MetadataExt, PermissionsExt};
+        // This process's effective user: the owner of its /proc entry.
+        let Ok(me) = std::fs::metadata("/proc/self").map(|m| m.uid()) else {
+            return 0;
+        };
+        let mut changed = 0;
+        for path in self.files() {
+            let Ok(meta) = std::fs::symlink_metadata(&path) else {
+                continue;
+            };
+            let mode = meta.mode() & 0o7777;
+            if !meta.is_file() || meta.uid() != me || mode & 0o077 == 0 {
+                continue;
+            }
+            let owner_only = std::fs::Permissions::from_mode(mode & 0o700);
+            if std::fs::set_permissions(&path, owner_only).is_ok() {
+                changed += 1;
+            }
+        }
+        changed
     }
 
     fn node_with_config(

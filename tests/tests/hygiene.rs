@@ -190,3 +190,123 @@ v_u = 10.0
         leftover_files(&name)
     );
 }
+
+/// The second local user of [`another_local_user_can_neither_read_nor_attach_to_a_mission`],
+/// created if absent (the test runs as root, as CI does; it fails, never skips, without).
+const OTHER_USER: &str = "vbap_other";
+
+fn ensure_other_user() {
+    let exists = std::process::Command::new("id")
+        .arg(OTHER_USER)
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if exists {
+        return;
+    }
+    let made = std::process::Command::new("useradd")
+        .args([
+            "--system",
+            "--no-create-home",
+            "--shell",
+            "/usr/sbin/nologin",
+        ])
+        .arg(OTHER_USER)
+        .status();
+    assert!(
+        made.is_ok_and(|s| s.success()),
+        "this test needs a second local user: run it as root (useradd {OTHER_USER} failed)"
+    );
+}
+
+/// `args` run as [`OTHER_USER`] (runuser, util-linux).
+fn as_other(args: &[&str]) -> std::process::Output {
+    std::process::Command::new("runuser")
+        .args(["-u", OTHER_USER, "--"])
+        .args(args)
+        .output()
+        .expect("runuser (util-linux) runs")
+}
+
+#[test]
+fn another_local_user_can_neither_read_nor_attach_to_a_mission() {
+    use std::os::unix::fs::PermissionsExt;
+    ensure_other_user();
+    let tmp = TempDir::new("owner");
+    let name = unique_name("owner");
+    let text = tests::mission::GaussianHill::new(&name)
+        .duration(10000.0)
+        .pace("1.0")
+        .toml();
+    let file = write_mission(&tmp, "m.toml", &text);
+    let out = tmp.join("run");
+    let mut run = spawn_run(&file, &out);
+    wait_until(
+        || line_count(&out.join("body.csv")) > 5,
+        Duration::from_secs(60),
+        "the run to get going",
+    );
+    // Every file of the mission is its owner's alone (iceoryx2's node counter included,
+    // which iceoryx2 creates for every local user).
+    let files = leftover_files(&name);
+    assert!(files.len() > 10, "the mission's files: {files:?}");
+    for f in &files {
+        // (A connection's file may go between the listing and this look.)
+        if let Ok(meta) = std::fs::metadata(f) {
+            let mode = meta.permissions().mode() & 0o777;
+            assert_eq!(mode & 0o077, 0, "{} is {mode:o}", f.display());
+        }
+    }
+    // The other user reads none of them.
+    let paths: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+    let mut script = vec![
+        "sh",
+        "-c",
+        r#"for f in "$@"; do if cat "$f" > /dev/null 2>&1; then echo "read $f"; fi; done"#,
+        "sh",
+    ];
+    script.extend(paths.iter().map(String::as_str));
+    let read_back = as_other(&script);
+    assert!(read_back.status.success(), "{read_back:?}");
+    assert_eq!(
+        String::from_utf8_lossy(&read_back.stdout),
+        "",
+        "read as {OTHER_USER}"
+    );
+    // Nor attaches: our own tools, run as the other user from a folder it can reach, can
+    // neither list the mission's services nor open one of them.
+    let shared = TempDir::new("owner-tools");
+    std::fs::set_permissions(&shared.path, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let tool = shared.join("vbap");
+    std::fs::copy(bin_dir().join("vbap"), &tool).unwrap();
+    let mission_copy = shared.join("m.toml");
+    std::fs::copy(&file, &mission_copy).unwrap();
+    std::fs::set_permissions(&mission_copy, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let (tool, mission_copy) = (
+        tool.display().to_string(),
+        mission_copy.display().to_string(),
+    );
+    let listed = as_other(&[&tool, "services", &mission_copy, "--sample", "0.2"]);
+    assert!(
+        !listed.status.success(),
+        "services listed as {OTHER_USER}: {}",
+        String::from_utf8_lossy(&listed.stdout)
+    );
+    assert!(!String::from_utf8_lossy(&listed.stdout).contains("coordinator"));
+    let echoed = as_other(&["timeout", "5", &tool, "echo", &mission_copy, "body"]);
+    assert!(
+        !echoed.status.success() && echoed.stdout.is_empty(),
+        "a body command read as {OTHER_USER}: {}",
+        String::from_utf8_lossy(&echoed.stdout)
+    );
+    // The mission flew on, and ends clean.
+    let rows = line_count(&out.join("body.csv"));
+    wait_until(
+        || line_count(&out.join("body.csv")) > rows + 5,
+        Duration::from_secs(30),
+        "the run to go on",
+    );
+    run.signal("INT");
+    run.wait();
+    assert!(summary(&out)["ticks"].as_u64().unwrap() > 0);
+    assert_nothing_left(&name, &tmp);
+}
