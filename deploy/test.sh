@@ -7,7 +7,8 @@
 #   chromium, chromedriver  the viewer's browser tests (tests/tests/view.rs); Debian: chromium, chromium-driver
 #   node                    the viewer's tick unit tests (view/tests/ticks_js.rs);  Debian: nodejs
 #   ip                      network namespaces of a mission over hosts (tests/tests/hosts*.rs); Debian: iproute2
-#   root                    those namespaces (tests/tests/hosts*.rs)
+#   useradd, runuser        a second local user (tests/tests/hygiene.rs); Debian: passwd, util-linux
+#   root                    those namespaces (tests/tests/hosts*.rs) and that user
 # Missing ones are installed with apt-get when this runs as root (or with sudo); otherwise it
 # stops before any test, naming each one missing.
 set -euo pipefail
@@ -19,9 +20,9 @@ if ! command -v cargo >/dev/null 2>&1; then
 fi
 
 # command → Debian package, for each tool a test needs.
-declare -A package=([chromium]=chromium [chromedriver]=chromium-driver [node]=nodejs [ip]=iproute2)
+declare -A package=([chromium]=chromium [chromedriver]=chromium-driver [node]=nodejs [ip]=iproute2 [useradd]=passwd [runuser]=util-linux)
 missing=()
-for tool in chromium chromedriver node ip; do
+for tool in chromium chromedriver node ip useradd runuser; do
   command -v "$tool" >/dev/null 2>&1 || missing+=("$tool")
 done
 
