@@ -240,11 +240,7 @@ fn another_local_user_can_neither_read_nor_attach_to_a_mission() {
     let file = write_mission(&tmp, "m.toml", &text);
     let out = tmp.join("run");
     let mut run = spawn_run(&file, &out);
-    wait_until(
-        || line_count(&out.join("body.csv")) > 5,
-        Duration::from_secs(60),
-        "the run to get going",
-    );
+    wait_for_ticks(&out, 5);
     // Every file of the mission is its owner's alone (iceoryx2's node counter included,
     // which iceoryx2 creates for every local user).
     let files = leftover_files(&name);
@@ -299,12 +295,7 @@ fn another_local_user_can_neither_read_nor_attach_to_a_mission() {
         String::from_utf8_lossy(&echoed.stdout)
     );
     // The mission flew on, and ends clean.
-    let rows = line_count(&out.join("body.csv"));
-    wait_until(
-        || line_count(&out.join("body.csv")) > rows + 5,
-        Duration::from_secs(30),
-        "the run to go on",
-    );
+    wait_for_ticks(&out, line_count(&out.join("body.csv")) + 5);
     run.signal("INT");
     run.wait();
     assert!(summary(&out)["ticks"].as_u64().unwrap() > 0);
