@@ -589,30 +589,24 @@ impl Draw {
 /// bump's own curvature, A/w², misses the narrower side bumps whose peak often holds the
 /// optimum (up to 12 times as curved). None when the sum has no maximum.
 fn curvature_at_optimum(bumps: &[(Vec<f64>, f64, f64)], dim: usize) -> Option<f64> {
-    use vbap_mission::config::Goal;
-    use vbap_mission::field::{Field, GaussianBump};
-    let point = |c: &[f64]| {
-        let mut v = vbap_math::Vec3::zeros();
-        for (i, x) in c.iter().enumerate() {
-            v[i] = *x;
-        }
-        v
-    };
-    let field = Field::GaussianSum {
+    use vbap_mission::config::{BumpConfig, FieldConfig, FieldKind, Goal};
+    use vbap_mission::field::Field;
+    let config = FieldConfig {
+        kind: FieldKind::GaussianSum,
         background: 0.0,
         bumps: bumps
             .iter()
-            .map(|(c, a, w)| GaussianBump {
-                center: point(c),
-                amplitude: *a,
-                width: *w,
+            .map(|(center, amplitude, width)| BumpConfig {
+                center: center.clone(),
+                amplitude: *amplitude,
+                width: *width,
             })
             .collect(),
-        dim,
+        ..FieldConfig::default()
     };
+    let field = Field::from_config(&config, dim);
     let top = field.optimum(0.0, Goal::Max)?;
-    let h = field.hessian(&top, 0.0);
-    let eig = h.symmetric_eigenvalues();
+    let eig = field.hessian(&top, 0.0).symmetric_eigenvalues();
     let mean = eig.iter().map(|e| e.abs()).sum::<f64>() / dim as f64;
     (mean.is_finite() && mean > 0.0).then_some(mean)
 }

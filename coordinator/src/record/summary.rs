@@ -109,9 +109,7 @@ impl Recorder {
             ..Summary::default()
         }
     }
-}
 
-impl Recorder {
     /// The local optimum, other than the global one `optimum`, that a noise-free climb of the
     /// true field reaches from where the body ended (`distance` from `optimum`), when the body
     /// ended outside the tolerance of a still field's optimum (not for diving gliders, whose
