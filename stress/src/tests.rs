@@ -278,3 +278,59 @@ fn a_set_applies_to_every_mission_and_a_bad_one_is_bad_input() {
     let e = campaign::sample(&space, 1, 5, &laws, &grid, &bad).unwrap_err();
     assert!(e.0.contains("lost"), "{e}");
 }
+
+/// The space's rule `hessian_guess = |curvature at the optimum| · I` holds for gaussian
+/// sums, whose optimum may sit on a side bump narrower than the main one: the guess is
+/// the mean |second difference| of the true field at its optimum (central differences of
+/// the field's value, independent of its analytic Hessian), not the main bump's A/w².
+#[test]
+fn a_gaussian_sums_hessian_guess_is_its_curvature_at_the_optimum() {
+    use vbap_mission::config::FieldKind;
+    let tmp = tempfile::tempdir().unwrap();
+    let grid = grid_in(tmp.path());
+    let space = Space::default();
+    let laws = vec!["robust".to_string()];
+    let (mut sums, mut off_main) = (0, 0);
+    for i in 0..300 {
+        let s = campaign::sample(&space, 3, i, &laws, &grid, &[]).unwrap();
+        let m = campaign::mission_of(&s.draw, "robust", &grid, &[]).unwrap();
+        if m.field.kind != FieldKind::GaussianSum {
+            continue;
+        }
+        sums += 1;
+        let field = m.field();
+        let dim = m.mission.dim;
+        let top = field.optimum(0.0, m.mission.goal).unwrap();
+        let h = 1e-3
+            * m.field
+                .bumps
+                .iter()
+                .map(|b| b.width)
+                .fold(f64::MAX, f64::min);
+        let mut curvature = 0.0;
+        for axis in 0..dim {
+            let mut e = vbap_math::Vec3::zeros();
+            e[axis] = h;
+            let second = (field.value(&(top + e), 0.0) - 2.0 * field.value(&top, 0.0)
+                + field.value(&(top - e), 0.0))
+                / (h * h);
+            curvature += second.abs() / dim as f64;
+        }
+        let guess = m
+            .formation
+            .hessian_guess
+            .as_ref()
+            .expect("the space writes a guess")[0][0];
+        // The trace over dim of |H| equals the mean |eigenvalue| when H is definite (a peak).
+        assert!(
+            (guess - curvature).abs() <= 1e-4 * curvature,
+            "mission {i}: guess {guess}, curvature at the optimum {curvature}"
+        );
+        let main = &m.field.bumps[0];
+        if (guess - main.amplitude / (main.width * main.width)).abs() > 0.1 * guess {
+            off_main += 1;
+        }
+    }
+    assert!(sums >= 20, "gaussian sums drawn: {sums}");
+    assert!(off_main > 0, "some optimum is not the main bump's top");
+}
