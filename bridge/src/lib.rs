@@ -20,7 +20,9 @@
 //! express publication over the link, mutual TLS (plain TCP only with the hosts file's
 //! `insecure = true`; the acknowledgements too) — lockstep needs every state and every command
 //! (a dropped one would stall or desynchronise the tick), and the link model that drops
-//! messages lives in the application, not here. States and commands go at
+//! messages lives in the application, not here. Zenoh's reliability ends with a link, so
+//! what goes unanswered is put again and a copy is dropped where it was not lost
+//! (`run/repeat.rs`). States and commands go at
 //! `Priority::RealTime`, exits at `Priority::InteractiveHigh`.
 
 pub mod keys;

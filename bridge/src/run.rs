@@ -21,6 +21,7 @@
 
 mod inbound;
 mod outbound;
+mod repeat;
 
 pub(crate) use outbound::publisher;
 
@@ -49,6 +50,10 @@ pub struct Counts {
     pub inbound: AtomicU64,
     /// Frames refused (another payload type or version, a sender that is not its key's).
     pub refused: AtomicU64,
+    /// Frames put again for want of an answer (`repeat`'s doc).
+    pub repeated: AtomicU64,
+    /// Messages received a second time (a frame put again that had not been lost): dropped.
+    pub duplicates: AtomicU64,
 }
 
 impl Counts {
@@ -82,8 +87,12 @@ pub fn watch_handshakes(event: &tracing::Event<'_>) {
 
 /// A message from Zenoh (the subscribers' callbacks) to the inbound loop.
 pub(crate) enum In {
-    /// A frame on key `key`.
-    Frame { key: String, bytes: Vec<u8> },
+    /// A frame on key `key`; `again`: put again for want of an answer (`repeat`'s doc).
+    Frame {
+        key: String,
+        bytes: Vec<u8>,
+        again: bool,
+    },
     /// The liveliness token of host `.0`'s bridge process `.1` appeared.
     Up(String, u32),
     /// The liveliness token of host `.0`'s bridge process `.1` vanished (that bridge
@@ -176,12 +185,19 @@ pub fn run(
     );
     let counts = Arc::new(Counts::default());
     let stop = Arc::new(Stop::default());
+    let peers = Arc::new(repeat::Peers::new(if place.is_shore() {
+        place.glider_hosts()
+    } else {
+        vec![hosts.shore.clone()]
+    }));
+    let lose = repeat::Lose::from_env()?;
     let (tx, rx) = mpsc::channel::<In>();
     let _subscribers = inbound::subscribe(&session, &place, &tx)?;
 
     let (up_tx, up_rx) = mpsc::channel::<()>();
     let out = {
-        let (session, stop, counts) = (session.clone(), stop.clone(), counts.clone());
+        let (session, stop, counts, peers) =
+            (session.clone(), stop.clone(), counts.clone(), peers.clone());
         let inbound = tx.clone();
         let (domain, limits, keys) = (place.domain.clone(), place.limits, place.keys.clone());
         let spec = outbound::Spec {
@@ -189,19 +205,22 @@ pub fn run(
             host: host.to_string(),
             local: place.local_vehicles(),
             remote: place.remote_vehicles(),
+            repeat: repeat::repeat_after(mission),
+            lose,
         };
         std::thread::Builder::new()
             .name("outbound".into())
             .spawn(move || {
                 outbound::run(
-                    &session, &domain, &limits, &keys, &spec, &stop, &counts, up_tx, inbound,
+                    &session, &domain, &limits, &keys, &spec, &stop, &counts, &peers, up_tx,
+                    inbound,
                 )
             })
             .context("starting the outbound thread")?
     };
     // The outbound ports exist (or the thread failed: its error is returned below).
     let _ = up_rx.recv();
-    let result = inbound::run(&session, &place, &rx, &stop, &counts, ready);
+    let result = inbound::run(&session, &place, &rx, &stop, &counts, &peers, ready);
     stop.set();
     let out = out
         .join()
@@ -212,6 +231,8 @@ pub fn run(
         frames_out = counts.frames_out.load(Ordering::Relaxed),
         inbound = counts.inbound.load(Ordering::Relaxed),
         refused = counts.refused.load(Ordering::Relaxed),
+        repeated = counts.repeated.load(Ordering::Relaxed),
+        duplicates = counts.duplicates.load(Ordering::Relaxed),
         refused_handshakes = REFUSED_HANDSHAKES.load(Ordering::Relaxed),
         "bridge done"
     );

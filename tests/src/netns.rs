@@ -159,6 +159,19 @@ impl Drop for Net {
 /// namespace, with a private /dev/shm and /tmp/iceoryx2 (tmpfs in its own mount
 /// namespace); when it ends, what is left in them is listed in TMP/HOST.left.
 pub fn start_host(net: &Net, tmp: &TempDir, file: &Path, hosts: &Path, host: &str) -> ChildGuard {
+    start_host_with(net, tmp, file, hosts, host, &[])
+}
+
+/// [`start_host`] with environment variables `env` set for the host's `vbap run` (and so
+/// for the processes its supervisor starts).
+pub fn start_host_with(
+    net: &Net,
+    tmp: &TempDir,
+    file: &Path,
+    hosts: &Path,
+    host: &str,
+    env: &[(&str, &str)],
+) -> ChildGuard {
     let script = "mount -t tmpfs tmpfs /dev/shm && mkdir -p /tmp/iceoryx2 && \
                   mount -t tmpfs tmpfs /tmp/iceoryx2 && \"$@\"; rc=$?; \
                   find /dev/shm /tmp/iceoryx2 -type f > \"$LEFT\" 2>&1; exit $rc";
@@ -188,6 +201,7 @@ pub fn start_host(net: &Net, tmp: &TempDir, file: &Path, hosts: &Path, host: &st
             .arg("--quiet")
             .env("VBAP_LOCK_DIR", &locks)
             .env("LEFT", tmp.join(&format!("{host}.left")))
+            .envs(env.iter().copied())
             .stdout(Stdio::null())
             .spawn()
             .expect("spawning vbap run in a namespace"),

@@ -35,6 +35,7 @@ use vbap_wire::msg::{wall_ns, Header};
 use zenoh::qos::Priority;
 use zenoh::Wait;
 
+use super::repeat::{Identity, Peers};
 use super::{liveliness_event, Counts, In, Place, Stop, HOST_GONE_GRACE, POLL, RESEND};
 use crate::keys::Keys;
 use crate::wire::{self, RawBody, RawBytes, RawExit, RawState};
@@ -62,6 +63,7 @@ pub(crate) fn subscribe(
                     let _ = tx.send(In::Frame {
                         key: s.key_expr().as_str().to_string(),
                         bytes: s.payload().to_bytes().into_owned(),
+                        again: s.attachment().is_some(),
                     });
                 })
                 .wait()
@@ -95,6 +97,8 @@ struct Shore {
     restarted: bool,
     /// The remote vehicles whose first state through this bridge has been forwarded.
     heard: BTreeSet<u32>,
+    /// The last state published for each remote vehicle (a frame put again is dropped).
+    last: BTreeMap<u32, Identity>,
     /// The body commands' key, for putting the final command again.
     body_out: zenoh::pubsub::Publisher<'static>,
     /// The mission's final command once forwarded, until every glider host has it.
@@ -120,6 +124,8 @@ struct Glider {
     ack: zenoh::pubsub::Publisher<'static>,
     /// When the final command was published here (None: not yet).
     finished: Option<Instant>,
+    /// The last body command published here (a frame put again is dropped).
+    last: Option<Identity>,
     /// The node of the ports (dropped after them).
     _node: Node<ipc::Service>,
 }
@@ -132,6 +138,7 @@ pub(crate) fn run(
     rx: &mpsc::Receiver<In>,
     stop: &Stop,
     counts: &Counts,
+    peers: &Peers,
     ready: impl FnOnce(),
 ) -> Result<()> {
     let (domain, limits) = (&place.domain, &place.limits);
@@ -158,14 +165,14 @@ pub(crate) fn run(
     while !stop.is_set() {
         match rx.recv_timeout(POLL) {
             Ok(message) => {
-                if inbound.take(place, message, counts)? {
+                if inbound.take(place, message, counts, peers)? {
                     stop.set();
                 }
             }
             Err(mpsc::RecvTimeoutError::Timeout) => {}
             Err(mpsc::RecvTimeoutError::Disconnected) => break,
         }
-        inbound.gone_for_good(place)?;
+        inbound.gone_for_good(place, peers)?;
         if inbound.final_wait_over(final_wait, counts)? {
             stop.set();
         }
@@ -227,12 +234,22 @@ impl Inbound {
 
     /// Takes one message of the Zenoh callbacks or the outbound thread; true when the
     /// bridge is done (the final command delivered, or the shore gone after it).
-    fn take(&mut self, place: &Place<'_>, message: In, counts: &Counts) -> Result<bool> {
+    fn take(
+        &mut self,
+        place: &Place<'_>,
+        message: In,
+        counts: &Counts,
+        peers: &Peers,
+    ) -> Result<bool> {
         match message {
-            In::Frame { key, bytes } => match (&mut self.shore, &mut self.glider) {
+            In::Frame { key, bytes, again } => match (&mut self.shore, &mut self.glider) {
                 // On the shore: true on the last acknowledgement of the final command.
-                (Some(s), _) => s.frame(place, &key, &bytes, counts),
-                (_, Some(g)) => g.frame(&key, &bytes, counts).map(|()| false),
+                (Some(s), _) => s.frame(place, &key, &bytes, again, counts, peers),
+                (_, Some(g)) => g
+                    .frame(&key, &bytes, again, counts, || {
+                        peers.heard(&place.hosts.shore)
+                    })
+                    .map(|()| false),
                 _ => Ok(false),
             },
             In::Up(h, pid) => {
@@ -242,15 +259,16 @@ impl Inbound {
                         info!(
                             host = %h,
                             away_ms = at.elapsed().as_secs_f64() * 1e3,
-                            "host back within the grace: its link was reopened, nothing lost"
+                            "host back within the grace: its link was reopened (what it lost is put again)"
                         );
                         return Ok(false);
                     }
                     // Another bridge: the one that vanished is gone for good.
-                    self.gone(place, &h)?;
+                    self.gone(place, &h, peers)?;
                 }
                 info!(host = %h, bridge_pid = pid, "host up");
                 self.up.insert(h.clone(), true);
+                peers.set_up(&h, true);
                 if let Some(s) = &mut self.shore {
                     s.host_up(place, &h)?;
                     if let Some(held) = s.held.as_mut().filter(|d| d.pending.contains(&h)) {
@@ -284,7 +302,7 @@ impl Inbound {
 
     /// The hosts whose token vanished [`HOST_GONE_GRACE`] ago and did not come back are
     /// gone: on the shore, their vehicles are reported unreachable.
-    fn gone_for_good(&mut self, place: &Place<'_>) -> Result<()> {
+    fn gone_for_good(&mut self, place: &Place<'_>, peers: &Peers) -> Result<()> {
         let gone: Vec<String> = self
             .vanished
             .iter()
@@ -293,15 +311,16 @@ impl Inbound {
             .collect();
         for h in gone {
             self.vanished.remove(&h);
-            self.gone(place, &h)?;
+            self.gone(place, &h, peers)?;
         }
         Ok(())
     }
 
     /// Host `h` is gone: on the shore, its vehicles are reported unreachable.
-    fn gone(&mut self, place: &Place<'_>, h: &str) -> Result<()> {
+    fn gone(&mut self, place: &Place<'_>, h: &str, peers: &Peers) -> Result<()> {
         warn!(host = %h, "host gone");
         self.up.insert(h.to_string(), false);
+        peers.set_up(h, false);
         if let Some(s) = &mut self.shore {
             s.host_down(place, h)?;
         }
@@ -374,6 +393,7 @@ impl Shore {
             pids: BTreeMap::new(),
             restarted,
             heard: Default::default(),
+            last: BTreeMap::new(),
             body_out: super::publisher(session, place.keys.body(), Priority::RealTime)?,
             held: None,
         };
@@ -383,14 +403,17 @@ impl Shore {
         Ok(shore)
     }
 
-    /// A frame from a glider host: its vehicles' states, its exits, or its acknowledgement
-    /// of the final command; true when that was the last acknowledgement awaited.
+    /// A frame from a glider host (`again`: put again): its vehicles' states (`peers` hears
+    /// of the host when one is published), its exits, or its acknowledgement of the final
+    /// command; true when that was the last acknowledgement awaited.
     fn frame(
         &mut self,
         place: &Place<'_>,
         key: &str,
         bytes: &[u8],
+        again: bool,
         counts: &Counts,
+        peers: &Peers,
     ) -> Result<bool> {
         let last = Keys::last(key);
         if key.contains("/states/") {
@@ -403,7 +426,7 @@ impl Shore {
             };
             for entry in entries {
                 match entry {
-                    Ok(raw) => self.state(place, key, raw, counts)?,
+                    Ok(raw) => self.state(place, key, raw, again, counts, peers)?,
                     Err(e) => counts.refuse(key, &e),
                 }
             }
@@ -439,13 +462,18 @@ impl Shore {
     }
 
     /// One state of the frame of glider host `key`'s last chunk: published on its vehicle's
-    /// service when the vehicle is one of that host's, else refused alone.
+    /// service when the vehicle is one of that host's, unless it came `again` and is the
+    /// one last published for it (dropped), else refused alone. `peers` hears of the
+    /// host before the state is published: the outbound thread's note of what it heard when
+    /// it put the answer must already count it.
     fn state(
         &mut self,
         place: &Place<'_>,
         key: &str,
         raw: RawState,
+        again: bool,
         counts: &Counts,
+        peers: &Peers,
     ) -> Result<()> {
         let host = Keys::last(key);
         let h = std::mem::offset_of!(VehicleState, header);
@@ -462,6 +490,12 @@ impl Shore {
             );
             return Ok(());
         }
+        let identity = Identity::of(raw.bytes(), h);
+        if self.last.insert(id, identity) == Some(identity) && again {
+            counts.duplicates.fetch_add(1, Ordering::Relaxed);
+            return Ok(());
+        }
+        peers.heard(host);
         let pid = wire::u32_at(raw.bytes(), std::mem::offset_of!(VehicleState, pid));
         self.pids.insert(id, pid);
         if self.restarted && self.heard.insert(id) {
@@ -609,14 +643,25 @@ impl Glider {
                 Priority::RealTime,
             )?,
             finished: None,
+            last: None,
             _node: node,
         })
     }
 
-    /// A body command from the shore: published here, every local agent woken; the
-    /// mission's final one acknowledged (every time it comes: the shore puts it again
-    /// until it hears us), and once it is published nothing more is.
-    fn frame(&mut self, key: &str, bytes: &[u8], counts: &Counts) -> Result<()> {
+    /// A body command from the shore: published here, every local agent woken, unless it
+    /// came `again` and is the one last published (dropped); the mission's final one
+    /// acknowledged (every time it comes: the shore puts it again until it hears us), and
+    /// once it is published nothing more is. `news` is called before a command is
+    /// published (the outbound thread's note of what it heard when it put the agents'
+    /// answer must already count it).
+    fn frame(
+        &mut self,
+        key: &str,
+        bytes: &[u8],
+        again: bool,
+        counts: &Counts,
+        news: impl FnOnce(),
+    ) -> Result<()> {
         let raw = match wire::decode::<RawBody>(bytes) {
             Ok(r) => r,
             Err(e) => {
@@ -632,7 +677,15 @@ impl Glider {
             return Ok(());
         }
         let last = flags & BodyCommand::FINISHED != 0;
-        if self.finished.is_none() {
+        let identity = Identity::of(raw.bytes(), h);
+        let again = again && self.last == Some(identity);
+        let published = self.finished.is_none() && !again;
+        if again && self.finished.is_none() {
+            counts.duplicates.fetch_add(1, Ordering::Relaxed);
+        }
+        if published {
+            self.last = Some(identity);
+            news();
             self.body
                 .send_copy(raw)
                 .map_err(|e| anyhow!("publishing the body: {e:?}"))?;

@@ -10,27 +10,34 @@
 //! have arrived) leave in one frame, one put ([`crate::wire::Batch`]). On the shore the
 //! mission's final command, once forwarded, is handed to the inbound loop (it keeps it
 //! until every glider host has acknowledged it) and this thread ends.
+//!
+//! What goes unanswered is put again ([`super::repeat`]): a glider host's latest states
+//! when no new body command came, the shore's last body command when an up glider host
+//! sent nothing new.
 
+use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
 use std::sync::mpsc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Result};
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{ipc, CallbackProgression, SignalHandlingMode, WaitSetBuilder};
 use iceoryx2::waitset::WaitSetRunResult;
-use tracing::info;
+use tracing::{info, warn};
 use vbap_ipc::ports;
 use vbap_ipc::topics::{Domain, Limits};
+use vbap_wire::msg::agent_to_coordinator::VehicleState;
 use vbap_wire::msg::coordinator_to_agent::BodyCommand;
 use vbap_wire::msg::Header;
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::Wait;
 
+use super::repeat::{Lose, Peers, AGAIN};
 use super::{Counts, In, Stop};
 use crate::keys::Keys;
-use crate::wire::{self, Batch, Raw, RawBody, RawExit, RawState};
+use crate::wire::{self, Batch, Raw, RawBody, RawBytes, RawExit, RawState};
 
 /// What the outbound side of a host forwards.
 pub(crate) struct Spec {
@@ -38,6 +45,10 @@ pub(crate) struct Spec {
     pub host: String,
     pub local: Vec<u32>,
     pub remote: Vec<u32>,
+    /// Silence after which the last frame is put again.
+    pub repeat: Duration,
+    /// Frames lost on purpose (tests).
+    pub lose: Lose,
 }
 
 /// Longest wait without a wake-up: the subscribers are read then anyway (a wake-up lost
@@ -69,49 +80,144 @@ fn put(publisher: &zenoh::pubsub::Publisher<'static>, frame: &[u8], counts: &Cou
     Ok(())
 }
 
-/// Reads every sample of `sub` and puts each in a frame of its own on `publisher`;
-/// returns the frame of the mission's final body command when one was read.
+/// Puts frame `frame` on `publisher` again, marked so (the attachment [`AGAIN`]): the
+/// receiver drops it when it already published what it carries.
+fn put_again(
+    publisher: &zenoh::pubsub::Publisher<'static>,
+    frame: &[u8],
+    counts: &Counts,
+    what: &str,
+) -> Result<()> {
+    publisher
+        .put(frame)
+        .attachment(AGAIN)
+        .wait()
+        .map_err(|e| anyhow!("putting again on {}: {e}", publisher.key_expr()))?;
+    counts.frames_out.fetch_add(1, Ordering::Relaxed);
+    let n = counts.repeated.fetch_add(1, Ordering::Relaxed) + 1;
+    if n <= 10 || n.is_multiple_of(100) {
+        info!(
+            what,
+            repeated = n,
+            "no answer: the last frame put again (a link may have closed with it)"
+        );
+    }
+    Ok(())
+}
+
+/// Reads every sample of `sub` and puts each in a frame of its own on `publisher`
+/// (skipping the put `lose` names); returns the last frame read, if any, and whether it is
+/// the mission's final body command.
 fn forward<T: Raw>(
     sub: &Subscriber<ipc::Service, T, ()>,
     publisher: &zenoh::pubsub::Publisher<'static>,
     counts: &Counts,
-) -> Result<Option<Vec<u8>>> {
+    lose: &mut LoseCount,
+) -> Result<Option<(Vec<u8>, bool)>> {
     let mut last = None;
     while let Some(sample) = sub.receive().map_err(|e| anyhow!("receiving: {e:?}"))? {
         let raw: &T = &sample;
         let frame = wire::encode(raw);
-        put(publisher, &frame, counts)?;
+        if !lose.skip() {
+            put(publisher, &frame, counts)?;
+        }
         counts.out.fetch_add(1, Ordering::Relaxed);
+        let mut finished = false;
         if T::NAME == RawBody::NAME {
             let h = std::mem::offset_of!(BodyCommand, header);
             let sender = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, sender));
             let flags = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, flags));
-            if sender == Header::COORDINATOR && flags & BodyCommand::FINISHED != 0 {
-                last = Some(frame);
-            }
+            finished = sender == Header::COORDINATOR && flags & BodyCommand::FINISHED != 0;
         }
+        last = Some((frame, finished));
     }
     Ok(last)
 }
 
 /// Reads every sample of every subscriber of `subs` (this host's vehicles' states) into one
-/// frame and puts it on `publisher` (nothing when none was read).
+/// frame and puts it on `publisher` (nothing when none was read; no put when `lose` names
+/// it); each vehicle's latest state goes into `latest`. Returns how many were read.
 fn forward_batch(
     subs: &[Subscriber<ipc::Service, RawState, ()>],
     publisher: &zenoh::pubsub::Publisher<'static>,
     counts: &Counts,
-) -> Result<()> {
+    latest: &mut BTreeMap<u32, RawState>,
+    lose: &mut LoseCount,
+) -> Result<usize> {
     let mut batch = Batch::<RawState>::default();
     for sub in subs {
         while let Some(sample) = sub.receive().map_err(|e| anyhow!("receiving: {e:?}"))? {
-            batch.push(&sample);
+            let raw: &RawState = &sample;
+            batch.push(raw);
+            let h = std::mem::offset_of!(VehicleState, header);
+            latest.insert(
+                wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, sender)),
+                *raw,
+            );
         }
     }
     if !batch.is_empty() {
-        put(publisher, batch.frame(), counts)?;
+        if !lose.skip() {
+            put(publisher, batch.frame(), counts)?;
+        }
         counts.out.fetch_add(batch.len() as u64, Ordering::Relaxed);
     }
-    Ok(())
+    Ok(batch.len())
+}
+
+/// Counts the puts of one stream and says which one to skip ([`Lose`]).
+struct LoseCount {
+    puts: u64,
+    skip: Option<u64>,
+    stream: &'static str,
+}
+
+impl LoseCount {
+    fn new(skip: Option<u64>, stream: &'static str) -> Self {
+        Self {
+            puts: 0,
+            skip,
+            stream,
+        }
+    }
+    /// One more put of this stream: true when it is the one to lose.
+    fn skip(&mut self) -> bool {
+        self.puts += 1;
+        let lost = self.skip == Some(self.puts);
+        if lost {
+            warn!(
+                stream = self.stream,
+                put = self.puts,
+                var = Lose::VAR,
+                "a frame lost on purpose: not put"
+            );
+        }
+        lost
+    }
+}
+
+/// The last frame this host put and the peers' news then: put again once a peer that is up
+/// has brought nothing new for [`repeat_after`](super::repeat::repeat_after).
+struct Unanswered {
+    since: Instant,
+    news: Vec<u64>,
+}
+
+impl Unanswered {
+    fn now(peers: &Peers) -> Self {
+        Self {
+            since: Instant::now(),
+            news: peers.news(),
+        }
+    }
+    /// Whether to put the last frame again now (and if so, wait `after` again).
+    fn due(&mut self, peers: &Peers, after: Duration) -> bool {
+        if self.since.elapsed() < after || !peers.one_silent_since(&self.news) {
+            return false;
+        }
+        self.since = Instant::now();
+        true
+    }
 }
 
 /// The outbound thread: opens its ports, says so on `up`, then forwards until `stop` (or,
@@ -126,6 +232,7 @@ pub(crate) fn run(
     spec: &Spec,
     stop: &Stop,
     counts: &Counts,
+    peers: &Peers,
     up: mpsc::Sender<()>,
     inbound: mpsc::Sender<In>,
 ) -> Result<()> {
@@ -181,6 +288,13 @@ pub(crate) fn run(
         listeners = listeners.len(),
         "outbound ports up"
     );
+    let mut lose_states = LoseCount::new(spec.lose.states, "states");
+    let mut lose_body = LoseCount::new(spec.lose.body, "body");
+    let mut lose_none = LoseCount::new(None, "exits");
+    // A glider host: each local vehicle's latest state; the shore: the last body command.
+    let mut latest: BTreeMap<u32, RawState> = BTreeMap::new();
+    let mut last_body: Option<Vec<u8>> = None;
+    let mut unanswered: Option<Unanswered> = None;
     while !stop.is_set() {
         let result = waitset
             .wait_and_process_once_with_timeout(|_| CallbackProgression::Continue, IDLE)
@@ -193,16 +307,40 @@ pub(crate) fn run(
                 .map_err(|e| anyhow!("draining a wake listener: {e:?}"))?;
         }
         if let Some(publisher) = &states_out {
-            forward_batch(&states, publisher, counts)?;
+            if forward_batch(&states, publisher, counts, &mut latest, &mut lose_states)? > 0 {
+                unanswered = Some(Unanswered::now(peers));
+            } else if unanswered
+                .as_mut()
+                .is_some_and(|u| u.due(peers, spec.repeat))
+            {
+                let mut batch = Batch::<RawState>::default();
+                latest.values().for_each(|s| batch.push(s));
+                put_again(publisher, batch.frame(), counts, "states")?;
+            }
         }
         if let Some((sub, publisher)) = &exits {
-            forward(sub, publisher, counts)?;
+            forward(sub, publisher, counts, &mut lose_none)?;
         }
         if let Some((sub, publisher)) = &body {
-            if let Some(frame) = forward(sub, publisher, counts)? {
-                info!("the mission's final command is forwarded: handed to the inbound loop");
-                let _ = inbound.send(In::Final(frame));
-                break;
+            match forward(sub, publisher, counts, &mut lose_body)? {
+                Some((frame, true)) => {
+                    info!("the mission's final command is forwarded: handed to the inbound loop");
+                    let _ = inbound.send(In::Final(frame));
+                    break;
+                }
+                Some((frame, false)) => {
+                    last_body = Some(frame);
+                    unanswered = Some(Unanswered::now(peers));
+                }
+                None => {
+                    if let Some(frame) = last_body.as_ref().filter(|_| {
+                        unanswered
+                            .as_mut()
+                            .is_some_and(|u| u.due(peers, spec.repeat))
+                    }) {
+                        put_again(publisher, frame, counts, "body")?;
+                    }
+                }
             }
         }
     }
