@@ -11,6 +11,10 @@
 //!    (goal ≤ 1.5).
 //! 3. **Tick**: the coordinator's loop period p50 of that run against the same mission
 //!    run on one host plus one raw round trip (goal ≤ 2).
+//!
+//! Both over plain TCP (`insecure = true`) and over mutual TLS (certificates made by
+//! `vbap certs`, as a user makes them), side by side: the cost of TLS is printed as the
+//! ratios TLS / TCP of the round trip, the hop and the tick.
 
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
@@ -47,39 +51,97 @@ fn mission(name: &str, duration: f64) -> String {
     )
 }
 
+/// What one transport (plain TCP or mutual TLS) costs: the raw round trip, the
+/// `state@hosts` hop and the 3-host tick.
+struct Leg {
+    rtt: Percentiles,
+    hop: Percentiles,
+    tick3: f64,
+}
+
+/// Measures one transport with the hosts file `hosts_text`, in folder `work`.
+fn leg(net: &Net, work: &Path, hosts_text: &str, samples: usize, duration: f64) -> Result<Leg> {
+    std::fs::create_dir_all(work)?;
+    let hosts = work.join("hosts.toml");
+    std::fs::write(&hosts, hosts_text)?;
+    let rtt = floor(net, work, &hosts, samples)?;
+    let (hop, tick3) = three_hosts(net, work, &hosts, duration)?;
+    Ok(Leg { rtt, hop, tick3 })
+}
+
+/// The mission's certificates for the TLS leg (`vbap certs`, as a user makes them) and
+/// its hosts file.
+fn tls_hosts(net: &Net, work: &Path) -> Result<String> {
+    let certs = work.join("certs");
+    let text = net.hosts_file_tls(N, &certs);
+    let file = work.join("hosts_for_certs.toml");
+    std::fs::create_dir_all(work)?;
+    std::fs::write(&file, &text)?;
+    let out = std::process::Command::new(bin_dir()?.join("vbap"))
+        .arg("certs")
+        .arg(&file)
+        .arg("--out")
+        .arg(&certs)
+        .output()?;
+    if !out.status.success() {
+        bail!(
+            "vbap certs failed: {}",
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    Ok(text)
+}
+
 /// Runs the bench; prints the table; returns the exit code.
 pub fn bench(args: &BenchArgs, work: &Path) -> Result<i32> {
     let net = Net::new()?;
-    let hosts = work.join("hosts.toml");
-    std::fs::write(&hosts, net.hosts_file(N))?;
     let samples = if args.quick { 300 } else { 2000 };
-    let rtt = floor(&net, work, &hosts, samples)?;
     let duration = if args.quick { 10.0 } else { 30.0 };
     let one = one_host(work, duration)?;
-    let (hop, tick3) = three_hosts(&net, work, &hosts, duration)?;
+    let tcp = leg(
+        &net,
+        &work.join("tcp"),
+        &net.hosts_file(N),
+        samples,
+        duration,
+    )?;
+    let tls_text = tls_hosts(&net, &work.join("tls"))?;
+    let tls = leg(&net, &work.join("tls"), &tls_text, samples, duration)?;
     drop(net);
-    let one_way = rtt.p50 / 2.0;
-    let hop_ratio = hop.p50 / one_way;
-    let tick_ratio = tick3 * 1e3 / (one * 1e3 + rtt.p50);
-    let strict = (tick3 * 1e3 - rtt.p50) / (one * 1e3);
     let goal = |r: f64, g: f64| if r <= g { "met" } else { "MISSED" };
     println!("vbap bench --hosts: 3 hosts in network namespaces (veth), N = {N}, lockstep");
-    println!("raw Zenoh ping-pong   round trip p50 {:.1} µs (p90 {:.1}), one way {one_way:.1} µs, {samples} samples", rtt.p50, rtt.p90);
+    println!("tick, one host        p50 {one:.3} ms");
+    for (name, l) in [("plain TCP", &tcp), ("mutual TLS", &tls)] {
+        let one_way = l.rtt.p50 / 2.0;
+        let hop_ratio = l.hop.p50 / one_way;
+        let tick_ratio = l.tick3 * 1e3 / (one * 1e3 + l.rtt.p50);
+        let strict = (l.tick3 * 1e3 - l.rtt.p50) / (one * 1e3);
+        println!("-- {name}");
+        println!(
+            "raw Zenoh ping-pong   round trip p50 {:.1} µs (p90 {:.1}), one way {one_way:.1} µs, {samples} samples",
+            l.rtt.p50, l.rtt.p90
+        );
+        println!(
+            "state@hosts hop       p50 {:.1} µs (p90 {:.1})",
+            l.hop.p50, l.hop.p90
+        );
+        println!("tick, 3 hosts         p50 {:.3} ms", l.tick3);
+        println!(
+            "hop / raw one way               = {hop_ratio:.2}  (goal ≤ 1.5: {})",
+            goal(hop_ratio, 1.5)
+        );
+        println!(
+            "3-host tick / (1-host tick + raw round trip) = {tick_ratio:.2}  (goal ≤ 2: {})",
+            goal(tick_ratio, 2.0)
+        );
+        println!("(3-host tick − raw round trip) / 1-host tick = {strict:.2}");
+    }
     println!(
-        "state@hosts hop       p50 {:.1} µs (p90 {:.1})",
-        hop.p50, hop.p90
+        "-- the cost of TLS (TLS / TCP, same run): raw round trip {:.2}, state@hosts hop {:.2}, 3-host tick {:.2}",
+        tls.rtt.p50 / tcp.rtt.p50,
+        tls.hop.p50 / tcp.hop.p50,
+        tls.tick3 / tcp.tick3
     );
-    println!("tick, one host        p50 {:.3} ms", one);
-    println!("tick, 3 hosts         p50 {:.3} ms", tick3);
-    println!(
-        "hop / raw one way               = {hop_ratio:.2}  (goal ≤ 1.5: {})",
-        goal(hop_ratio, 1.5)
-    );
-    println!(
-        "3-host tick / (1-host tick + raw round trip) = {tick_ratio:.2}  (goal ≤ 2: {})",
-        goal(tick_ratio, 2.0)
-    );
-    println!("(3-host tick − raw round trip) / 1-host tick = {strict:.2}");
     Ok(0)
 }
 

@@ -90,6 +90,28 @@ impl Net {
         )
     }
 
+    /// [`Net::hosts_file`] over mutual TLS: `tls/` endpoints, the certificates of
+    /// `vbap certs` in folder `certs` (`ca.pem`, `<host>.pem`, `<host>.key`).
+    pub fn hosts_file_tls(&self, n: usize, certs: &Path) -> String {
+        let plain = self.hosts_file(n);
+        let mut text = format!("[tls]\nca = {:?}\n", certs.join("ca.pem"));
+        for line in plain.lines().filter(|l| *l != "insecure = true") {
+            text.push_str(&line.replace("\"tcp/", "\"tls/"));
+            text.push('\n');
+            if let Some(h) = line
+                .strip_prefix("[hosts.")
+                .and_then(|l| l.strip_suffix(']'))
+            {
+                text.push_str(&format!(
+                    "cert = {:?}\nkey = {:?}\n",
+                    certs.join(format!("{h}.pem")),
+                    certs.join(format!("{h}.key"))
+                ));
+            }
+        }
+        text
+    }
+
     /// Starts `program ARGS` in host `host`'s namespace with a private /dev/shm and
     /// /tmp/iceoryx2 and lock directory `locks`; stdout to `stdout`, stderr to file `err`.
     pub fn spawn(
