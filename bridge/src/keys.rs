@@ -176,6 +176,139 @@ pub fn config(hosts: &Hosts, host: &str) -> Result<zenoh::Config> {
     Ok(c)
 }
 
+/// The access control of host `host` of mission `mission` over mutual TLS, as Zenoh's
+/// `access_control` configuration (JSON): every peer is known by the common name of its
+/// certificate (its host name, `vbap certs`), and everything not allowed here is denied.
+/// The shore takes from glider host `h` only puts of `states/h`, `exits/h` and
+/// `final_ack/h`, `h`'s own liveliness token, and subscriptions to the body commands and
+/// the hosts' tokens; it sends `h` only body commands, tokens and its own subscriptions. A
+/// glider host takes from the shore only body commands, tokens and subscriptions, and sends
+/// it only its own states, exits, acknowledgements, token and subscriptions. So a glider
+/// host can neither publish another host's states nor a command, nor read another host's
+/// states (what Zenoh cannot say, a state whose vehicle is not its key's host's, the
+/// shore's bridge refuses itself).
+pub fn access_control(hosts: &Hosts, host: &str, mission: &str) -> String {
+    let k = Keys::new(mission);
+    let all = format!("{}/**", k.root);
+    let tokens = format!("{}/host/**", k.root);
+    // A rule allowing `messages` on `keys` in direction `flow`: its id and its JSON.
+    let rule = |id: &str, flow: &str, messages: &[&str], keys: &[String]| {
+        let json = format!(
+            r#"{{"id":{id:?},"flows":[{flow:?}],"messages":{},"key_exprs":{},"permission":"allow"}}"#,
+            json_list(&messages.iter().map(|m| m.to_string()).collect::<Vec<_>>()),
+            json_list(keys)
+        );
+        (id.to_string(), json)
+    };
+    let mut rules = Vec::new();
+    let mut subjects = Vec::new();
+    let mut policies = Vec::new();
+    let peers: Vec<String> = if hosts.is_shore(host) {
+        hosts
+            .hosts
+            .keys()
+            .filter(|h| !hosts.is_shore(h))
+            .cloned()
+            .collect()
+    } else {
+        vec![hosts.shore.clone()]
+    };
+    for peer in &peers {
+        // What a glider host `g` sends the shore (and the shore takes from it).
+        let from_glider = |g: &str, flow: &str| {
+            [
+                rule(
+                    &format!("{g}_{flow}_puts"),
+                    flow,
+                    &["put"],
+                    &[k.states(g), k.exits(g), k.final_ack(g)],
+                ),
+                rule(
+                    &format!("{g}_{flow}_token"),
+                    flow,
+                    &["liveliness_token"],
+                    &[format!("{}/host/{g}/*", k.root)],
+                ),
+                rule(
+                    &format!("{g}_{flow}_subscriptions"),
+                    flow,
+                    &["declare_subscriber"],
+                    &[k.body()],
+                ),
+                rule(
+                    &format!("{g}_{flow}_token_subscriptions"),
+                    flow,
+                    &["declare_liveliness_subscriber", "liveliness_query"],
+                    std::slice::from_ref(&tokens),
+                ),
+            ]
+        };
+        // What the shore sends a glider host (and the glider host takes from it).
+        let from_shore = |flow: &str, tag: &str| {
+            [
+                rule(&format!("{tag}_{flow}_body"), flow, &["put"], &[k.body()]),
+                rule(
+                    &format!("{tag}_{flow}_tokens"),
+                    flow,
+                    &["liveliness_token"],
+                    std::slice::from_ref(&tokens),
+                ),
+                rule(
+                    &format!("{tag}_{flow}_subscriptions"),
+                    flow,
+                    &[
+                        "declare_subscriber",
+                        "declare_liveliness_subscriber",
+                        "liveliness_query",
+                    ],
+                    std::slice::from_ref(&all),
+                ),
+            ]
+        };
+        let these: Vec<(String, String)> = if hosts.is_shore(host) {
+            from_glider(peer, "ingress")
+                .into_iter()
+                .chain(from_shore("egress", peer))
+                .collect()
+        } else {
+            from_glider(host, "egress")
+                .into_iter()
+                .chain(from_shore("ingress", peer))
+                .collect()
+        };
+        let ids: Vec<String> = these.iter().map(|(id, _)| id.clone()).collect();
+        rules.extend(these.into_iter().map(|(_, json)| json));
+        subjects.push(format!(
+            r#"{{"id":{:?},"cert_common_names":[{peer:?}]}}"#,
+            format!("host_{peer}")
+        ));
+        policies.push(format!(
+            r#"{{"id":{:?},"rules":{},"subjects":[{:?}]}}"#,
+            format!("policy_{peer}"),
+            json_list(&ids),
+            format!("host_{peer}")
+        ));
+    }
+    format!(
+        r#"{{"enabled":true,"default_permission":"deny","rules":[{}],"subjects":[{}],"policies":[{}]}}"#,
+        rules.join(","),
+        subjects.join(","),
+        policies.join(",")
+    )
+}
+
+/// [`config`] for the bridge of mission `mission`: over mutual TLS with its
+/// [`access_control`].
+pub fn mission_config(hosts: &Hosts, host: &str, mission: &str) -> Result<zenoh::Config> {
+    let mut c = config(hosts, host)?;
+    if hosts.tls.is_some() {
+        let acl = access_control(hosts, host, mission);
+        c.insert_json5("access_control", &acl)
+            .map_err(|e| anyhow!("zenoh config access_control = {acl}: {e}"))?;
+    }
+    Ok(c)
+}
+
 /// Whether tracing event `event` is Zenoh's TLS listener refusing a handshake (a peer
 /// without a certificate of the mission's CA, or not speaking TLS): its message, less
 /// Zenoh's hint about open files (a handshake error reaches the same line as an accept
@@ -211,6 +344,30 @@ fn json_list(list: &[String]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_access_control_lets_each_glider_host_put_only_its_own_keys_and_zenoh_takes_it() {
+        let text = "[tls]\nca = \"/c/ca.pem\"\n\
+            [hosts.shore]\nendpoint = \"tls/10.0.0.1:7447\"\nprocesses = [\"coordinator\", \"field_server\"]\ncert = \"/c/shore.pem\"\nkey = \"/c/shore.key\"\n\
+            [hosts.glider_a]\nendpoint = \"tls/10.0.0.2:7447\"\nvehicles = [0, 1]\ncert = \"/c/glider_a.pem\"\nkey = \"/c/glider_a.key\"\n\
+            [hosts.glider_b]\nendpoint = \"tls/10.0.0.3:7447\"\nvehicles = [2, 3]\ncert = \"/c/glider_b.pem\"\nkey = \"/c/glider_b.key\"\n";
+        let hosts = Hosts::parse(text, "test", 4).unwrap();
+        let shore = access_control(&hosts, "shore", "m1");
+        // The shore takes puts of glider_a's own keys from glider_a's certificate only.
+        assert!(shore.contains(
+            r#"{"id":"glider_a_ingress_puts","flows":["ingress"],"messages":["put"],"key_exprs":["vbap/m1/states/glider_a","vbap/m1/exits/glider_a","vbap/m1/final_ack/glider_a"],"permission":"allow"}"#
+        ), "{shore}");
+        assert!(shore.contains(r#""cert_common_names":["glider_b"]"#));
+        assert!(shore.contains(r#""default_permission":"deny""#));
+        // A glider host takes puts of the body commands only, from the shore.
+        let a = access_control(&hosts, "glider_a", "m1");
+        assert!(a.contains(r#""cert_common_names":["shore"]"#), "{a}");
+        assert!(!a.contains("glider_b"), "{a}");
+        // Zenoh reads every host's rules (a typo would fail the session at start).
+        for h in ["shore", "glider_a", "glider_b"] {
+            mission_config(&hosts, h, "m1").unwrap();
+        }
+    }
 
     #[test]
     fn a_token_key_names_its_host_and_bridge_process() {

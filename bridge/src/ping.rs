@@ -118,3 +118,77 @@ pub fn ping(hosts: &Hosts, host: &str, warm: usize, samples: usize) -> Result<Ve
         .map_err(|e| anyhow!("closing: {e}"))?;
     Ok(rtt)
 }
+
+/// A host that holds a certificate of the mission but breaks its rules (the access
+/// control's test): on host `host`'s session (its certificate), `count` times every 20 ms,
+/// puts a state of vehicle `vehicle` on host `victim`'s states key and a body command on
+/// the body key of mission `mission`, while subscribed to every host's states. Returns how
+/// many states it read (a host may read none but its own).
+pub fn forge(
+    hosts: &Hosts,
+    host: &str,
+    mission: &str,
+    victim: &str,
+    vehicle: u32,
+    count: usize,
+) -> Result<usize> {
+    use vbap_wire::msg::coordinator_to_agent::BodyCommand;
+    use vbap_wire::msg::Header;
+    // It connects to the shore as `host` does, listening on nothing (the real host's
+    // bridge holds its endpoint).
+    let mut config = keys::config(hosts, host)?;
+    config
+        .insert_json5("listen/endpoints", "[]")
+        .map_err(|e| anyhow!("zenoh config listen/endpoints: {e}"))?;
+    let session = zenoh::open(config)
+        .wait()
+        .map_err(|e| anyhow!("opening the Zenoh session of host {host}: {e}"))?;
+    let k = keys::Keys::new(mission);
+    let seen = session
+        .declare_subscriber(k.all_states())
+        .wait()
+        .map_err(|e| anyhow!("subscribing to the states: {e}"))?;
+    let states = publisher(&session, k.states(victim), Priority::RealTime)?;
+    let body = publisher(&session, k.body(), Priority::RealTime)?;
+    let h = std::mem::offset_of!(VehicleState, header);
+    for i in 0..count {
+        let mut state = vec![0u8; std::mem::size_of::<VehicleState>()];
+        let put_at = |b: &mut [u8], at: usize, v: &[u8]| b[at..at + v.len()].copy_from_slice(v);
+        put_at(
+            &mut state,
+            h + std::mem::offset_of!(Header, sender),
+            &vehicle.to_ne_bytes(),
+        );
+        let seq = 1_000_000 + i as u64;
+        put_at(
+            &mut state,
+            h + std::mem::offset_of!(Header, seq),
+            &seq.to_ne_bytes(),
+        );
+        states
+            .put(wire::encode(&RawState::from_bytes(&state)))
+            .wait()
+            .map_err(|e| anyhow!("putting a forged state: {e}"))?;
+        let mut command = vec![0u8; std::mem::size_of::<BodyCommand>()];
+        let hb = std::mem::offset_of!(BodyCommand, header);
+        put_at(
+            &mut command,
+            hb + std::mem::offset_of!(Header, sender),
+            &Header::COORDINATOR.to_ne_bytes(),
+        );
+        put_at(
+            &mut command,
+            hb + std::mem::offset_of!(Header, seq),
+            &seq.to_ne_bytes(),
+        );
+        body.put(wire::encode(&crate::wire::RawBody::from_bytes(&command)))
+            .wait()
+            .map_err(|e| anyhow!("putting a forged command: {e}"))?;
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let mut read = 0;
+    while let Ok(Some(_)) = seen.try_recv() {
+        read += 1;
+    }
+    Ok(read)
+}

@@ -1,6 +1,7 @@
 //! `vbap_zenoh_ping --hosts FILE --host NAME --vehicles N (--pong | --samples K)`: the raw Zenoh
 //! ping-pong of `vbap bench --hosts` (the floor of a cross-host hop, `vbap_bridge::ping`).
-//! The pinging side prints its round-trip times, µs, one a line.
+//! The pinging side prints its round-trip times, µs, one a line. With `--forge MISSION`
+//! it is instead a host that breaks the mission's rules (the access control's test).
 
 use std::path::PathBuf;
 
@@ -28,6 +29,18 @@ struct Args {
     /// Unmeasured round trips first.
     #[arg(long, default_value_t = 100)]
     warm: usize,
+    /// Instead: break the rules of mission MISSION with this host's certificate (the
+    /// access control's test, `vbap_bridge::ping::forge`): `--samples` times, a state of
+    /// vehicle `--vehicle` on host `--victim`'s key and a body command; prints how many
+    /// states it read.
+    #[arg(long, requires_all = ["victim", "vehicle"])]
+    forge: Option<String>,
+    /// The host whose states `--forge` forges.
+    #[arg(long)]
+    victim: Option<String>,
+    /// The vehicle whose state `--forge` forges.
+    #[arg(long)]
+    vehicle: Option<u32>,
 }
 
 fn main() {
@@ -37,7 +50,17 @@ fn main() {
         vbap_mission::hosts::Hosts::load(&args.hosts, args.vehicles)
             .and_then(|h| h.host(&args.host).map(|_| ()).map(|()| h)),
     );
-    let result = if args.pong {
+    let result = if let Some(mission) = &args.forge {
+        vbap_bridge::ping::forge(
+            &hosts,
+            &args.host,
+            mission,
+            args.victim.as_deref().unwrap_or_default(),
+            args.vehicle.unwrap_or_default(),
+            args.samples,
+        )
+        .map(|read| println!("read {read}"))
+    } else if args.pong {
         vbap_bridge::ping::pong(&hosts, &args.host)
     } else {
         vbap_bridge::ping::ping(&hosts, &args.host, args.warm, args.samples).map(|rtt| {

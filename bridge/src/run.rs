@@ -172,7 +172,7 @@ pub fn run(
         limits: Limits::for_fleet(mission.vehicles.count),
         keys: Keys::new(&mission.mission.name),
     };
-    let config = keys::config(hosts, host)?;
+    let config = keys::mission_config(hosts, host, &mission.mission.name)?;
     let session = zenoh::open(config)
         .wait()
         .map_err(|e| anyhow!("opening the Zenoh session of host {host}: {e}"))?;

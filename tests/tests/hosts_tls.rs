@@ -1,8 +1,9 @@
 //! Hosts that trust only each other (network namespaces, root: see `tests::netns`): the
 //! certificates of `vbap certs`, a three-host lockstep mission over mutual TLS equal to
 //! `vbap sim`, a peer with a certificate of another CA and a plain-TCP peer refused at the
-//! shore's handshake (counted and logged) while the mission runs on, and plain `tcp/`
-//! refused without `insecure = true`.
+//! shore's handshake (counted and logged) while the mission runs on, a host with a
+//! certificate of the mission that forges another host's states and commands held off by
+//! the access control, and plain `tcp/` refused without `insecure = true`.
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::Path;
@@ -94,6 +95,32 @@ fn three_hosts_over_mutual_tls_equal_the_simulator_and_refuse_strangers() {
         Duration::from_secs(60),
         "the shore refusing both strangers at the handshake",
     );
+    // A host with a certificate of the mission that breaks its rules: on glider_a's
+    // certificate, states of glider_b's vehicle 2 on glider_b's key and body commands, all
+    // through the mission, while reading every host's states. The shore's access control
+    // takes none of it (else the coordinator would read vehicle 2 at the origin with a
+    // sequence number far ahead, and reject the real one's next state as a replay).
+    let forger = net.spawn_in(
+        "glider_a",
+        &ping,
+        &[
+            "--hosts",
+            &hosts.to_string_lossy(),
+            "--host",
+            "glider_a",
+            "--vehicles",
+            "4",
+            "--forge",
+            &name,
+            "--victim",
+            "glider_b",
+            "--vehicle",
+            "2",
+            "--samples",
+            "5000",
+        ],
+        &tmp.join("forger.log"),
+    );
     let mut a = start_host(&net, &tmp, &file, &hosts, "glider_a");
     let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
     wait_hosts_ok(
@@ -114,6 +141,13 @@ fn three_hosts_over_mutual_tls_equal_the_simulator_and_refuse_strangers() {
             "{log}: {text}"
         );
     }
+    // The forger was still at it when the mission ended (5000 puts take 100 s).
+    let forged = read(&tmp.join("forger.log"));
+    assert!(
+        !forged.contains("read "),
+        "the forger ended before the mission: {forged}"
+    );
+    drop(forger);
     assert_same_tracks(&tmp.join("sim"), &shore_dir);
     let s = summary(&shore_dir);
     assert_eq!(s["mode"], "multi-process");
