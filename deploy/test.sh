@@ -8,6 +8,7 @@
 #   node                    the viewer's tick unit tests (view/tests/ticks_js.rs);  Debian: nodejs
 #   ip                      network namespaces of a mission over hosts (tests/tests/hosts*.rs); Debian: iproute2
 #   useradd, runuser        a second local user (tests/tests/hygiene.rs); Debian: passwd, util-linux
+#   tcpdump                 a capture of the network between hosts (tests/tests/hosts*.rs); Debian: tcpdump
 #   root                    those namespaces (tests/tests/hosts*.rs) and that user
 # Missing ones are installed with apt-get when this runs as root (or with sudo); otherwise it
 # stops before any test, naming each one missing.
@@ -20,9 +21,9 @@ if ! command -v cargo >/dev/null 2>&1; then
 fi
 
 # command → Debian package, for each tool a test needs.
-declare -A package=([chromium]=chromium [chromedriver]=chromium-driver [node]=nodejs [ip]=iproute2 [useradd]=passwd [runuser]=util-linux)
+declare -A package=([chromium]=chromium [chromedriver]=chromium-driver [node]=nodejs [ip]=iproute2 [useradd]=passwd [runuser]=util-linux [tcpdump]=tcpdump)
 missing=()
-for tool in chromium chromedriver node ip useradd runuser; do
+for tool in chromium chromedriver node ip useradd runuser tcpdump; do
   command -v "$tool" >/dev/null 2>&1 || missing+=("$tool")
 done
 

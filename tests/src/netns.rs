@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::Duration;
 
 use crate::{bin_dir, processes_mentioning, read, ChildGuard, TempDir};
 
@@ -107,6 +108,33 @@ impl Net {
         }
         text
     }
+    /// A packet capture of everything between the hosts (`tcpdump` on the switch's bridge,
+    /// whole packets, written as they come) into `file`, its messages in `log`; returns
+    /// once it listens. Stopped when the guard drops.
+    pub fn capture(&self, file: &Path, log: &Path) -> ChildGuard {
+        let err = std::fs::File::create(log).expect("the capture's log");
+        let guard = ChildGuard(Some(
+            Command::new("ip")
+                .args(["netns", "exec", &self.ns("sw"), "tcpdump", "-i", "br0"])
+                .args(["-n", "-U", "-s", "0", "-w"])
+                .arg(file)
+                .stdout(Stdio::null())
+                .stderr(err)
+                .spawn()
+                .expect("tcpdump (Debian: tcpdump; deploy/test.sh installs it)"),
+        ));
+        crate::wait_until(
+            || {
+                std::fs::read_to_string(log)
+                    .unwrap_or_default()
+                    .contains("listening on")
+            },
+            Duration::from_secs(30),
+            "tcpdump listening on the switch",
+        );
+        guard
+    }
+
     /// Runs `program ARGS` in host `host`'s network namespace (stdout and stderr to
     /// `log`); killed when the guard drops.
     pub fn spawn_in(&self, host: &str, program: &Path, args: &[&str], log: &Path) -> ChildGuard {
@@ -206,6 +234,11 @@ pub fn start_host_with(
             .spawn()
             .expect("spawning vbap run in a namespace"),
     ))
+}
+
+/// Whether the bytes of `hay` (a packet capture) hold `needle` anywhere.
+pub fn holds(hay: &[u8], needle: &[u8]) -> bool {
+    hay.windows(needle.len()).any(|w| w == needle)
 }
 
 /// Nothing of the run is left: no process, nothing in any host's /dev/shm or

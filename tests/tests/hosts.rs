@@ -17,6 +17,8 @@ fn three_hosts_in_lockstep_equal_the_simulator_and_leave_nothing() {
     let file = write(&tmp, "m.toml", &hosts_mission(&name, 6.0));
     let hosts = write(&tmp, "hosts.toml", &net.hosts_file());
     vbap_quiet("sim", &file, &tmp.join("sim"));
+    let pcap = tmp.join("hosts.pcap");
+    let capture = net.capture(&pcap, &tmp.join("tcpdump.log"));
     // Any order: the glider hosts first, then the shore they wait for.
     let mut a = start_host(&net, &tmp, &file, &hosts, "glider_a");
     let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
@@ -34,6 +36,17 @@ fn three_hosts_in_lockstep_equal_the_simulator_and_leave_nothing() {
     let s = summary(&run);
     assert_eq!(s["mode"], "multi-process");
     assert_eq!(s["messages"]["rejected"], 0);
+    // Over plain TCP (`insecure = true`) the capture between the hosts reads the
+    // mission's name and its frames in clear: what hosts_tls.rs's capture must not.
+    drop(capture);
+    let captured = std::fs::read(&pcap).unwrap();
+    for clear in [name.as_bytes(), b"VBAPW2", b"vbap.VehicleState"] {
+        assert!(
+            holds(&captured, clear),
+            "{:?} in the plain-TCP capture",
+            String::from_utf8_lossy(clear)
+        );
+    }
     // The other hosts' message records, merged (copied as hosts/<host>/logs): the hops
     // that crossed hosts apart from the local ones.
     for h in ["glider_a", "glider_b"] {

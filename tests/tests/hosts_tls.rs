@@ -67,6 +67,9 @@ fn three_hosts_over_mutual_tls_equal_the_simulator_and_refuse_strangers() {
     );
     let plain_hosts = write(&tmp, "plain.toml", &plain);
     vbap_quiet("sim", &file, &tmp.join("sim"));
+    // Everything that crosses the network between the hosts, from before the first host.
+    let pcap = tmp.join("hosts.pcap");
+    let capture = net.capture(&pcap, &tmp.join("tcpdump.log"));
     // The shore first: it waits for the glider hosts, and meanwhile the strangers knock.
     let mut shore = start_host(&net, &tmp, &file, &hosts, "shore");
     let ping = bin_dir().join("vbap_zenoh_ping");
@@ -141,6 +144,32 @@ fn three_hosts_over_mutual_tls_equal_the_simulator_and_refuse_strangers() {
             "{log}: {text}"
         );
     }
+    // The capture holds the whole mission, and neither its name nor a payload in clear
+    // (the frames' magic, the payloads' type names): hosts.rs's plain-TCP run holds both.
+    drop(capture);
+    let captured = std::fs::read(&pcap).unwrap();
+    assert!(
+        captured.len() > 100_000,
+        "captured {} bytes",
+        captured.len()
+    );
+    for clear in [
+        name.as_bytes(),
+        b"VBAPW2",
+        b"vbap.VehicleState",
+        b"vbap.BodyCommand",
+    ] {
+        assert!(
+            !holds(&captured, clear),
+            "{:?} in clear in {}",
+            String::from_utf8_lossy(clear),
+            pcap.display()
+        );
+    }
+    println!(
+        "captured between the hosts: {} bytes, nothing in clear",
+        captured.len()
+    );
     // The forger was still at it when the mission ended (5000 puts take 100 s).
     let forged = read(&tmp.join("forger.log"));
     assert!(
