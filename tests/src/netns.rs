@@ -295,8 +295,13 @@ pub fn refused_hosts_file(file: &Path, hosts: &Path, out: &Path, want: &str) -> 
 
 /// Waits for each host's `vbap run` (named) and asserts it succeeded, naming the host and
 /// its folder under `tmp` when it did not.
-pub fn wait_hosts_ok(tmp: &TempDir, hosts: [(&str, &mut ChildGuard); 3]) {
-    for (h, child) in hosts {
+pub fn wait_hosts_ok(
+    tmp: &TempDir,
+    shore: &mut ChildGuard,
+    glider_a: &mut ChildGuard,
+    glider_b: &mut ChildGuard,
+) {
+    for (h, child) in HOSTS.into_iter().zip([shore, glider_a, glider_b]) {
         let status = child.wait();
         assert!(
             status.success(),

@@ -23,14 +23,7 @@ fn three_hosts_in_lockstep_equal_the_simulator_and_leave_nothing() {
     let mut a = start_host(&net, &tmp, &file, &hosts, "glider_a");
     let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
     let mut shore = start_host(&net, &tmp, &file, &hosts, "shore");
-    wait_hosts_ok(
-        &tmp,
-        [
-            ("shore", &mut shore),
-            ("glider_a", &mut a),
-            ("glider_b", &mut b),
-        ],
-    );
+    wait_hosts_ok(&tmp, &mut shore, &mut a, &mut b);
     let run = tmp.join("shore");
     assert_same_tracks(&tmp.join("sim"), &run);
     let s = summary(&run);
@@ -100,14 +93,7 @@ fn frames_lost_with_a_link_are_put_again_and_the_run_still_equals_the_simulator(
     let mut shore = start_host_with(&net, &tmp, &file, &hosts, "shore", &[(lose, "body:8")]);
     let mut a = start_host_with(&net, &tmp, &file, &hosts, "glider_a", &[(lose, "states:5")]);
     let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
-    wait_hosts_ok(
-        &tmp,
-        [
-            ("shore", &mut shore),
-            ("glider_a", &mut a),
-            ("glider_b", &mut b),
-        ],
-    );
+    wait_hosts_ok(&tmp, &mut shore, &mut a, &mut b);
     let run = tmp.join("shore");
     assert_same_tracks(&tmp.join("sim"), &run);
     let s = summary(&run);

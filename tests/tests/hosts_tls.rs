@@ -126,14 +126,7 @@ fn three_hosts_over_mutual_tls_equal_the_simulator_and_refuse_strangers() {
     );
     let mut a = start_host(&net, &tmp, &file, &hosts, "glider_a");
     let mut b = start_host(&net, &tmp, &file, &hosts, "glider_b");
-    wait_hosts_ok(
-        &tmp,
-        [
-            ("shore", &mut shore),
-            ("glider_a", &mut a),
-            ("glider_b", &mut b),
-        ],
-    );
+    wait_hosts_ok(&tmp, &mut shore, &mut a, &mut b);
     // Still knocking all along: neither ever got an answer from the mission.
     drop(rogue);
     drop(plain_peer);

@@ -196,26 +196,31 @@ impl LoseCount {
     }
 }
 
-/// The last frame this host put and the peers' news then: put again once a peer that is up
-/// has brought nothing new for [`repeat_after`](super::repeat::repeat_after).
+/// The last frame this host put (if any) and the peers' news then: put again once a peer
+/// that is up has brought nothing new for [`repeat_after`](super::repeat::repeat_after).
+#[derive(Default)]
 struct Unanswered {
-    since: Instant,
+    /// When the last frame was put (None: nothing put yet).
+    since: Option<Instant>,
+    /// The peers' news then (its buffer kept from put to put).
     news: Vec<u64>,
 }
 
 impl Unanswered {
-    fn now(peers: &Peers) -> Self {
-        Self {
-            since: Instant::now(),
-            news: peers.news(),
-        }
+    /// A frame was just put.
+    fn put(&mut self, peers: &Peers) {
+        self.since = Some(Instant::now());
+        peers.news_into(&mut self.news);
     }
     /// Whether to put the last frame again now (and if so, wait `after` again).
     fn due(&mut self, peers: &Peers, after: Duration) -> bool {
-        if self.since.elapsed() < after || !peers.one_silent_since(&self.news) {
+        let Some(since) = self.since else {
+            return false;
+        };
+        if since.elapsed() < after || !peers.one_silent_since(&self.news) {
             return false;
         }
-        self.since = Instant::now();
+        self.since = Some(Instant::now());
         true
     }
 }
@@ -294,7 +299,7 @@ pub(crate) fn run(
     // A glider host: each local vehicle's latest state; the shore: the last body command.
     let mut latest: BTreeMap<u32, RawState> = BTreeMap::new();
     let mut last_body: Option<Vec<u8>> = None;
-    let mut unanswered: Option<Unanswered> = None;
+    let mut unanswered = Unanswered::default();
     while !stop.is_set() {
         let result = waitset
             .wait_and_process_once_with_timeout(|_| CallbackProgression::Continue, IDLE)
@@ -308,11 +313,8 @@ pub(crate) fn run(
         }
         if let Some(publisher) = &states_out {
             if forward_batch(&states, publisher, counts, &mut latest, &mut lose_states)? > 0 {
-                unanswered = Some(Unanswered::now(peers));
-            } else if unanswered
-                .as_mut()
-                .is_some_and(|u| u.due(peers, spec.repeat))
-            {
+                unanswered.put(peers);
+            } else if unanswered.due(peers, spec.repeat) {
                 let mut batch = Batch::<RawState>::default();
                 latest.values().for_each(|s| batch.push(s));
                 put_again(publisher, batch.frame(), counts, "states")?;
@@ -330,15 +332,13 @@ pub(crate) fn run(
                 }
                 Some((frame, false)) => {
                     last_body = Some(frame);
-                    unanswered = Some(Unanswered::now(peers));
+                    unanswered.put(peers);
                 }
                 None => {
-                    if let Some(frame) = last_body.as_ref().filter(|_| {
-                        unanswered
-                            .as_mut()
-                            .is_some_and(|u| u.due(peers, spec.repeat))
-                    }) {
-                        put_again(publisher, frame, counts, "body")?;
+                    if let Some(frame) = &last_body {
+                        if unanswered.due(peers, spec.repeat) {
+                            put_again(publisher, frame, counts, "body")?;
+                        }
                     }
                 }
             }

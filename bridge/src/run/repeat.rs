@@ -104,15 +104,13 @@ impl Peers {
             p.up.store(up, Ordering::Relaxed);
         }
     }
-    /// How much news each peer has brought so far (in name order).
-    pub fn news(&self) -> Vec<u64> {
-        self.hosts
-            .values()
-            .map(|p| p.news.load(Ordering::Relaxed))
-            .collect()
+    /// How much news each peer has brought so far (in name order), into `out`.
+    pub fn news_into(&self, out: &mut Vec<u64>) {
+        out.clear();
+        out.extend(self.hosts.values().map(|p| p.news.load(Ordering::Relaxed)));
     }
     /// Whether some up peer has brought nothing new since the counts `before` (from
-    /// [`Peers::news`]).
+    /// [`Peers::news_into`]).
     pub fn one_silent_since(&self, before: &[u64]) -> bool {
         self.hosts
             .values()
@@ -185,7 +183,8 @@ mod tests {
     #[test]
     fn a_peer_is_silent_until_it_brings_news_and_only_while_up() {
         let peers = Peers::new(["a".to_string(), "b".to_string()]);
-        let before = peers.news();
+        let mut before = Vec::new();
+        peers.news_into(&mut before);
         assert!(!peers.one_silent_since(&before), "no peer up yet");
         peers.set_up("a", true);
         peers.set_up("b", true);
@@ -194,7 +193,8 @@ mod tests {
         assert!(peers.one_silent_since(&before), "b is still silent");
         peers.heard("b");
         assert!(!peers.one_silent_since(&before));
-        let now = peers.news();
+        let mut now = Vec::new();
+        peers.news_into(&mut now);
         peers.set_up("b", false);
         peers.heard("a");
         assert!(!peers.one_silent_since(&now), "b is gone, a spoke");
