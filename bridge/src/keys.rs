@@ -309,15 +309,15 @@ pub fn mission_config(hosts: &Hosts, host: &str, mission: &str) -> Result<zenoh:
     Ok(c)
 }
 
-/// Whether tracing event `event` is Zenoh's TLS listener refusing a handshake (a peer
-/// without a certificate of the mission's CA, or not speaking TLS): its message, less
-/// Zenoh's hint about open files (a handshake error reaches the same line as an accept
-/// error). None for any other event.
-pub fn refused_handshake(event: &tracing::Event<'_>) -> Option<String> {
-    let meta = event.metadata();
-    if !meta.target().starts_with("zenoh_link_tls") || *meta.level() != tracing::Level::WARN {
-        return None;
-    }
+/// The Zenoh log events the bridge watches (an `EnvFilter` directive): the TLS
+/// listener's warnings ([`refused_handshake`]) and the access control's decisions, which
+/// Zenoh logs only at `trace` ([`denied_by_access_control`]). The log file keeps its own
+/// filter: none of these reach it unless `RUST_LOG` asks.
+pub const WATCHED_ZENOH_EVENTS: &str =
+    "zenoh_link_tls=warn,zenoh::net::routing::interceptor::access_control=trace";
+
+/// The `message` field of tracing event `event`, formatted.
+fn message_of(event: &tracing::Event<'_>) -> String {
     struct Message(String);
     impl tracing::field::Visit for Message {
         fn record_debug(&mut self, field: &tracing::field::Field, value: &dyn std::fmt::Debug) {
@@ -328,11 +328,63 @@ pub fn refused_handshake(event: &tracing::Event<'_>) -> Option<String> {
     }
     let mut m = Message(String::new());
     event.record(&mut m);
+    m.0
+}
+
+/// Whether tracing event `event` is Zenoh's TLS listener refusing a handshake (a peer
+/// without a certificate of the mission's CA, or not speaking TLS): its message, less
+/// Zenoh's hint about open files (a handshake error reaches the same line as an accept
+/// error). None for any other event.
+pub fn refused_handshake(event: &tracing::Event<'_>) -> Option<String> {
+    let meta = event.metadata();
+    if !meta.target().starts_with("zenoh_link_tls") || *meta.level() != tracing::Level::WARN {
+        return None;
+    }
+    let m = message_of(event);
     const HINT: &str = ". Hint: increase the system open file limit.";
-    if let Some(reason) = m.0.strip_suffix(HINT) {
+    if let Some(reason) = m.strip_suffix(HINT) {
         return Some(reason.to_string());
     }
-    m.0.contains("TLS handshake").then_some(m.0)
+    m.contains("TLS handshake").then_some(m)
+}
+
+/// How many permissions Zenoh 1.10's access control decides, one after the other on the
+/// same thread, when it caches them for a key expression (its `Cache`: query, reply, put,
+/// delete, the three declarations, the liveliness query and subscriber).
+const ACL_CACHED_DECISIONS: u32 = 9;
+
+thread_local! {
+    /// Decisions of a key expression's permission cache still to come on this thread (not
+    /// messages: [`denied_by_access_control`] does not count them).
+    static ACL_CACHING: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// Whether tracing event `event` is this host's Zenoh access control denying a peer's
+/// message (a put, a declaration, a query against [`access_control`]'s rules): Zenoh's
+/// message ("`zid` on `subject` is unauthorized to `action` on `key`"). None for any
+/// other event: the decisions that allow, and the decisions Zenoh makes ahead for every
+/// kind of message when it caches a key expression's permissions (logged alike, but no
+/// message was denied). One event per denied message as long as each peer matches one
+/// subject, as [`access_control`]'s do (its certificate's common name).
+pub fn denied_by_access_control(event: &tracing::Event<'_>) -> Option<String> {
+    let meta = event.metadata();
+    if !meta.target().ends_with("access_control") || *meta.level() != tracing::Level::TRACE {
+        return None;
+    }
+    let m = message_of(event);
+    if m.contains("caching permissions for") {
+        ACL_CACHING.set(ACL_CACHED_DECISIONS);
+        return None;
+    }
+    let denied = m.contains(" is unauthorized to ");
+    if !m.starts_with("Using cached result")
+        && (denied || m.contains(" is authorized to "))
+        && ACL_CACHING.get() > 0
+    {
+        ACL_CACHING.set(ACL_CACHING.get() - 1);
+        return None;
+    }
+    denied.then_some(m)
 }
 
 /// `list` as a JSON array of strings.

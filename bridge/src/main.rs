@@ -44,7 +44,8 @@ fn main() {
         "vbap_bridge",
         args.log.as_deref(),
         vbap_ipc::telemetry::DEFAULT_FILTER,
-        vbap_bridge::run::watch_handshakes,
+        vbap_bridge::keys::WATCHED_ZENOH_EVENTS,
+        vbap_bridge::run::watch_zenoh,
     );
     let result = vbap_bridge::run(&mission, &hosts, &args.host, announce_ready);
     vbap_ipc::process::leave_domain();

@@ -67,19 +67,34 @@ impl Counts {
 }
 
 /// Peers refused at the TLS handshake by this host's Zenoh (no certificate of the
-/// mission's CA, or not speaking TLS): counted by [`watch_handshakes`] from Zenoh's log.
+/// mission's CA, or not speaking TLS): counted by [`watch_zenoh`] from Zenoh's log.
 pub static REFUSED_HANDSHAKES: AtomicU64 = AtomicU64::new(0);
 
-/// The bridge's log watcher: counts and logs every TLS handshake Zenoh's listener refused
-/// (the first ten, then every thousandth).
-pub fn watch_handshakes(event: &tracing::Event<'_>) {
+/// Messages of peers (puts, declarations, queries) this host's Zenoh access control
+/// denied (`keys::access_control`): counted by [`watch_zenoh`] from Zenoh's log.
+pub static DENIED_BY_ACCESS_CONTROL: AtomicU64 = AtomicU64::new(0);
+
+/// The bridge's watcher of Zenoh's log ([`crate::keys::WATCHED_ZENOH_EVENTS`]): counts
+/// every TLS handshake Zenoh's listener refused and every message its access control
+/// denied, and logs the first ten of each, then every thousandth.
+pub fn watch_zenoh(event: &tracing::Event<'_>) {
+    let now_and_then = |n: u64| n <= 10 || n.is_multiple_of(1000);
     if let Some(reason) = crate::keys::refused_handshake(event) {
         let n = REFUSED_HANDSHAKES.fetch_add(1, Ordering::Relaxed) + 1;
-        if n <= 10 || n.is_multiple_of(1000) {
+        if now_and_then(n) {
             warn!(
                 refused_handshakes = n,
                 reason = %reason,
                 "refused a peer at the TLS handshake: no certificate of the mission's CA, or not TLS"
+            );
+        }
+    } else if let Some(what) = crate::keys::denied_by_access_control(event) {
+        let n = DENIED_BY_ACCESS_CONTROL.fetch_add(1, Ordering::Relaxed) + 1;
+        if now_and_then(n) {
+            warn!(
+                denied = n,
+                what = %what,
+                "denied a peer's message by the access control: not propagated"
             );
         }
     }
@@ -234,6 +249,7 @@ pub fn run(
         repeated = counts.repeated.load(Ordering::Relaxed),
         duplicates = counts.duplicates.load(Ordering::Relaxed),
         refused_handshakes = REFUSED_HANDSHAKES.load(Ordering::Relaxed),
+        denied = DENIED_BY_ACCESS_CONTROL.load(Ordering::Relaxed),
         "bridge done"
     );
     result?;

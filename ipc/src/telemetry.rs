@@ -20,6 +20,7 @@ use std::io::{BufWriter, Write};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
+use tracing_subscriber::fmt::writer::BoxMakeWriter;
 use tracing_subscriber::fmt::MakeWriter;
 use tracing_subscriber::layer::SubscriberExt;
 use tracing_subscriber::util::SubscriberInitExt;
@@ -104,10 +105,10 @@ pub fn init_with(
     log_file: Option<&Path>,
     default_filter: &str,
 ) -> std::io::Result<LogGuard> {
-    init_watching(process, log_file, default_filter, |_| {})
+    init_watching(process, log_file, default_filter, "off", |_| {})
 }
 
-/// A watcher of the events that pass the filter, called after each is written.
+/// A watcher of the events its own filter lets through, called with each.
 struct Watch<F>(F);
 
 impl<S: tracing::Subscriber, F: Fn(&tracing::Event<'_>) + Send + Sync + 'static>
@@ -118,24 +119,22 @@ impl<S: tracing::Subscriber, F: Fn(&tracing::Event<'_>) + Send + Sync + 'static>
     }
 }
 
-/// [`init_with`], and `watch` is called with every event that passes the filter once it
-/// is written (the bridge counts the TLS handshakes its Zenoh refused by it).
+/// [`init_with`], and `watch` is called with every event that `watch_filter` (an
+/// `EnvFilter` directive string, e.g. `"zenoh_link_tls=warn"`) lets through, whether or
+/// not the log's own filter writes it: the bridge counts the TLS handshakes its Zenoh
+/// refused (warnings) and the messages its access control denied (Zenoh logs those only
+/// at `trace`, which the log file never holds).
 pub fn init_watching(
     process: &str,
     log_file: Option<&Path>,
     default_filter: &str,
+    watch_filter: &str,
     watch: impl Fn(&tracing::Event<'_>) + Send + Sync + 'static,
 ) -> std::io::Result<LogGuard> {
+    use tracing_subscriber::Layer;
     let filter =
         EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(default_filter));
-    let builder = tracing_subscriber::fmt()
-        .json()
-        .with_env_filter(filter)
-        .with_current_span(false)
-        .with_span_list(false)
-        .with_thread_ids(false)
-        .with_target(true);
-    let guard = match log_file {
+    let (writer, guard) = match log_file {
         Some(path) => {
             if let Some(parent) = path.parent() {
                 std::fs::create_dir_all(parent)?;
@@ -147,22 +146,25 @@ pub fn init_watching(
                     .append(true)
                     .open(path)?,
             )));
-            let subscriber = builder
-                .with_writer(SharedFile(file.clone()))
-                .finish()
-                .with(Watch(watch));
-            let _ = subscriber.try_init();
-            LogGuard(Some(file))
+            (
+                BoxMakeWriter::new(SharedFile(file.clone())),
+                LogGuard(Some(file)),
+            )
         }
-        None => {
-            let subscriber = builder
-                .with_writer(std::io::stderr)
-                .finish()
-                .with(Watch(watch));
-            let _ = subscriber.try_init();
-            LogGuard(None)
-        }
+        None => (BoxMakeWriter::new(std::io::stderr), LogGuard(None)),
     };
+    let log = tracing_subscriber::fmt::layer()
+        .json()
+        .with_current_span(false)
+        .with_span_list(false)
+        .with_thread_ids(false)
+        .with_target(true)
+        .with_writer(writer)
+        .with_filter(filter);
+    let _ = tracing_subscriber::registry()
+        .with(log)
+        .with(Watch(watch).with_filter(EnvFilter::new(watch_filter)))
+        .try_init();
     tracing::info!(process, pid = std::process::id(), "started");
     Ok(guard)
 }

@@ -18,6 +18,15 @@ fn certs(hosts: &Path, out: &Path) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
+/// The last line of JSON log `log` that holds `text`, parsed.
+fn last_line_with(log: &str, text: &str) -> serde_json::Value {
+    let line = log
+        .lines()
+        .rfind(|l| l.contains(text))
+        .unwrap_or_else(|| panic!("no line with {text:?}"));
+    serde_json::from_str(line).unwrap()
+}
+
 /// The lines of the shore bridge's log that say it refused a peer at the TLS handshake.
 fn refusals(shore: &Path) -> Vec<String> {
     std::fs::read_to_string(shore.join("logs/vbap_bridge.jsonl"))
@@ -176,16 +185,30 @@ fn three_hosts_over_mutual_tls_equal_the_simulator_and_refuse_strangers() {
     assert_eq!(s["messages"]["rejected"], 0);
     assert_eq!(s["vehicles_lost"], 0, "{s}");
     let log = read(&shore_dir.join("logs/vbap_bridge.jsonl"));
-    let done = log
-        .lines()
-        .find(|l| l.contains("bridge done"))
-        .expect("the shore's bridge's last line");
-    let v: serde_json::Value = serde_json::from_str(done).unwrap();
+    let v = last_line_with(&log, "bridge done");
+    let done = v.to_string();
     let counted = v["fields"]["refused_handshakes"].as_u64().unwrap_or(0);
     assert!(counted >= 2, "refusals counted: {done}");
     println!(
         "refused at the shore's handshake: {counted}; first: {:?}",
         refusals(&shore_dir).first()
+    );
+    // The forger's subscription to every host's states and its puts of vehicle 2's states
+    // were denied by the shore's access control, counted and named. (Its body commands
+    // never leave it: the only host it reaches, the shore, subscribes to none.)
+    let denied = v["fields"]["denied"].as_u64().unwrap_or(0);
+    let named: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains("denied a peer's message by the access control"))
+        .collect();
+    let victim = format!("is unauthorized to Put (ingress) on vbap/{name}/states/glider_b");
+    assert!(
+        denied > 0 && named.iter().any(|l| l.contains(&victim)),
+        "the shore's access control denied {denied}; named: {named:?}"
+    );
+    println!(
+        "denied by the shore's access control: {denied}; first: {:?}",
+        named.first()
     );
     assert_clean(net, &tmp);
 }
