@@ -46,6 +46,12 @@ pub struct BenchArgs {
     /// Helper: measured rounds of the fan-out (internal).
     #[arg(long, hide = true)]
     pub rounds: Option<usize>,
+    /// Helper: the hosts file of the skeleton over hosts (internal).
+    #[arg(long, hide = true)]
+    pub hosts_file: Option<PathBuf>,
+    /// Helper: this host's name in `--hosts-file` (internal).
+    #[arg(long, hide = true)]
+    pub host: Option<String>,
     /// Helper: exit when this process is no longer our parent (internal).
     #[arg(long, hide = true)]
     pub parent: Option<u32>,
@@ -70,6 +76,10 @@ pub enum Role {
     SkeletonAgent,
     /// The field server of the skeleton floor.
     SkeletonField,
+    /// One host's share of the skeleton over hosts (`skeleton_hosts`).
+    SkeletonHost,
+    /// A host's relay of the skeleton over hosts, in place of its bridge.
+    SkeletonRelay,
     /// One receiver of the fan-out through iceoryx2 (`fanout`).
     FanoutIox,
     /// One receiver of the fan-out over UDP.

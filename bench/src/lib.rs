@@ -46,6 +46,7 @@ mod render;
 mod report;
 mod roles;
 mod skeleton;
+mod skeleton_hosts;
 mod stop;
 mod system;
 

@@ -6,7 +6,7 @@ use vbap_ipc::process::InvalidInput;
 use vbap_ipc::topics::Domain;
 
 use super::args::{BenchArgs, Role};
-use super::{fanout, floors, skeleton};
+use super::{fanout, floors, skeleton, skeleton_hosts};
 
 /// Runs a helper role (a peer process of a floor).
 pub fn helper(role: Role, args: &BenchArgs) -> Result<i32> {
@@ -40,6 +40,33 @@ pub fn helper(role: Role, args: &BenchArgs) -> Result<i32> {
                     args.warmup.unwrap_or(0),
                     args.rounds.unwrap_or(0),
                 ),
+            }
+        }
+        Role::SkeletonHost | Role::SkeletonRelay => {
+            let (Some(domain), Some(hosts), Some(host), Some(n)) = (
+                args.domain.as_deref(),
+                args.hosts_file.as_deref(),
+                args.host.as_deref(),
+                args.agents,
+            ) else {
+                return Err(InvalidInput(format!(
+                    "--role {role:?} needs --domain, --hosts-file, --host and --agents"
+                ))
+                .into());
+            };
+            let share = skeleton_hosts::Share {
+                domain,
+                hosts,
+                host,
+                n,
+                rounds: args.rounds.unwrap_or(1000),
+            };
+            match (role, args.work_dir.as_deref()) {
+                (Role::SkeletonHost, Some(work)) => skeleton_hosts::host(&share, work),
+                (Role::SkeletonHost, None) => {
+                    return Err(InvalidInput("--role skeleton-host needs --work-dir".into()).into())
+                }
+                _ => skeleton_hosts::relay(&share),
             }
         }
         Role::FanoutUdp => fanout::udp_receiver(

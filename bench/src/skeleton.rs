@@ -45,20 +45,24 @@ use super::peer::{
 use super::stop::{Interrupted, StopFlag};
 
 /// Time step written into the headers (s); nothing depends on it.
-const DT: f64 = 0.05;
+pub(crate) const DT: f64 = 0.05;
 
 /// The coordinator's side of the skeleton: its ports.
-struct Coordinator {
+pub(crate) struct Coordinator {
     states: Vec<iceoryx2::port::subscriber::Subscriber<ipc::Service, VehicleState, ()>>,
     agents: Vec<iceoryx2::port::notifier::Notifier<ipc::Service>>,
     body: iceoryx2::port::publisher::Publisher<ipc::Service, BodyCommand, ()>,
     client: iceoryx2::port::client::Client<ipc::Service, SampleBatch, (), ReadingBatch, ()>,
-    field: iceoryx2::port::notifier::Notifier<ipc::Service>,
-    wake: WakeListener,
+    pub(crate) field: iceoryx2::port::notifier::Notifier<ipc::Service>,
+    pub(crate) wake: WakeListener,
 }
 
 impl Coordinator {
-    fn open(domain: &Domain, node: &iceoryx2::node::Node<ipc::Service>, n: usize) -> Result<Self> {
+    pub(crate) fn open(
+        domain: &Domain,
+        node: &iceoryx2::node::Node<ipc::Service>,
+        n: usize,
+    ) -> Result<Self> {
         let limits = Limits::for_fleet(n);
         let mut states = Vec::with_capacity(n);
         let mut agents = Vec::with_capacity(n);
@@ -86,7 +90,7 @@ impl Coordinator {
     }
 
     /// Publishes `body` (one copy into shared memory) and wakes every agent.
-    fn fan_out(&self, body: &mut BodyCommand) -> Result<()> {
+    pub(crate) fn fan_out(&self, body: &mut BodyCommand) -> Result<()> {
         body.header.sent_ns = wall_ns();
         vbap_ipc::prefix::publish(&self.body, &*body)
             .map_err(|e| anyhow!("publishing the body: {e:?}"))?;
@@ -200,21 +204,38 @@ pub fn skeleton_run(
 /// Waits until every agent's state of tick `tick` is in (draining only the subscribers
 /// whose vehicles woke the coordinator, as the coordinator does); the one-way latency of
 /// each state goes to `hops` (µs), after the number of the tick's states in before it.
-fn gather(
+pub(crate) fn gather(
     c: &Coordinator,
     waiter: &vbap_ipc::wait::Waiter<'_>,
     tick: u64,
     latest: &mut [VehicleState],
     hops: &mut Vec<(usize, f64)>,
 ) -> Result<()> {
+    if gather_within(c, waiter, tick, latest, hops, PEER_TIMEOUT)? {
+        return Ok(());
+    }
+    let n = latest.len();
+    let have = latest.iter().filter(|s| s.header.tick == tick).count();
+    bail!("skeleton, N = {n}: {have} of {n} states of tick {tick}")
+}
+
+/// [`gather`] for at most `timeout` without news: false when it ran out.
+pub(crate) fn gather_within(
+    c: &Coordinator,
+    waiter: &vbap_ipc::wait::Waiter<'_>,
+    tick: u64,
+    latest: &mut [VehicleState],
+    hops: &mut Vec<(usize, f64)>,
+    timeout: Duration,
+) -> Result<bool> {
     let n = latest.len();
     let mut have = latest.iter().filter(|s| s.header.tick == tick).count();
     let mut woke = Vec::new();
     while have < n {
         woke.clear();
-        match wait_events_spinning(waiter, PEER_TIMEOUT, COORDINATOR_SPIN, |e| woke.push(e))? {
+        match wait_events_spinning(waiter, timeout, COORDINATOR_SPIN, |e| woke.push(e))? {
             Wake::Stop => return Err(Interrupted.into()),
-            Wake::Timeout => bail!("skeleton, N = {n}: {have} of {n} states of tick {tick}"),
+            Wake::Timeout => return Ok(false),
             Wake::Events => {}
         }
         for e in &woke {
@@ -235,11 +256,11 @@ fn gather(
             }
         }
     }
-    Ok(())
+    Ok(true)
 }
 
 /// One batched sensor round trip for the states of tick `tick`.
-fn sense(
+pub(crate) fn sense(
     c: &Coordinator,
     waiter: &vbap_ipc::wait::Waiter<'_>,
     tick: u64,

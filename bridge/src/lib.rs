@@ -30,4 +30,4 @@ pub mod ping;
 pub mod run;
 pub mod wire;
 
-pub use run::{run, Counts};
+pub use run::{publisher, run, Counts};

@@ -21,9 +21,8 @@
 
 mod inbound;
 mod outbound;
+pub use outbound::publisher;
 mod repeat;
-
-pub(crate) use outbound::publisher;
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{mpsc, Arc};

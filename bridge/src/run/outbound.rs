@@ -56,7 +56,7 @@ pub(crate) struct Spec {
 const IDLE: Duration = Duration::from_millis(100);
 
 /// A Zenoh publisher of our streams: reliable, blocking, express (see the crate doc).
-pub(crate) fn publisher(
+pub fn publisher(
     session: &zenoh::Session,
     key: String,
     priority: Priority,
