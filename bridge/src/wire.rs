@@ -1,21 +1,28 @@
 //! What crosses the wire: our `#[repr(C)]` payloads as bytes, behind a header naming the
 //! payload's type and version, so a peer of another build is refused, never read.
 //!
-//! A frame is `VBAPW2` (magic and wire version), one byte giving the length of the type
+//! A frame is `VBAPW3` (magic and wire version), one byte giving the length of the type
 //! name, the type name (`vbap.VehicleState.v5`: the versioned iceoryx2 type name of the
 //! payload), then one or more entries, each a native-endian `u32` length and the payload's
-//! bytes exactly as in shared memory. A glider host's states of one pass go in one frame
-//! (one Zenoh put per host per tick, [`Batch`]); a body command or a process exit is a frame
-//! of one entry. Wire version 1 (one payload per frame, no lengths) is refused. Each entry
-//! is checked alone: one of the wrong size is refused, the others of its frame are read.
-//! Both ends run on the same architecture (the bytes are native-endian; a host of another
-//! byte order or layout has another size or is refused by name only if the version
-//! differs: run one build of vbap on every host).
+//! bytes in use ([`Raw::wire_bytes`]): a state or a process exit whole, exactly as in shared
+//! memory; a body command without the entries it does not use (its fixed part, then its
+//! leaders, snapshot entries and path segments in use: 2.6 KB for 16 vehicles instead of
+//! the whole 140 KB sized for `MAX_VEHICLES`; the rest is zeros on arrival). A glider
+//! host's states of one pass go in one frame (one Zenoh put per host per tick, [`Batch`]);
+//! a body command or a process exit is a frame of one entry. Wire versions 1 (one payload
+//! per frame, no lengths) and 2 (body commands whole) are refused. Each entry is checked
+//! alone: one of the wrong size, or a body command whose counts disagree with its length,
+//! is refused, the others of its frame are read. Both ends run on the same architecture
+//! (the bytes are native-endian; a host of another byte order or layout has another size
+//! or is refused by name only if the version differs: run one build of vbap on every host).
 //!
 //! The payloads are read and written through their raw twins (`vbap_wire::versioned`):
 //! byte arrays with the name, size and alignment of the real payload, declared with it
 //! from one literal, so iceoryx2 opens the real services with them and the bridge copies
 //! bytes without decoding (and without `unsafe`).
+
+use std::borrow::Cow;
+use std::mem::{offset_of, size_of};
 
 use iceoryx2::prelude::ZeroCopySend;
 pub use vbap_wire::msg::agent_to_coordinator::RawVehicleState as RawState;
@@ -24,7 +31,7 @@ pub use vbap_wire::msg::supervisor_to_coordinator::RawProcessExit as RawExit;
 pub use vbap_wire::versioned::RawBytes;
 
 /// Magic and wire version of every frame.
-pub const MAGIC: &[u8; 6] = b"VBAPW2";
+pub const MAGIC: &[u8; 6] = b"VBAPW3";
 
 /// Bytes of an entry's length prefix.
 const LEN: usize = 4;
@@ -34,9 +41,108 @@ const LEN: usize = 4;
 pub trait Raw: RawBytes + ZeroCopySend {
     /// The iceoryx2 type name of the payload (as in `vbap_wire::msg`).
     const NAME: &'static str = <Self as vbap_wire::versioned::Versioned>::TYPE_NAME;
+
+    /// The bytes of this payload that go on the wire: all of them unless the payload says
+    /// otherwise.
+    fn wire_bytes(&self) -> Cow<'_, [u8]> {
+        Cow::Borrowed(self.bytes())
+    }
+
+    /// The payload of wire bytes `b` ([`Raw::wire_bytes`] of a peer of this build).
+    fn from_wire(b: &[u8]) -> Result<Self, Refused> {
+        let want = size_of::<Self>();
+        if b.len() == want {
+            Ok(Self::from_bytes(b))
+        } else {
+            Err(Refused::Size { got: b.len(), want })
+        }
+    }
 }
 
-impl<T: RawBytes + ZeroCopySend> Raw for T {}
+impl Raw for RawState {}
+impl Raw for RawExit {}
+
+/// A body command on the wire: its fixed part (header to the counts), its leaders,
+/// snapshot entries and path segments in use, and the path's scalars between them, in the
+/// order of the struct.
+impl Raw for RawBody {
+    fn wire_bytes(&self) -> Cow<'_, [u8]> {
+        let b = self.bytes();
+        let (n_l, n_v) = (
+            (u32_at(b, N_LEADERS) as usize).min(MAX_LEADERS),
+            (u32_at(b, N_VEHICLES) as usize).min(MAX_VEHICLES),
+        );
+        let n_p = (u32_at(b, N_PLAN) as usize).min(MAX_PLAN);
+        let mut out = Vec::with_capacity(body_wire_len(n_l, n_v, n_p));
+        out.extend_from_slice(&b[..LEADERS]);
+        out.extend_from_slice(&b[LEADERS..LEADERS + n_l * LEADER]);
+        out.extend_from_slice(&b[SNAPSHOT..SNAPSHOT + n_v * ENTRY]);
+        out.extend_from_slice(&b[PLAN_START..PLAN]);
+        out.extend_from_slice(&b[PLAN..PLAN + n_p * SEGMENT]);
+        Cow::Owned(out)
+    }
+
+    fn from_wire(w: &[u8]) -> Result<Self, Refused> {
+        let refused = |want: usize| Refused::Size { got: w.len(), want };
+        if w.len() < LEADERS {
+            return Err(refused(LEADERS));
+        }
+        let (n_l, n_v) = (
+            u32_at(w, N_LEADERS) as usize,
+            u32_at(w, N_VEHICLES) as usize,
+        );
+        if n_l > MAX_LEADERS || n_v > MAX_VEHICLES {
+            return Err(refused(body_wire_len(
+                n_l.min(MAX_LEADERS),
+                n_v.min(MAX_VEHICLES),
+                0,
+            )));
+        }
+        let tail = LEADERS + n_l * LEADER + n_v * ENTRY;
+        if w.len() < tail + (PLAN - PLAN_START) {
+            return Err(refused(body_wire_len(n_l, n_v, 0)));
+        }
+        let n_p = u32_at(w, tail + (N_PLAN - PLAN_START)) as usize;
+        let want = body_wire_len(n_l, n_v, n_p.min(MAX_PLAN));
+        if n_p > MAX_PLAN || w.len() != want {
+            return Err(refused(want));
+        }
+        let mut full = vec![0u8; size_of::<BodyCommand>()];
+        let mut from = 0;
+        let mut copy = |to: usize, len: usize| {
+            full[to..to + len].copy_from_slice(&w[from..from + len]);
+            from += len;
+        };
+        copy(0, LEADERS + n_l * LEADER);
+        copy(SNAPSHOT, n_v * ENTRY);
+        copy(PLAN_START, PLAN - PLAN_START + n_p * SEGMENT);
+        Ok(Self::from_bytes(&full))
+    }
+}
+
+use vbap_math::schedule::MAX_PLAN;
+use vbap_wire::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
+use vbap_wire::msg::{MAX_LEADERS, MAX_VEHICLES};
+
+/// Offsets and sizes within a [`BodyCommand`], bytes.
+const LEADERS: usize = offset_of!(BodyCommand, leaders);
+const N_LEADERS: usize = offset_of!(BodyCommand, n_leaders);
+const N_VEHICLES: usize = offset_of!(BodyCommand, n_vehicles);
+const SNAPSHOT: usize = offset_of!(BodyCommand, snapshot);
+const PLAN_START: usize = offset_of!(BodyCommand, plan_start);
+const N_PLAN: usize = offset_of!(BodyCommand, n_plan);
+const PLAN: usize = offset_of!(BodyCommand, plan);
+const LEADER: usize = size_of::<[f64; 3]>();
+const ENTRY: usize = size_of::<SnapshotEntry>();
+const SEGMENT: usize = size_of::<[f64; 5]>();
+const _: () = assert!(LEADERS + MAX_LEADERS * LEADER == SNAPSHOT);
+const _: () = assert!(SNAPSHOT + MAX_VEHICLES * ENTRY == PLAN_START);
+const _: () = assert!(PLAN + MAX_PLAN * SEGMENT == size_of::<BodyCommand>());
+
+/// Wire bytes of a body command with `n_l` leaders, `n_v` vehicles and `n_p` segments.
+fn body_wire_len(n_l: usize, n_v: usize, n_p: usize) -> usize {
+    LEADERS + n_l * LEADER + n_v * ENTRY + (PLAN - PLAN_START) + n_p * SEGMENT
+}
 
 /// A frame being filled with payloads of type `T` (the states of one glider host's pass).
 pub struct Batch<T: Raw> {
@@ -47,7 +153,7 @@ pub struct Batch<T: Raw> {
 
 impl<T: Raw> Default for Batch<T> {
     fn default() -> Self {
-        let mut bytes = Vec::with_capacity(MAGIC.len() + 1 + T::NAME.len() + LEN + size_of::<T>());
+        let mut bytes = Vec::with_capacity(MAGIC.len() + 1 + T::NAME.len() + LEN);
         bytes.extend_from_slice(MAGIC);
         bytes.push(T::NAME.len() as u8);
         bytes.extend_from_slice(T::NAME.as_bytes());
@@ -62,10 +168,10 @@ impl<T: Raw> Default for Batch<T> {
 impl<T: Raw> Batch<T> {
     /// Appends payload `p`.
     pub fn push(&mut self, p: &T) {
-        let b = p.bytes();
+        let b = p.wire_bytes();
         self.bytes
             .extend_from_slice(&(b.len() as u32).to_ne_bytes());
-        self.bytes.extend_from_slice(b);
+        self.bytes.extend_from_slice(&b);
         self.entries += 1;
     }
     /// The payloads appended so far.
@@ -124,7 +230,6 @@ pub fn decode_all<T: Raw>(frame: &[u8]) -> Result<Vec<Result<T, Refused>>, Refus
             want: T::NAME,
         });
     }
-    let want = size_of::<T>();
     let mut out = Vec::new();
     while !rest.is_empty() {
         if rest.len() < LEN {
@@ -145,11 +250,7 @@ pub fn decode_all<T: Raw>(frame: &[u8]) -> Result<Vec<Result<T, Refused>>, Refus
         }
         let (payload, after) = rest.split_at(got);
         rest = after;
-        out.push(if got == want {
-            Ok(T::from_bytes(payload))
-        } else {
-            Err(Refused::Size { got, want })
-        });
+        out.push(T::from_wire(payload));
     }
     Ok(out)
 }
@@ -253,6 +354,93 @@ mod tests {
         let mut v1 = batch.frame().to_vec();
         v1[5] = b'1';
         assert_eq!(decode_all::<RawState>(&v1).unwrap_err(), Refused::Magic);
+    }
+
+    #[test]
+    fn a_body_command_travels_its_entries_in_use_only_and_reads_back_the_same() {
+        use vbap_wire::msg::coordinator_to_agent::BodyCommand;
+        let n = 16;
+        let mut sent = Box::new(BodyCommand::empty());
+        sent.header = Header::new(Header::COORDINATOR, 7, 0.35, 8);
+        sent.s = 1.5;
+        sent.r = [1.0, 2.0, 3.0];
+        sent.n_leaders = 1;
+        sent.leaders[0] = [4.0, 5.0, 6.0];
+        sent.n_vehicles = n as u32;
+        for (i, e) in sent.snapshot.iter_mut().take(n).enumerate() {
+            e.id = i as u32;
+            e.alive = 1;
+            e.position = [i as f64, -(i as f64), 0.5];
+            e.age = 0.25;
+        }
+        sent.plan_start = 7;
+        sent.plan_ticks = 20;
+        sent.n_plan = 2;
+        sent.plan[1] = [0.1, 0.2, 0.3, 0.4, 0.5];
+        // Through shared memory as the coordinator writes it (entries in use only), read as
+        // the bridge reads it (raw), over the wire, published raw as the far bridge does,
+        // read as an agent reads it.
+        let limits = Limits::for_fleet(n);
+        let here = Domain::new(&format!("wire_a_{}", std::process::id())).unwrap();
+        let node = here.node("wire_test").unwrap();
+        let raw_sub =
+            vbap_ipc::ports::subscriber(&here.body_service_as::<RawBody>(&node, &limits).unwrap())
+                .unwrap();
+        let p = vbap_ipc::ports::publisher(&here.body_service(&node, &limits).unwrap()).unwrap();
+        vbap_ipc::prefix::publish(&p, &*sent).unwrap();
+        let raw = *raw_sub.receive().unwrap().expect("the bridge's raw read");
+        drop((raw_sub, p, node));
+        here.remove_files();
+        let frame = encode(&raw);
+        assert!(
+            frame.len() < 4096,
+            "a body of {n} vehicles: {} bytes",
+            frame.len()
+        );
+        let arrived = decode::<RawBody>(&frame).unwrap();
+        let there = Domain::new(&format!("wire_b_{}", std::process::id())).unwrap();
+        let node = there.node("wire_test").unwrap();
+        let sub =
+            vbap_ipc::ports::subscriber(&there.body_service(&node, &limits).unwrap()).unwrap();
+        let p =
+            vbap_ipc::ports::publisher(&there.body_service_as::<RawBody>(&node, &limits).unwrap())
+                .unwrap();
+        p.send_copy(arrived).unwrap();
+        let got = Box::new(*sub.receive().unwrap().expect("the agent's read"));
+        drop((sub, p, node));
+        there.remove_files();
+        assert_eq!(got.header, sent.header);
+        assert_eq!((got.s, got.r), (sent.s, sent.r));
+        assert_eq!(got.leader_positions(), sent.leader_positions());
+        assert_eq!(got.snapshot_entries(), sent.snapshot_entries());
+        assert_eq!(got.schedule(), sent.schedule());
+        assert!(got.is_valid());
+        // The tail arrives as zeros, whatever shared memory held beyond the counts.
+        assert!(arrived.bytes()[SNAPSHOT + n * ENTRY..PLAN_START]
+            .iter()
+            .all(|&b| b == 0));
+        // One byte short, one too many, or counts past their capacity: refused.
+        let wire = arrived.wire_bytes().into_owned();
+        assert!(matches!(
+            RawBody::from_wire(&wire[..wire.len() - 1]),
+            Err(Refused::Size { .. })
+        ));
+        let mut long = wire.clone();
+        long.push(0);
+        assert!(matches!(
+            RawBody::from_wire(&long),
+            Err(Refused::Size { .. })
+        ));
+        let mut lying = wire.clone();
+        lying[N_VEHICLES..N_VEHICLES + 4].copy_from_slice(&(MAX_VEHICLES as u32 + 1).to_ne_bytes());
+        assert!(matches!(
+            RawBody::from_wire(&lying),
+            Err(Refused::Size { .. })
+        ));
+        assert!(matches!(
+            RawBody::from_wire(&wire[..10]),
+            Err(Refused::Size { .. })
+        ));
     }
 
     #[test]

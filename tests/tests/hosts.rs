@@ -33,7 +33,7 @@ fn three_hosts_in_lockstep_equal_the_simulator_and_leave_nothing() {
     // mission's name and its frames in clear: what hosts_tls.rs's capture must not.
     drop(capture);
     let captured = std::fs::read(&pcap).unwrap();
-    for clear in [name.as_bytes(), b"VBAPW2", b"vbap.VehicleState"] {
+    for clear in [name.as_bytes(), b"VBAPW3", b"vbap.VehicleState"] {
         assert!(
             holds(&captured, clear),
             "{:?} in the plain-TCP capture",

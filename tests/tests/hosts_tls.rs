@@ -157,7 +157,7 @@ fn three_hosts_over_mutual_tls_equal_the_simulator_and_refuse_strangers() {
     );
     for clear in [
         name.as_bytes(),
-        b"VBAPW2",
+        b"VBAPW3",
         b"vbap.VehicleState",
         b"vbap.BodyCommand",
     ] {
