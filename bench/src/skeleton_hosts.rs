@@ -30,7 +30,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
 use vbap_bridge::keys::{self, Keys};
-use vbap_bridge::wire::{self, Batch, RawBody, RawBytes, RawState};
+use vbap_bridge::wire::{self, Batch, Headed, RawBody, RawState};
 use vbap_ipc::msg::agent_to_coordinator::VehicleState;
 use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
 use vbap_ipc::msg::Header;
@@ -314,14 +314,6 @@ pub fn relay(share: &Share<'_>) -> Result<i32> {
     Ok(0)
 }
 
-/// The flags of a raw body command.
-fn body_flags(raw: &RawBody) -> u32 {
-    wire::u32_at(
-        raw.bytes(),
-        std::mem::offset_of!(BodyCommand, header) + std::mem::offset_of!(Header, flags),
-    )
-}
-
 /// Shore, outbound: woken as remote vehicle 0 is, puts every body command; ends after the
 /// final one.
 fn bodies_out(
@@ -345,7 +337,7 @@ fn bodies_out(
                 .put(wire::encode(&*sample))
                 .wait()
                 .map_err(|e| anyhow!("putting a body command: {e}"))?;
-            if body_flags(&sample) & BodyCommand::FINISHED != 0 {
+            if Headed::header(&*sample).flags & BodyCommand::FINISHED != 0 {
                 return Ok(());
             }
         }
@@ -420,14 +412,12 @@ fn states_in(
             Event::Vehicle(id),
         ));
     }
-    let sender_at =
-        std::mem::offset_of!(VehicleState, header) + std::mem::offset_of!(Header, sender);
     while !stop.load(Ordering::Relaxed) {
         let Ok(frame) = rx.recv_timeout(IDLE) else {
             continue;
         };
         for state in wire::decode_all::<RawState>(&frame)?.into_iter().flatten() {
-            let id = wire::u32_at(state.bytes(), sender_at) as usize;
+            let id = state.header().sender as usize;
             if let Some(s) = senders.get(id) {
                 s.send(state)?;
             }
@@ -464,7 +454,7 @@ fn bodies_in(
         for w in &wakes {
             w.notify().map_err(|e| anyhow!("waking an agent: {e:?}"))?;
         }
-        if body_flags(&command) & BodyCommand::FINISHED != 0 {
+        if command.header().flags & BodyCommand::FINISHED != 0 {
             return Ok(());
         }
     }

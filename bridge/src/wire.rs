@@ -62,6 +62,46 @@ pub trait Raw: RawBytes + ZeroCopySend {
 impl Raw for RawState {}
 impl Raw for RawExit {}
 
+/// The [`Header`] every payload starts its own fields with, read from a raw payload's bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WireHeader {
+    /// [`Header::sender`].
+    pub sender: u32,
+    /// [`Header::flags`].
+    pub flags: u32,
+    /// [`Header::seq`].
+    pub seq: u64,
+    /// [`Header::sent_ns`].
+    pub sent_ns: u64,
+}
+
+/// A raw payload whose [`Header`] sits at byte [`Headed::HEADER`] of its bytes.
+pub trait Headed: Raw {
+    /// Byte offset of the payload's header.
+    const HEADER: usize;
+
+    /// The payload's header fields.
+    fn header(&self) -> WireHeader {
+        let (b, h) = (self.bytes(), Self::HEADER);
+        WireHeader {
+            sender: u32_at(b, h + offset_of!(Header, sender)),
+            flags: u32_at(b, h + offset_of!(Header, flags)),
+            seq: u64_at(b, h + offset_of!(Header, seq)),
+            sent_ns: u64_at(b, h + offset_of!(Header, sent_ns)),
+        }
+    }
+}
+
+impl Headed for RawState {
+    const HEADER: usize = offset_of!(VehicleState, header);
+}
+impl Headed for RawBody {
+    const HEADER: usize = offset_of!(BodyCommand, header);
+}
+impl Headed for RawExit {
+    const HEADER: usize = offset_of!(ProcessExit, header);
+}
+
 /// A body command on the wire: its fixed part (header to the counts), its leaders,
 /// snapshot entries and path segments in use, and the path's scalars between them, in the
 /// order of the struct.
@@ -121,7 +161,10 @@ impl Raw for RawBody {
 }
 
 use vbap_math::schedule::MAX_PLAN;
+use vbap_wire::msg::agent_to_coordinator::VehicleState;
 use vbap_wire::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
+use vbap_wire::msg::supervisor_to_coordinator::ProcessExit;
+use vbap_wire::msg::Header;
 use vbap_wire::msg::{MAX_LEADERS, MAX_VEHICLES};
 
 /// Offsets and sizes within a [`BodyCommand`], bytes.
@@ -468,6 +511,9 @@ mod tests {
         let at = std::mem::offset_of!(VehicleState, pid);
         assert_eq!(u32_at(got.bytes(), at), 1234);
         assert_eq!(u64_at(got.bytes(), std::mem::offset_of!(Header, tick)), 5);
+        let h = got.header();
+        assert_eq!((h.sender, h.flags, h.seq), (1, 0, 9));
+        assert_eq!(h.sent_ns, sent.header.sent_ns);
         drop((sub, publisher, real, raw, node));
         domain.remove_files();
         assert!(domain.files().is_empty());

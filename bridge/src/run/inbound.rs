@@ -38,7 +38,7 @@ use zenoh::Wait;
 use super::repeat::{Identity, Peers};
 use super::{liveliness_event, Counts, In, Place, Stop, HOST_GONE_GRACE, POLL, RESEND};
 use crate::keys::Keys;
-use crate::wire::{self, RawBody, RawBytes, RawExit, RawState};
+use crate::wire::{self, Headed, RawBody, RawBytes, RawExit, RawState};
 
 /// The Zenoh subscribers of this host (kept alive by the caller): their callbacks send to
 /// `tx`.
@@ -476,8 +476,8 @@ impl Shore {
         peers: &Peers,
     ) -> Result<()> {
         let host = Keys::last(key);
-        let h = std::mem::offset_of!(VehicleState, header);
-        let id = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, sender));
+        let header = raw.header();
+        let id = header.sender;
         let theirs = place
             .hosts
             .hosts
@@ -490,7 +490,7 @@ impl Shore {
             );
             return Ok(());
         }
-        let identity = Identity::of(raw.bytes(), h);
+        let identity = Identity::of(&header);
         if self.last.insert(id, identity) == Some(identity) && again {
             counts.duplicates.fetch_add(1, Ordering::Relaxed);
             return Ok(());
@@ -669,15 +669,14 @@ impl Glider {
                 return Ok(());
             }
         };
-        let h = std::mem::offset_of!(BodyCommand, header);
-        let sender = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, sender));
-        let flags = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, flags));
+        let header = raw.header();
+        let (sender, flags) = (header.sender, header.flags);
         if sender != Header::COORDINATOR {
             counts.refuse(key, &format!("a body command of sender {sender}"));
             return Ok(());
         }
         let last = flags & BodyCommand::FINISHED != 0;
-        let identity = Identity::of(raw.bytes(), h);
+        let identity = Identity::of(&header);
         let again = again && self.last == Some(identity);
         let published = self.finished.is_none() && !again;
         if again && self.finished.is_none() {

@@ -28,7 +28,6 @@ use iceoryx2::waitset::WaitSetRunResult;
 use tracing::{info, warn};
 use vbap_ipc::ports;
 use vbap_ipc::topics::{Domain, Limits};
-use vbap_wire::msg::agent_to_coordinator::VehicleState;
 use vbap_wire::msg::coordinator_to_agent::BodyCommand;
 use vbap_wire::msg::Header;
 use zenoh::qos::{CongestionControl, Priority};
@@ -37,7 +36,7 @@ use zenoh::Wait;
 use super::repeat::{Lose, Peers, AGAIN};
 use super::{Counts, In, Stop};
 use crate::keys::Keys;
-use crate::wire::{self, Batch, Raw, RawBody, RawBytes, RawExit, RawState};
+use crate::wire::{self, Batch, Headed, Raw, RawBody, RawExit, RawState};
 
 /// What the outbound side of a host forwards.
 pub(crate) struct Spec {
@@ -108,7 +107,7 @@ fn put_again(
 /// Reads every sample of `sub` and puts each in a frame of its own on `publisher`
 /// (skipping the put `lose` names); returns the last frame read, if any, and whether it is
 /// the mission's final body command.
-fn forward<T: Raw>(
+fn forward<T: Headed>(
     sub: &Subscriber<ipc::Service, T, ()>,
     publisher: &zenoh::pubsub::Publisher<'static>,
     counts: &Counts,
@@ -124,10 +123,8 @@ fn forward<T: Raw>(
         counts.out.fetch_add(1, Ordering::Relaxed);
         let mut finished = false;
         if T::NAME == RawBody::NAME {
-            let h = std::mem::offset_of!(BodyCommand, header);
-            let sender = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, sender));
-            let flags = wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, flags));
-            finished = sender == Header::COORDINATOR && flags & BodyCommand::FINISHED != 0;
+            let h = raw.header();
+            finished = h.sender == Header::COORDINATOR && h.flags & BodyCommand::FINISHED != 0;
         }
         last = Some((frame, finished));
     }
@@ -149,11 +146,7 @@ fn forward_batch(
         while let Some(sample) = sub.receive().map_err(|e| anyhow!("receiving: {e:?}"))? {
             let raw: &RawState = &sample;
             batch.push(raw);
-            let h = std::mem::offset_of!(VehicleState, header);
-            latest.insert(
-                wire::u32_at(raw.bytes(), h + std::mem::offset_of!(Header, sender)),
-                *raw,
-            );
+            latest.insert(raw.header().sender, *raw);
         }
     }
     if !batch.is_empty() {

@@ -31,9 +31,8 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Result};
 use vbap_mission::config::{Mission, Pace};
-use vbap_wire::msg::Header;
 
-use crate::wire;
+use crate::wire::WireHeader;
 
 /// The attachment of a frame put again.
 pub(crate) const AGAIN: &[u8] = b"again";
@@ -52,7 +51,7 @@ pub(crate) fn repeat_after(mission: &Mission) -> Duration {
 }
 
 /// Which message a payload is, for telling a frame put again from a new one: its sender's
-/// sequence number and send stamp (ns), read from the [`Header`] at `header` in its bytes.
+/// sequence number and send stamp (ns).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Identity {
     seq: u64,
@@ -60,11 +59,11 @@ pub(crate) struct Identity {
 }
 
 impl Identity {
-    /// The identity of the payload `bytes` whose header starts at byte `header`.
-    pub fn of(bytes: &[u8], header: usize) -> Self {
+    /// The identity of the payload whose header is `header`.
+    pub fn of(header: &WireHeader) -> Self {
         Self {
-            seq: wire::u64_at(bytes, header + std::mem::offset_of!(Header, seq)),
-            sent_ns: wire::u64_at(bytes, header + std::mem::offset_of!(Header, sent_ns)),
+            seq: header.seq,
+            sent_ns: header.sent_ns,
         }
     }
 }
