@@ -78,8 +78,6 @@ pub enum Role {
     SkeletonField,
     /// One host's share of the skeleton over hosts (`skeleton_hosts`).
     SkeletonHost,
-    /// A host's relay of the skeleton over hosts, in place of its bridge.
-    SkeletonRelay,
     /// One receiver of the fan-out through iceoryx2 (`fanout`).
     FanoutIox,
     /// One receiver of the fan-out over UDP.

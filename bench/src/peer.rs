@@ -56,11 +56,6 @@ impl Helper {
     /// [`Helper::spawn`], at the lowest CPU priority (`nice -n 19`) when `niced`.
     pub fn spawn_with(work: &Path, name: &str, args: &[String], niced: bool) -> Result<Self> {
         let exe = exe()?;
-        let log = OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(work.join("helpers.stderr.log"))
-            .context("opening helpers.stderr.log")?;
         let mut command = if niced {
             let mut c = Command::new("nice");
             c.arg("-n").arg("19").arg(exe);
@@ -68,11 +63,31 @@ impl Helper {
         } else {
             Command::new(exe)
         };
-        let mut child = command
+        command
             .arg("bench")
             .args(args)
             .arg("--parent")
-            .arg(std::process::id().to_string())
+            .arg(std::process::id().to_string());
+        Self::start(work, name, command)
+    }
+
+    /// Program `program ARGS` as a helper (another executable of ours: it says `ready`
+    /// on its stdout, as the roles do, and ends with its parent).
+    pub fn spawn_program(work: &Path, name: &str, program: &Path, args: &[String]) -> Result<Self> {
+        let mut command = Command::new(program);
+        command.args(args);
+        Self::start(work, name, command)
+    }
+
+    /// Starts `command` with the helpers' stdio: stdout piped (its `ready` line), stderr
+    /// appended to `helpers.stderr.log` in `work`.
+    fn start(work: &Path, name: &str, mut command: Command) -> Result<Self> {
+        let log = OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(work.join("helpers.stderr.log"))
+            .context("opening helpers.stderr.log")?;
+        let mut child = command
             .env_remove("RUST_LOG")
             .stdin(Stdio::null())
             .stdout(Stdio::piped())

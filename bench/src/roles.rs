@@ -42,7 +42,7 @@ pub fn helper(role: Role, args: &BenchArgs) -> Result<i32> {
                 ),
             }
         }
-        Role::SkeletonHost | Role::SkeletonRelay => {
+        Role::SkeletonHost => {
             let (Some(domain), Some(hosts), Some(host), Some(n)) = (
                 args.domain.as_deref(),
                 args.hosts_file.as_deref(),
@@ -61,13 +61,10 @@ pub fn helper(role: Role, args: &BenchArgs) -> Result<i32> {
                 n,
                 rounds: args.rounds.unwrap_or(1000),
             };
-            match (role, args.work_dir.as_deref()) {
-                (Role::SkeletonHost, Some(work)) => skeleton_hosts::host(&share, work),
-                (Role::SkeletonHost, None) => {
-                    return Err(InvalidInput("--role skeleton-host needs --work-dir".into()).into())
-                }
-                _ => skeleton_hosts::relay(&share),
-            }
+            let Some(work) = args.work_dir.as_deref() else {
+                return Err(InvalidInput("--role skeleton-host needs --work-dir".into()).into());
+            };
+            skeleton_hosts::host(&share, work)
         }
         Role::FanoutUdp => fanout::udp_receiver(
             args.id.unwrap_or(0),

@@ -27,6 +27,7 @@
 
 pub mod keys;
 pub mod ping;
+pub mod relay;
 pub mod run;
 pub mod wire;
 

@@ -1,7 +1,9 @@
 //! `vbap_zenoh_ping --hosts FILE --host NAME --vehicles N (--pong | --samples K)`: the raw Zenoh
 //! ping-pong of `vbap bench --hosts` (the floor of a cross-host hop, `vbap_bridge::ping`).
 //! The pinging side prints its round-trip times, µs, one a line. With `--forge MISSION`
-//! it is instead a host that breaks the mission's rules (the access control's test).
+//! it is instead a host that breaks the mission's rules (the access control's test); with
+//! `--relay MISSION` this host's bare relay of the bench's skeleton over hosts
+//! (`vbap_bridge::relay`).
 
 use std::path::PathBuf;
 
@@ -41,6 +43,11 @@ struct Args {
     /// The vehicle whose state `--forge` forges.
     #[arg(long)]
     vehicle: Option<u32>,
+    /// Instead: this host's bare relay for the skeleton of mission (iceoryx2 domain)
+    /// MISSION over hosts (`vbap bench --hosts`, `vbap_bridge::relay`); says `ready`, ends
+    /// after the mission's final command or with its parent.
+    #[arg(long, conflicts_with = "forge")]
+    relay: Option<String>,
 }
 
 fn main() {
@@ -50,7 +57,10 @@ fn main() {
         vbap_mission::hosts::Hosts::load(&args.hosts, args.vehicles)
             .and_then(|h| h.host(&args.host).map(|_| ()).map(|()| h)),
     );
-    let result = if let Some(mission) = &args.forge {
+    let result = if let Some(mission) = &args.relay {
+        vbap_ipc::process::die_with_parent(None);
+        vbap_bridge::relay::relay(&hosts, &args.host, mission, args.vehicles)
+    } else if let Some(mission) = &args.forge {
         vbap_bridge::ping::forge(
             &hosts,
             &args.host,
