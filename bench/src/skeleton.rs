@@ -89,6 +89,15 @@ impl Coordinator {
         })
     }
 
+    /// Says the mission's final command (the agents and the field server end), ignoring
+    /// peers already gone.
+    pub(crate) fn finish(&self, body: &mut BodyCommand) {
+        body.header = Header::new(Header::COORDINATOR, u64::MAX, 0.0, u64::MAX)
+            .with_flags(BodyCommand::FINISHED);
+        let _ = self.fan_out(body);
+        let _ = self.field.notify();
+    }
+
     /// Publishes `body` (one copy into shared memory) and wakes every agent.
     pub(crate) fn fan_out(&self, body: &mut BodyCommand) -> Result<()> {
         body.header.sent_ns = wall_ns();
@@ -99,6 +108,41 @@ impl Coordinator {
         }
         Ok(())
     }
+}
+
+/// Helper `role` (`skeleton-agent`, `skeleton-field`) number `id` of a fleet of `n` in
+/// domain `mission`, started from folder `work`.
+pub(crate) fn spawn_role(
+    work: &std::path::Path,
+    mission: &str,
+    role: &str,
+    id: usize,
+    n: usize,
+) -> Result<Helper> {
+    Helper::spawn(
+        work,
+        &format!("{role}-{id}"),
+        &[
+            "--role".into(),
+            role.into(),
+            "--domain".into(),
+            mission.into(),
+            "--id".into(),
+            id.to_string(),
+            "--agents".into(),
+            n.to_string(),
+        ],
+    )
+}
+
+/// The skeleton's body command for a fleet of `n`: every vehicle's snapshot entry named.
+pub(crate) fn fleet_body(n: usize) -> Box<BodyCommand> {
+    let mut body = Box::new(BodyCommand::empty());
+    body.n_vehicles = n as u32;
+    for (id, e) in body.snapshot.iter_mut().take(n).enumerate() {
+        e.id = id as u32;
+    }
+    body
 }
 
 /// Ticks per second of the skeleton through `n` agents, over `rounds` ticks after a fifth
@@ -136,22 +180,7 @@ pub fn skeleton_run(
         let node = domain.node(topics::COORDINATOR_NODE)?;
         let c = Coordinator::open(domain, &node, n)?;
         let waiter = c.wake.attach()?;
-        let helper = |role: &str, id: usize| {
-            Helper::spawn(
-                work,
-                &format!("{role}-{id}"),
-                &[
-                    "--role".into(),
-                    role.into(),
-                    "--domain".into(),
-                    domain.mission.clone(),
-                    "--id".into(),
-                    id.to_string(),
-                    "--agents".into(),
-                    n.to_string(),
-                ],
-            )
-        };
+        let helper = |role: &str, id: usize| spawn_role(work, &domain.mission, role, id, n);
         let mut helpers = vec![helper("skeleton-field", 0)?];
         for id in 0..n {
             helpers.push(helper("skeleton-agent", id)?);
@@ -160,11 +189,7 @@ pub fn skeleton_run(
             h.ready()?;
             stop.check()?;
         }
-        let mut body = Box::new(BodyCommand::empty());
-        body.n_vehicles = n as u32;
-        for (id, e) in body.snapshot.iter_mut().take(n).enumerate() {
-            e.id = id as u32;
-        }
+        let mut body = fleet_body(n);
         let mut batch = Box::new(SampleBatch::empty());
         let mut latest = vec![VehicleState::default(); n];
         let warmup = (rounds / 5).max(10);
@@ -181,10 +206,7 @@ pub fn skeleton_run(
             sense(&c, &waiter, k + 1, &latest, &mut batch)?;
         }
         let rate = rounds as f64 / t0.elapsed().as_secs_f64();
-        body.header = Header::new(Header::COORDINATOR, u64::MAX, 0.0, u64::MAX)
-            .with_flags(BodyCommand::FINISHED);
-        let _ = c.fan_out(&mut body);
-        let _ = c.field.notify();
+        c.finish(&mut body);
         for h in helpers {
             h.reap(Duration::from_secs(5));
         }

@@ -23,7 +23,6 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
 use vbap_ipc::msg::agent_to_coordinator::VehicleState;
-use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
 use vbap_ipc::msg::Header;
 use vbap_ipc::process::bin_dir;
 use vbap_ipc::topics::Domain;
@@ -115,20 +114,7 @@ pub fn host(share: &Share<'_>, work: &Path) -> Result<i32> {
     let domain = Domain::new(share.domain)?;
     let mut helpers = Vec::new();
     if hosts.is_shore(share.host) {
-        let mut field = Helper::spawn(
-            work,
-            "skeleton-field",
-            &[
-                "--role".into(),
-                "skeleton-field".into(),
-                "--domain".into(),
-                share.domain.into(),
-                "--id".into(),
-                "0".into(),
-                "--agents".into(),
-                share.n.to_string(),
-            ],
-        )?;
+        let mut field = skeleton::spawn_role(work, share.domain, "skeleton-field", 0, share.n)?;
         field.ready()?;
         let relay = share.relay(work)?;
         say_ready("");
@@ -144,20 +130,8 @@ pub fn host(share: &Share<'_>, work: &Path) -> Result<i32> {
         .vehicles
         .clone();
     for &id in &mine {
-        let mut agent = Helper::spawn(
-            work,
-            &format!("agent-{id}"),
-            &[
-                "--role".into(),
-                "skeleton-agent".into(),
-                "--domain".into(),
-                share.domain.into(),
-                "--id".into(),
-                id.to_string(),
-                "--agents".into(),
-                share.n.to_string(),
-            ],
-        )?;
+        let mut agent =
+            skeleton::spawn_role(work, share.domain, "skeleton-agent", id as usize, share.n)?;
         agent.ready()?;
         helpers.push(agent);
     }
@@ -177,11 +151,7 @@ fn coordinate(domain: &Domain, n: usize, rounds: usize) -> Result<HostsSkeleton>
     let node = domain.node(vbap_ipc::topics::COORDINATOR_NODE)?;
     let c = skeleton::Coordinator::open(domain, &node, n)?;
     let waiter = c.wake.attach()?;
-    let mut body = Box::new(BodyCommand::empty());
-    body.n_vehicles = n as u32;
-    for (id, e) in body.snapshot.iter_mut().take(n).enumerate() {
-        e.id = id as u32;
-    }
+    let mut body = skeleton::fleet_body(n);
     let mut batch = Box::new(vbap_ipc::msg::coordinator_to_field::SampleBatch::empty());
     let mut latest = vec![VehicleState::default(); n];
     let mut hops = Vec::with_capacity(rounds * n);
@@ -218,10 +188,7 @@ fn coordinate(domain: &Domain, n: usize, rounds: usize) -> Result<HostsSkeleton>
         }
     }
     let rate = rounds as f64 / t0.elapsed().as_secs_f64();
-    body.header =
-        Header::new(Header::COORDINATOR, u64::MAX, 0.0, u64::MAX).with_flags(BodyCommand::FINISHED);
-    let _ = c.fan_out(&mut body);
-    let _ = c.field.notify();
+    c.finish(&mut body);
     let mut hops: Vec<f64> = hops.into_iter().map(|(_, h)| h).collect();
     Ok(HostsSkeleton {
         ticks_per_s: rate,
