@@ -163,7 +163,7 @@ pub fn bumpless_body(
                 &body.scaled_leader(design),
             )
     };
-    let turn = !(anchors.len() >= design.n() && is_central(design));
+    let turn = !(anchors.len() >= design.n() && design.is_central());
     let prior_fit = DesignFit {
         body: *prior,
         slots: assign_nearest(anchors, &prior.slot_positions(design)).unwrap_or_default(),
@@ -225,12 +225,6 @@ fn with_ghosts(
         );
     }
     all
-}
-
-/// True when `design` has one virtual leader at the body centre: its energy does not
-/// depend on the body's orientation.
-fn is_central(design: &FormationDesign) -> bool {
-    design.leaders.len() == 1 && design.leaders[0] == Vec3::zeros()
 }
 
 /// The orientation of `body` turned about its centre so that the slots of `design` lie

@@ -60,11 +60,6 @@ pub struct SlotFit {
     pub rotation: Mat3,
 }
 
-/// True when `design` has one virtual leader at the body centre (free rotation about it).
-pub fn is_central(design: &FormationDesign) -> bool {
-    design.leaders.len() == 1 && design.leaders[0] == Vec3::zeros()
-}
-
 /// The design spacing `D = k d̄0` of `design` moved by `body` (length unit): the
 /// neighbour distance of the designed equilibrium at the body's scale.
 pub fn spacing(design: &FormationDesign, body: &VirtualBody) -> f64 {
@@ -80,7 +75,7 @@ pub fn fit_slots(
     body: &VirtualBody,
     dim: usize,
 ) -> SlotFit {
-    fit_slots_turning(positions, design, body, dim, is_central(design))
+    fit_slots_turning(positions, design, body, dim, design.is_central())
 }
 
 /// The slots of `design` moved by `body` in the body's own orientation `R` (no turn
@@ -607,7 +602,7 @@ mod tests {
     fn platonic_solids_fit_under_any_rotation() {
         for n in [4, 6, 12] {
             let d = design_regular(n, 3, 2.0, 1.0, 1.0).unwrap();
-            assert!(is_central(&d));
+            assert!(d.is_central());
             let body = body_at(Vec3::new(1.0, 2.0, 3.0), 0.8);
             for seed in 0..5 {
                 let mut rng = keyed(seed, Stream::Test, 1, 0);
@@ -649,7 +644,7 @@ mod tests {
     #[test]
     fn per_slot_designs_do_not_rotate() {
         let d = design_regular(8, 3, 2.0, 1.0, 1.0).unwrap();
-        assert!(!is_central(&d));
+        assert!(!d.is_central());
         let body = body_at(Vec3::zeros(), 1.0);
         let exact = placed(&d, &body, &Mat3::identity(), 4);
         assert!(fit_slots(&exact, &d, &body, 3)

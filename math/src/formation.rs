@@ -22,6 +22,15 @@
 //! simulation): two antipodal vehicles (collinear with the centre), three vehicles in 3-D
 //! (coplanar with the centre), the cube (24 coordinates − 3 rotations = 21 > 12 edges + 8
 //! spokes) and the dodecahedron (57 > 30 + 20).
+//!
+//! A 2-D ring of five or more vehicles about one centre is a local minimum but not the
+//! only one: vehicles that fold into the empty interior put more pairs at `d0`, and (II.1),
+//! which descends the energy, can settle there (most formation failures of random missions
+//! on ideal links, docs/STRESS.md). Per-slot leaders remove that minimum but their basin
+//! reaches only about 0.8 spacing from each slot (their `h1` must stop short of the
+//! neighbours' slots), against four radii for the central leader, and a ring of them
+//! cannot turn; measured, that trade lost more missions of some families than it saved
+//! (docs/STRESS.md), so rings stay central.
 
 use super::potential::{potential_energy, PairPotential};
 use super::Vec3;
@@ -141,6 +150,14 @@ impl FormationDesign {
     /// Number of vehicles `N` the design is for.
     pub fn n(&self) -> usize {
         self.slots.len()
+    }
+
+    /// True when the design has one virtual leader at the body centre (one vehicle, the
+    /// 2-D polygons, the tetrahedron, octahedron and icosahedron of [`design_regular`]):
+    /// its energy does not change when the vehicles turn together about the centre
+    /// (Fig. 4(a)).
+    pub fn is_central(&self) -> bool {
+        self.leaders.len() == 1 && self.leaders[0] == Vec3::zeros()
     }
 
     /// `d̄0`, the designed neighbour spacing at `k = 1` (length), as used by the resolution

@@ -487,13 +487,6 @@ pub fn blended_lyapunov_terms(
     }
 }
 
-/// True when the design has one virtual leader at the body centre (the polygons and
-/// Platonic solids of `design_regular`): its energy does not change when the vehicles turn
-/// together about the centre.
-pub fn is_central(design: &FormationDesign) -> bool {
-    design.leaders.len() == 1 && design.leaders[0] == Vec3::zeros()
-}
-
 /// The turn `θ` (rad, about z in the body frame) that best lays the slots of a 2-D central
 /// design, whose equilibrium is only defined up to a turn about the centre, on the vehicles
 /// at `members` (length): the n-fold circular mean `θ = arg(Σ_i e^{i n (φ_i − φ̄_0)}) / n`
@@ -510,7 +503,7 @@ pub fn fit_turn(
     previous: f64,
 ) -> f64 {
     let n = design.n();
-    if !(design.dim == 2 && is_central(design) && n > 0) {
+    if !(design.dim == 2 && design.is_central() && n > 0) {
         return 0.0;
     }
     let phi0 = design.slots[0].y.atan2(design.slots[0].x);
@@ -539,7 +532,7 @@ pub fn fit_turn(
 /// turned first by `turn` (rad, about z in the body frame, [`fit_turn`]) for a 2-D central
 /// design.
 pub fn turned_slots(design: &FormationDesign, body: &VirtualBody, turn: f64) -> Vec<Vec3> {
-    let rot = if design.dim == 2 && is_central(design) {
+    let rot = if design.dim == 2 && design.is_central() {
         nalgebra::Rotation3::from_axis_angle(&Vec3::z_axis(), turn)
     } else {
         nalgebra::Rotation3::identity()
@@ -928,7 +921,7 @@ mod tests {
             1.0,
         )
         .unwrap();
-        assert!(!is_central(&shape));
+        assert!(!shape.is_central());
         assert_eq!(fit_turn(&shape, &body, &members, 0.2), 0.0);
         assert_eq!(
             turned_slots(&shape, &body, 0.2),

@@ -15,9 +15,7 @@ use vbap_math::body::VirtualBody;
 use vbap_math::bumpless::bumpless_body;
 use vbap_math::fit::held_slots;
 use vbap_math::formation::{design_regular, FormationDesign};
-use vbap_math::rejoin::{
-    choose_slot, clearance, fit_turn, homing_weight, is_central, turned_slots,
-};
+use vbap_math::rejoin::{choose_slot, clearance, fit_turn, homing_weight, turned_slots};
 use vbap_math::Vec3;
 use vbap_mission::config::LawKind;
 
@@ -229,7 +227,7 @@ impl Planner {
         }
         self.members = ids.to_vec();
         self.reconfigurations += 1;
-        if !self.rejoining.is_empty() && !is_central(&self.design) {
+        if !self.rejoining.is_empty() && !self.design.is_central() {
             // A design with a leader group per slot holds each vehicle only near its
             // own slot: when a vehicle comes back, the others (arranged for the old
             // design) are given slots of the new one too; those already in one are

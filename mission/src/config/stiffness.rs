@@ -28,8 +28,8 @@ impl Stiffness {
 impl Mission {
     /// How stiff the formation is for the time step: ω·dt and damping·dt. The semi-implicit
     /// Euler integration of (II.1) is stable for ω·dt < 2 and damping·dt < 2, and accurate
-    /// only well below. ω² ≈ 2 α/d0² + α/h0² (two neighbours and the central leader at their
-    /// equilibrium distances, f'(d0) = α/d0²), at the smallest formation scale flown
+    /// only well below. ω² ≈ 2 α/d0² + α_h/h0² (two neighbours and a leader at their
+    /// equilibrium distances, f'(d0) = α/d0²; `α_h` the design's leader strength), at the smallest formation scale flown
     /// ([`Mission::held_min_scale`]). None when the
     /// formation cannot be designed (validation says why).
     pub fn stiffness(&self) -> Option<Stiffness> {
@@ -47,7 +47,8 @@ impl Mission {
         let k = self.held_min_scale();
         let (d0, h0) = (design.inter.d0 * k, design.leader.d0 * k);
         let alpha = self.formation.alpha;
-        let omega = (2.0 * alpha / (d0 * d0) + alpha / (h0 * h0)).sqrt();
+        let alpha_h = design.leader.alpha;
+        let omega = (2.0 * alpha / (d0 * d0) + alpha_h / (h0 * h0)).sqrt();
         let dt = self.mission.dt;
         Some(Stiffness {
             omega_dt: omega * dt,

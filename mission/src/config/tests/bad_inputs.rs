@@ -73,6 +73,8 @@ const BAD: &[(&str, &str)] = &[
     ("[vehicles]\ncount = 1025", "vehicles.count"),
     ("[vehicles]\ncount = -1", "vehicles.count"),
     ("[mission]\ndim = 3\n[field]\ncenter = [1.0, 2.0, 3.0]\n[vehicles]\nstart = [0.0, 0.0, 0.0]\ncount = 3", "vehicles.count"),
+    // 100 vehicles in 3-D: 400 per-slot leaders, more than a body command carries.
+    ("[mission]\ndim = 3\nallow_unstable = true\n[field]\ncenter = [1.0, 2.0, 3.0]\n[vehicles]\nstart = [0.0, 0.0, 0.0]\ncount = 100\n[formation]\nradius = 20.0", "vehicles.count"),
     ("[vehicles]\nstart = [0.0, 0.0, 0.0]", "vehicles.start"),
     ("[vehicles]\nstart_spread = -1", "vehicles.start_spread"),
     ("[vehicles]\ndamping = 0", "vehicles.damping"),

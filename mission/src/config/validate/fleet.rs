@@ -2,9 +2,10 @@
 
 use super::super::toml_text::{mat_str, num};
 use super::super::{
-    BodySection, EstimatorSection, FormationSection, VehiclesSection, MAX_VEHICLES,
+    BodySection, EstimatorSection, FormationSection, Mission, VehiclesSection, MAX_VEHICLES,
 };
 use super::{Check, Checked};
+use vbap_wire::msg::MAX_LEADERS;
 
 /// Checks `[vehicles]` for a mission of dimension `dim`.
 pub(super) fn vehicles(c: &Check, v: &VehiclesSection, dim: usize) -> Checked {
@@ -61,6 +62,35 @@ pub(super) fn formation(c: &Check, fo: &FormationSection, dim: usize) -> Checked
         )?;
     }
     Ok(())
+}
+
+/// Checks that the formation designed for the mission's vehicles fits one body command:
+/// a per-slot design has `dim + 1` virtual leaders per vehicle (3-D spheres of other than
+/// 4, 6 or 12 vehicles), and a command carries at most [`MAX_LEADERS`]. Designs for fewer
+/// vehicles (after losses) have no more leaders. Silent if the formation cannot be
+/// designed ([`formation`] and the stability check name why).
+pub(super) fn design_fits(c: &Check, m: &Mission) -> Checked {
+    let fo = &m.formation;
+    let dim = m.formation_dim();
+    let Ok(design) =
+        vbap_math::formation::design_regular(m.vehicles.count, dim, fo.radius, fo.alpha, fo.alpha)
+    else {
+        return Ok(());
+    };
+    let n_l = design.leaders.len();
+    c.ensure(
+        n_l <= MAX_LEADERS,
+        "vehicles.count",
+        m.vehicles.count,
+        &format!(
+            "a {dim}-D formation of {} vehicles has {n_l} virtual leaders ({} per vehicle), \
+             more than the {MAX_LEADERS} one body command carries: fly at most {} vehicles \
+             in {dim}-D, or 4, 6 or 12 (one central leader)",
+            m.vehicles.count,
+            dim + 1,
+            MAX_LEADERS / (dim + 1)
+        ),
+    )
 }
 
 /// Checks `[body]`.

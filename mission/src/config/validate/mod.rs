@@ -28,6 +28,7 @@ impl Mission {
         field::check(&c, &self.field, dim)?;
         fleet::vehicles(&c, &self.vehicles, dim)?;
         fleet::formation(&c, &self.formation, dim)?;
+        fleet::design_fits(&c, self)?;
         fleet::body(&c, &self.body)?;
         fleet::estimator(&c, &self.estimator)?;
         links::links(&c, &self.links)?;
