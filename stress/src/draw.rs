@@ -96,6 +96,10 @@ pub struct Draw {
     pub adapt: bool,
     /// `formation.min_scale`.
     pub min_scale: f64,
+    /// `formation.radius` ÷ the spacing-preserving radius ([`Draw::radius`]); 1 in plans
+    /// written before it was drawn.
+    #[serde(default = "one")]
+    pub radius_factor: f64,
     /// `formation.alpha`, L²/s².
     pub alpha: f64,
     /// `vehicles.damping`, 1/s.
@@ -235,6 +239,7 @@ impl Draw {
         // A TOML integer holds at most 2⁶³ − 1.
         let seed_of_mission = rng.random::<u64>() >> 1;
         let min_scale = draw(rng, &space.min_scale);
+        let radius_factor = draw(rng, &space.radius_factor);
         Draw {
             index,
             seed: seed_of_mission,
@@ -258,6 +263,7 @@ impl Draw {
             current,
             duration,
             min_scale,
+            radius_factor,
         }
     }
 
@@ -404,9 +410,10 @@ impl Draw {
         faults
     }
 
-    /// The neighbour-spacing-preserving formation radius, L.
+    /// The formation radius, L: the neighbour-spacing-preserving radius of N vehicles
+    /// times the drawn `radius_factor`.
     pub fn radius(&self) -> f64 {
-        PAPER_RADIUS * (self.n as f64 / 4.0).powf(1.0 / self.dim as f64)
+        self.radius_factor * PAPER_RADIUS * (self.n as f64 / 4.0).powf(1.0 / self.dim as f64)
     }
 
     /// The mission file of this draw flying `law`; `grid`: the campaign's grid file
@@ -620,4 +627,9 @@ fn toml_vector(x: &[f64]) -> String {
 fn toml_matrix(x: &[Vec<f64>]) -> String {
     let rows: Vec<String> = x.iter().map(|r| toml_vector(r)).collect();
     format!("[{}]", rows.join(", "))
+}
+
+/// The serde default of `radius_factor` (here and in the result lines).
+pub(crate) fn one() -> f64 {
+    1.0
 }

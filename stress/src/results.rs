@@ -42,6 +42,10 @@ pub struct Dims {
     /// `formation.min_scale` (absent in result lines written before it was drawn).
     #[serde(default)]
     pub min_scale: f64,
+    /// `formation.radius` ÷ the spacing-preserving radius (1 in result lines written
+    /// before it was drawn).
+    #[serde(default = "crate::draw::one")]
+    pub radius_factor: f64,
 }
 
 impl Dims {
@@ -65,6 +69,7 @@ impl Dims {
             alpha: d.alpha,
             damping: d.damping,
             min_scale: d.min_scale,
+            radius_factor: d.radius_factor,
         }
     }
 }

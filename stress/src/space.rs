@@ -149,6 +149,10 @@ pub struct Space {
     /// grows as 1/k², (III.3); what broke `lossy_kill` at half its noise). Drawn after
     /// every other key, so the rest of a mission does not depend on it.
     pub min_scale: Range,
+    /// `formation.radius` ÷ the spacing-preserving radius of N vehicles: below 1 a
+    /// tighter ring, as a user flies who raises `vehicles.count` without
+    /// `formation.radius`. Drawn last, so the rest of a mission does not depend on it.
+    pub radius_factor: Range,
 }
 
 impl Default for Space {
@@ -202,6 +206,7 @@ impl Default for Space {
             duration_margin: 4.0,
             duration_extra: 40.0,
             min_scale: Range::log(0.15, 0.7),
+            radius_factor: Range::uniform(0.5, 1.5),
         }
     }
 }
@@ -303,6 +308,10 @@ impl Space {
             ("mission.dt, s", format!("{}", self.dt)),
             ("formation.min_scale", format!("{}", self.min_scale)),
             (
+                "formation.radius ÷ 1.229 (N/4)^(1/dim)",
+                format!("{}", self.radius_factor),
+            ),
+            (
                 "mission.duration, s",
                 format!(
                     "{} × distance / v0 + {}",
@@ -311,7 +320,7 @@ impl Space {
             ),
             (
                 "derived",
-                "radius 1.229·(N/4)^(1/dim); hessian_guess = |curvature at the optimum|·I; \
+                "radius the factor above × 1.229·(N/4)^(1/dim); hessian_guess = |curvature at the optimum|·I; \
                  v_u = α/6 · (N(N−1)/2)/6 + N·v0²; grad_saturation, kalman_b from the field's gradient scale"
                     .into(),
             ),

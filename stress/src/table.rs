@@ -165,6 +165,16 @@ pub fn dimensions() -> Vec<(&'static str, Box<dyn Fn(&Dims) -> String>)> {
             Box::new(|d: &Dims| bin(d.damping, &[(4.5, "2-4.5")], "4.5-10")),
         ),
         (
+            "radius ÷ spacing-preserving",
+            Box::new(|d: &Dims| {
+                bin(
+                    d.radius_factor,
+                    &[(0.8, "0.5-0.8"), (1.2, "0.8-1.2")],
+                    "1.2-1.5",
+                )
+            }),
+        ),
+        (
             "min_scale (adaptation on)",
             Box::new(|d: &Dims| {
                 if d.adapt {
