@@ -315,3 +315,55 @@ fn a_climb_that_ends_on_a_side_bump_found_a_local_optimum() {
         "{s}"
     );
 }
+
+/// A shipped mission with one key moved (12 vehicles on the paper's radius, `v_u` sized
+/// for 4) starts above its bound: `vbap check` and `vbap sim` warn, naming V(0), the seed
+/// and the keys, and the V(0) they name is the truth's first row. The shipped mission as
+/// it is starts below it and is not warned about.
+#[test]
+fn a_start_above_v_u_is_warned_about_with_the_truths_own_v() {
+    let tmp = TempDir::new("start-above");
+    let file = mission_file("paper.toml");
+    let check = |sets: &[&str]| {
+        let mut cmd = vbap();
+        cmd.arg("check").arg(&file);
+        for s in sets {
+            cmd.args(["--set", s]);
+        }
+        let out = run_ok(&mut cmd);
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    assert!(!check(&[]).contains("starts above"), "{}", check(&[]));
+    let warned = check(&["vehicles.count=12"]);
+    assert!(
+        warned.contains("starts above its bound")
+            && warned.contains("mission.seed = 1")
+            && warned.contains("body.v_u")
+            && warned.contains("vehicles.start_spread"),
+        "{warned}"
+    );
+    let v0: f64 = warned
+        .split("V(0) = ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("V(0) in {warned}"));
+    let out = run_ok(
+        vbap()
+            .arg("sim")
+            .arg(&file)
+            .args(["--set", "vehicles.count=12", "--quiet", "--out"])
+            .arg(tmp.join("sim")),
+    );
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("starts above its bound"),
+        "vbap sim warns too"
+    );
+    let (header, rows) = csv(&tmp.join("sim/truth.csv"));
+    let first = num(&rows[0][col(&header, "V_true_over_VU")]);
+    // The warning prints V(0) to 4 decimals; v_u = 10.
+    assert!(
+        (first * 10.0 - v0).abs() < 1e-4,
+        "truth {first} × 10 against {v0}"
+    );
+}

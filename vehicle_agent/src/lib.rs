@@ -24,6 +24,8 @@ mod vehicle;
 
 pub use agent::{Agent, AgentInputs};
 pub use guidance::Guidance;
-pub use start::{initial_agent, initial_design, mission_law};
+pub use start::{
+    initial_agent, initial_design, initial_lyapunov, initial_lyapunov_warning, mission_law,
+};
 pub use vbap_math::law::{ControlInputs, ControlLaw, PaperLaw, RobustLaw};
 pub use vehicle::{DownlinkCounts, Reported, Vehicle};

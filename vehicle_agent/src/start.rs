@@ -4,8 +4,10 @@
 use std::sync::Arc;
 
 use rand::Rng;
+use vbap_math::body::{BodyRates, VirtualBody};
 use vbap_math::formation::FormationDesign;
 use vbap_math::law::{ControlLaw, PaperLaw, RobustLaw};
+use vbap_math::lyapunov::lyapunov_terms;
 use vbap_math::rng::{keyed, Stream};
 use vbap_math::Vec3;
 use vbap_mission::config::{LawKind, Mission};
@@ -77,4 +79,49 @@ pub fn initial_agent(mission: &Mission, design: &FormationDesign, id: u32) -> Ag
         position,
         velocity: Vec3::zeros(),
     }
+}
+
+/// `V(x(t0), s(t0))` of (II.2): the Lyapunov function at the mission's start, every vehicle
+/// at its [`initial_agent`] state (at rest), the body at `vehicles.start` at scale 1,
+/// energy per unit mass. Theorem 4.1 bounds V by `V_U` only from a start with
+/// `V(0) ≤ V_U`; `vbap check` warns when it is above. `None` when the formation cannot be
+/// designed, or for a diving mission (its formation is the horizontal one of a 3-D start).
+pub fn initial_lyapunov(mission: &Mission) -> Option<f64> {
+    if mission.diving() {
+        return None;
+    }
+    let design = initial_design(mission).ok()?;
+    let positions: Vec<Vec3> = (0..mission.vehicles.count as u32)
+        .map(|id| initial_agent(mission, &design, id).position)
+        .collect();
+    let velocities = vec![Vec3::zeros(); positions.len()];
+    let body = VirtualBody::at(mission.start_vec());
+    let terms = lyapunov_terms(
+        &positions,
+        &velocities,
+        &body,
+        &BodyRates::zero(),
+        &design,
+        mission.vehicles.damping,
+    );
+    Some(terms.v)
+}
+
+/// A warning when the mission starts above its bound (`V(0) > body.v_u`,
+/// [`initial_lyapunov`]), naming the seed and the keys that change it; `None` otherwise.
+pub fn initial_lyapunov_warning(mission: &Mission) -> Option<String> {
+    let v0 = initial_lyapunov(mission)?;
+    let v_u = mission.body.v_u;
+    (v0 > v_u).then(|| {
+        format!(
+            "{}: the formation starts above its bound: V(0) = {v0:.4} = {:.2} × body.v_u \
+             (mission.seed = {}); Theorem 4.1 keeps V ≤ V_U only from a start below it, and \
+             V sums a term over every pair of vehicles (N(N−1)/2 = {}): raise body.v_u above \
+             {v0:.4}, or lower vehicles.start_spread",
+            mission.origin,
+            v0 / v_u,
+            mission.mission.seed,
+            mission.vehicles.count * (mission.vehicles.count - 1) / 2
+        )
+    })
 }
