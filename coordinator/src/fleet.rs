@@ -63,15 +63,10 @@ impl Fleet {
     /// the operators planned), so a link that delays the first reports does not make the
     /// formation look smaller than it is.
     pub fn new(mission: &Mission, ids: &[u32]) -> Self {
-        let planned = vbap_math::formation::design_regular(
-            mission.vehicles.count,
-            mission.formation_dim(),
-            mission.formation.radius,
-            mission.formation.alpha,
-            mission.formation.alpha,
-        )
-        .map(|d| d.slots)
-        .unwrap_or_default();
+        let planned = mission
+            .formation_design()
+            .map(|d| d.slots)
+            .unwrap_or_default();
         let latest = ids
             .iter()
             .filter_map(|&id| {

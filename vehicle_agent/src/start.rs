@@ -30,13 +30,7 @@ pub fn mission_law(mission: &Mission) -> Arc<dyn ControlLaw> {
 pub fn initial_design(
     mission: &Mission,
 ) -> Result<FormationDesign, vbap_math::formation::FormationError> {
-    vbap_math::formation::design_regular(
-        mission.vehicles.count,
-        mission.formation_dim(),
-        mission.formation.radius,
-        mission.formation.alpha,
-        mission.formation.alpha,
-    )
+    mission.formation_design()
 }
 
 /// The initial state of vehicle `id`: its slot of the initial design around

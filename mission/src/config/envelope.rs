@@ -2,7 +2,6 @@
 //! docs/ENVELOPE.md): what the planner is held to, what `vbap check` shows and refuses.
 
 use vbap_math::envelope::{envelope, Envelope, EnvelopeInputs, EnvelopeLaw, ScaleLimit};
-use vbap_math::formation::design_regular;
 
 use super::toml_text::num;
 use super::validate::{Check, Checked};
@@ -64,8 +63,7 @@ impl Mission {
         }
         let dim = self.formation_dim();
         let fo = &self.formation;
-        let design =
-            design_regular(self.vehicles.count, dim, fo.radius, fo.alpha, fo.alpha).ok()?;
+        let design = self.formation_design().ok()?;
         let law = match law {
             LawKind::Paper => EnvelopeLaw::Paper,
             LawKind::Robust => EnvelopeLaw::Robust {

@@ -225,6 +225,23 @@ impl Mission {
         }
     }
 
+    /// The initial formation design of the mission (before any loss): `design_regular`
+    /// of `vehicles.count` in [`Mission::formation_dim`], `formation.radius`, with
+    /// `formation.alpha` for both potentials. What the vehicles start in, and what the
+    /// validation's stability, envelope and command-size checks judge.
+    pub fn formation_design(
+        &self,
+    ) -> Result<vbap_math::formation::FormationDesign, vbap_math::formation::FormationError> {
+        let fo = &self.formation;
+        vbap_math::formation::design_regular(
+            self.vehicles.count,
+            self.formation_dim(),
+            fo.radius,
+            fo.alpha,
+            fo.alpha,
+        )
+    }
+
     /// True when the vehicles fly a sawtooth dive (`vehicles.dive_depth`, a 3-D mission): a
     /// horizontal formation over a 3-D field ([`Mission::formation_dim`]).
     pub fn diving(&self) -> bool {

@@ -33,14 +33,7 @@ impl Mission {
     /// ([`Mission::held_min_scale`]). None when the
     /// formation cannot be designed (validation says why).
     pub fn stiffness(&self) -> Option<Stiffness> {
-        let design = vbap_math::formation::design_regular(
-            self.vehicles.count,
-            self.formation_dim(),
-            self.formation.radius,
-            self.formation.alpha,
-            self.formation.alpha,
-        )
-        .ok()?;
+        let design = self.formation_design().ok()?;
         // The smallest scale flown: min_scale, or the stability envelope's when the planner
         // is held to it (robust law over impaired links; docs/ENVELOPE.md), which keeps
         // the step accurate by construction.

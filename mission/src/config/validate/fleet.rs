@@ -70,11 +70,8 @@ pub(super) fn formation(c: &Check, fo: &FormationSection, dim: usize) -> Checked
 /// vehicles (after losses) have no more leaders. Silent if the formation cannot be
 /// designed ([`formation`] and the stability check name why).
 pub(super) fn design_fits(c: &Check, m: &Mission) -> Checked {
-    let fo = &m.formation;
     let dim = m.formation_dim();
-    let Ok(design) =
-        vbap_math::formation::design_regular(m.vehicles.count, dim, fo.radius, fo.alpha, fo.alpha)
-    else {
+    let Ok(design) = m.formation_design() else {
         return Ok(());
     };
     let n_l = design.leaders.len();
