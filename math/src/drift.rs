@@ -21,6 +21,13 @@
 //! diagonal R), an innovation beyond `gate` standard deviations discarded (a redesign or a
 //! filter restart is no drift). Over the baseline the covariance grows by q τ I.
 //!
+//! (D.4) restart: when `restart_after` baselines in a row each had an observation
+//! discarded, the data no longer agree with v̂_f (the estimate was made from a transient,
+//! e.g. the gradient of a formation still gathering, and a small P then gates out every
+//! later observation: a lock-in). The estimate restarts from the prior, v̂ = 0, P = σ₀² I.
+//! One redesign or filter restart discards one baseline's observations, not several in a
+//! row.
+//!
 //! (D.3) significance: the drift is trusted when v̂ᵀ P⁻¹ v̂ ≥ χ², the chi-square quantile of
 //! `dim` degrees of freedom at the level chosen (13.82 for dim 2, 16.27 for dim 3 at
 //! 0.999): on a still field v̂ is then zero with probability 0.999 per test.
@@ -53,6 +60,15 @@ pub struct DriftParams {
     pub gate: f64,
     /// χ² threshold of (D.3).
     pub chi2: f64,
+    /// Baselines in a row with a discarded observation after which the estimate restarts
+    /// from the prior ((D.4)), ≥ 1.
+    #[serde(default = "default_restart_after")]
+    pub restart_after: u32,
+}
+
+/// (D.4)'s count when a checkpoint written before it existed is read back.
+fn default_restart_after() -> u32 {
+    3
 }
 
 /// What the planner knows at one tick, at the body centre.
@@ -97,6 +113,12 @@ pub struct DriftEstimator {
     /// Observations used and discarded by the gate.
     used: u64,
     gated: u64,
+    /// Baselines in a row that had a discarded observation ((D.4)).
+    #[serde(default)]
+    discarding_run: u32,
+    /// Restarts from the prior by (D.4).
+    #[serde(default)]
+    restarts: u64,
 }
 
 /// The first `dim` components of `v`, zero beyond.
@@ -135,22 +157,22 @@ impl DriftEstimator {
         positive("reach", params.reach)?;
         positive("gate", params.gate)?;
         positive("chi2", params.chi2)?;
+        if params.restart_after == 0 {
+            return Err(DriftError::Parameter("restart_after"));
+        }
         if !(params.process.is_finite() && params.process >= 0.0) {
             return Err(DriftError::Parameter("process"));
-        }
-        let s2 = params.prior * params.prior;
-        let mut p = Mat3::identity();
-        for i in 0..dim {
-            p[(i, i)] = s2;
         }
         Ok(Self {
             dim,
             params,
             v: Vec3::zeros(),
-            p,
+            p: prior_covariance(dim, params.prior),
             anchor: None,
             used: 0,
             gated: 0,
+            discarding_run: 0,
+            restarts: 0,
         })
     }
 
@@ -167,6 +189,11 @@ impl DriftEstimator {
     /// Observations used, and discarded by the innovation gate.
     pub fn counts(&self) -> (u64, u64) {
         (self.used, self.gated)
+    }
+
+    /// Restarts from the prior by (D.4).
+    pub fn restarts(&self) -> u64 {
+        self.restarts
     }
 
     /// The statistic v̂ᵀ P⁻¹ v̂ of (D.3) (0 when P is singular).
@@ -209,6 +236,7 @@ impl DriftEstimator {
             return;
         }
         let dim = self.dim;
+        let gated_before = self.gated;
         self.p += eye(dim) * (self.params.process * tau);
         // (D.1) advection.
         let g = planar((a.grad + s.grad) * 0.5, dim);
@@ -230,6 +258,18 @@ impl DriftEstimator {
             }
         }
         self.anchor = Some(s);
+        // (D.4) a run of baselines the estimate cannot explain restarts it.
+        if self.gated > gated_before {
+            self.discarding_run += 1;
+        } else {
+            self.discarding_run = 0;
+        }
+        if self.discarding_run >= self.params.restart_after {
+            self.v = Vec3::zeros();
+            self.p = prior_covariance(dim, self.params.prior);
+            self.discarding_run = 0;
+            self.restarts += 1;
+        }
     }
 
     /// x* = r − Ĥ⁻¹∇T of (D.2) and its covariance Ĥ⁻¹Σ_gĤ⁻¹, when Ĥ is definite of the
@@ -286,6 +326,15 @@ impl DriftEstimator {
     }
 }
 
+/// The prior covariance σ₀² I on the first `dim` axes (the identity beyond, never updated).
+fn prior_covariance(dim: usize, prior: f64) -> Mat3 {
+    let mut p = Mat3::identity();
+    for i in 0..dim {
+        p[(i, i)] = prior * prior;
+    }
+    p
+}
+
 /// `c` with the rows and columns beyond `dim` zero.
 fn planar_cov(c: &Mat3, dim: usize) -> Mat3 {
     let mut out = *c;
@@ -312,6 +361,7 @@ mod tests {
             reach: 10.0,
             gate: 5.0,
             chi2: CHI2_2_999,
+            restart_after: 3,
         }
     }
 
@@ -442,6 +492,107 @@ mod tests {
         );
     }
 
+    /// A still Gaussian climbed by the body, whose estimates at the centre are for the
+    /// first `transient` s those of a formation still gathering (a gradient far too large
+    /// and of no meaning, a value that jumps); the estimator with `restart_after`.
+    fn after_a_transient(restart_after: u32, transient: f64, seed: u64) -> DriftEstimator {
+        let field = gaussian(Vec3::zeros(), Vec3::zeros(), 5.0, 10.0);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let (sv, sg) = (0.02, 0.005);
+        let nv = Normal::new(0.0, sv).unwrap();
+        let ng = Normal::new(0.0, sg).unwrap();
+        let wild = Normal::new(0.0, 20.0).unwrap();
+        let mut p = params(2.0, 1.0);
+        p.restart_after = restart_after;
+        let mut est = DriftEstimator::new(2, p).unwrap();
+        for k in 0..3000 {
+            let t = k as f64 * 0.1;
+            let r = Vec3::new(-12.0 + 0.03 * t, 2.0, 0.0);
+            let (v, mut g, h) = field(&r, t);
+            let mut value = v + nv.sample(&mut rng);
+            g += Vec3::new(ng.sample(&mut rng), ng.sample(&mut rng), 0.0);
+            if t < transient {
+                g = Vec3::new(wild.sample(&mut rng), wild.sample(&mut rng), 0.0);
+                value += wild.sample(&mut rng) * 0.2;
+            }
+            est.observe(
+                DriftSample {
+                    t,
+                    r,
+                    value,
+                    value_var: sv * sv,
+                    grad: g,
+                    grad_cov: eye(2) * (sg * sg),
+                    hessian: Some(h),
+                },
+                1.0,
+            );
+        }
+        est
+    }
+
+    #[test]
+    fn an_estimate_made_from_a_transient_restarts_instead_of_locking_in() {
+        let mut locked = 0;
+        for seed in 0..10 {
+            // (D.4) off: the transient's estimate, with a small P, gates out everything
+            // after it (what the stress campaign found).
+            let stuck = after_a_transient(u32::MAX, 6.0, seed);
+            let was_locked = stuck.significant().is_some_and(|v| v.norm() > 0.1);
+            locked += usize::from(was_locked);
+            // (D.4) on: a locked estimate restarts, and none is left above 0.1 L/s (a
+            // tenth of the prior; the estimates of the transient that did not lock in
+            // decay as slowly as before).
+            let est = after_a_transient(3, 6.0, seed);
+            assert!(
+                !was_locked || est.restarts() >= 1,
+                "seed {seed}: no restart"
+            );
+            let v = est.velocity();
+            assert!(v.norm() < 0.1, "seed {seed}: {v:?}");
+            assert!(
+                !was_locked || est.significant().is_none(),
+                "seed {seed}: {v:?}"
+            );
+        }
+        assert!(
+            locked >= 5,
+            "only {locked} of 10 transients locked in without (D.4)"
+        );
+    }
+
+    #[test]
+    fn one_discarded_baseline_does_not_restart_the_estimate() {
+        // A drifting bowl found by advection; one value jump (a filter restart) in between.
+        let vf = Vec3::new(0.3, -0.2, 0.0);
+        let h = Mat3::new(1.0, 0.2, 0.0, 0.2, 0.5, 0.0, 0.0, 0.0, 0.0);
+        let field = quadratic(Vec3::zeros(), vf, h);
+        let mut est = DriftEstimator::new(2, params(2.0, 1.0)).unwrap();
+        for k in 0..4000 {
+            let t = k as f64 * 0.1;
+            let r = Vec3::new(2.0 * (0.02 * t).cos(), 2.0 * (0.02 * t).sin(), 0.0) + vf * t;
+            let (mut v, g, _) = field(&r, t);
+            if k == 3000 {
+                v += 50.0;
+            }
+            est.observe(
+                DriftSample {
+                    t,
+                    r,
+                    value: v,
+                    value_var: 1e-4,
+                    grad: g,
+                    grad_cov: eye(2) * 1e-6,
+                    hessian: None,
+                },
+                -1.0,
+            );
+        }
+        assert!(est.counts().1 >= 1, "the jump was not discarded");
+        assert_eq!(est.restarts(), 0);
+        assert!((est.velocity() - vf).norm() <= 0.05 * vf.norm());
+    }
+
     #[test]
     fn bad_parameters_and_samples_are_refused() {
         assert_eq!(
@@ -451,6 +602,12 @@ mod tests {
         assert_eq!(
             DriftEstimator::new(2, params(0.0, 1.0)).unwrap_err(),
             DriftError::Parameter("baseline")
+        );
+        let mut p = params(1.0, 1.0);
+        p.restart_after = 0;
+        assert_eq!(
+            DriftEstimator::new(2, p).unwrap_err(),
+            DriftError::Parameter("restart_after")
         );
         let mut e = DriftEstimator::new(3, params(1.0, 1.0)).unwrap();
         let s = DriftSample {

@@ -17,7 +17,8 @@ use super::{Planner, PlannerParams};
 /// The estimator's tunables for a planner: baseline τ = max(radius / v0, 10 dt) (the time
 /// the body crosses a formation radius at cruise speed, s), prior σ₀ = v0, random walk
 /// q = (0.1 v0)² / (20 τ) (the drift may change by a tenth of v0 over 20 baselines), the
-/// quadratic model of (D.2) within 3 radii, the gate at 5 σ, χ² at 0.999.
+/// quadratic model of (D.2) within 3 radii, the gate at 5 σ, χ² at 0.999, a restart
+/// after 3 baselines in a row with a discarded observation ((D.4)).
 pub(super) fn drift_params(p: &PlannerParams, dt: f64) -> DriftParams {
     let baseline = (p.radius / p.v0).max(10.0 * dt);
     DriftParams {
@@ -27,6 +28,7 @@ pub(super) fn drift_params(p: &PlannerParams, dt: f64) -> DriftParams {
         reach: 3.0 * p.radius,
         gate: 5.0,
         chi2: if p.dim == 3 { CHI2_3_999 } else { CHI2_2_999 },
+        restart_after: 3,
     }
 }
 
