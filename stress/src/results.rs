@@ -49,6 +49,19 @@ pub struct Dims {
 }
 
 impl Dims {
+    /// True when the drawn links never delay nor lose a message (no delay, jitter, loss,
+    /// burst or surfacing). The robust law's link-aware parts (the envelope's clamps, the
+    /// committed path, damping relative to the body) are then off: on a still field
+    /// without faults the mission flies the paper's law and planner bit for bit. A
+    /// `--set links.…` applied to every mission is not seen here.
+    pub fn is_ideal_links(&self) -> bool {
+        self.delay == 0.0
+            && self.jitter == 0.0
+            && self.loss == 0.0
+            && !self.bursty
+            && !self.surfacing
+    }
+
     /// The dimensions of `d`.
     pub fn of(d: &Draw) -> Dims {
         Dims {

@@ -148,6 +148,16 @@ pub fn dimensions() -> Vec<(&'static str, Box<dyn Fn(&Dims) -> String>)> {
         ),
         ("bursty", Box::new(|d: &Dims| yes_no(d.bursty))),
         ("surfacing", Box::new(|d: &Dims| yes_no(d.surfacing))),
+        (
+            "links",
+            Box::new(|d: &Dims| {
+                if d.is_ideal_links() {
+                    "ideal".to_string()
+                } else {
+                    "impaired".to_string()
+                }
+            }),
+        ),
         ("faults", Box::new(|d: &Dims| d.faults.to_string())),
         ("adapt", Box::new(|d: &Dims| yes_no(d.adapt))),
         ("glider", Box::new(|d: &Dims| yes_no(d.glider))),
