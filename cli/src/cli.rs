@@ -182,12 +182,16 @@ fn dispatch(cmd: Cmd, plugins: Option<&vbap_sim::Plugins>) -> Result<i32> {
     }
 }
 
-/// `vbap check`: the mission and its `[batch]` criteria, with the stiffness and start warnings.
+/// `vbap check`: the mission and its `[batch]` criteria, with the stiffness, trail and start
+/// warnings.
 fn check(mission: &Path, sets: &[KeySet]) -> Result<i32> {
     let m = Mission::load_with(mission, sets)?;
     // The criteria and the sweep of `vbap batch`, checked as it will read them.
     vbap_batch::check(mission, sets, &m)?;
     if let Some(w) = m.stiffness_warning() {
+        eprintln!("vbap: warning: {w}");
+    }
+    if let Some(w) = m.trail_warning() {
         eprintln!("vbap: warning: {w}");
     }
     if let Some(w) = vehicle_agent::initial_lyapunov_warning(&m) {
@@ -389,6 +393,9 @@ fn prepare_mission(args: &RunArgs) -> Result<Mission> {
     };
     let mission = Mission::load_with(&args.mission, &args.sets)?.with_overrides(&overrides)?;
     if let Some(w) = mission.stiffness_warning() {
+        eprintln!("vbap: warning: {w}");
+    }
+    if let Some(w) = mission.trail_warning() {
         eprintln!("vbap: warning: {w}");
     }
     if let Some(w) = vehicle_agent::initial_lyapunov_warning(&mission) {

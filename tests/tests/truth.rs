@@ -367,3 +367,65 @@ fn a_start_above_v_u_is_warned_about_with_the_truths_own_v() {
         "truth {first} × 10 against {v0}"
     );
 }
+
+/// The lag `vbap check` warns about (docs: mission/src/config/trail.rs, (T.1)) is the one
+/// the vehicles fly: 16 vehicles of the paper's mission on a 3 L ring, damped against the
+/// water on ideal links, settle behind their cruising body by the δ the warning names
+/// (the mean of the vehicles' true positions, along the body's velocity, over 10–30 s;
+/// within 15 %: (T.1) is linear in δ); damped relative to the body
+/// (`control.follow_body = true`) they neither trail nor are warned about.
+#[test]
+fn a_trailing_ring_lags_its_body_by_the_warned_distance() {
+    let tmp = TempDir::new("trail");
+    let file = mission_file("paper.toml");
+    let sets = [
+        "vehicles.count=16",
+        "formation.radius=3.0",
+        "vehicles.start_spread=0.01",
+        "body.v_u=1000",
+    ];
+    let fly = |name: &str, extra: &[&str]| {
+        let mut cmd = vbap();
+        cmd.arg("sim").arg(&file);
+        for s in sets.iter().chain(extra) {
+            cmd.args(["--set", s]);
+        }
+        let out = run_ok(cmd.args(["--quiet", "--out"]).arg(tmp.join(name)));
+        let warned = String::from_utf8_lossy(&out.stderr).to_string();
+        // The mean lag along the body's velocity over 10–30 s.
+        let (bh, body) = csv(&tmp.join(name).join("body.csv"));
+        let (vh, vehicles) = csv(&tmp.join(name).join("vehicles.csv"));
+        let (t, rx, ry) = (col(&bh, "t"), col(&bh, "rx"), col(&bh, "ry"));
+        let (vk, vx, vy) = (col(&vh, "k"), col(&vh, "x"), col(&vh, "y"));
+        let mut lags = Vec::new();
+        for k in 200..600 {
+            let (r0, r1) = (&body[k], &body[k + 1]);
+            assert!((10.0..30.1).contains(&num(&r0[t])), "row {k} is tick {k}");
+            let (dx, dy) = (num(&r1[rx]) - num(&r0[rx]), num(&r1[ry]) - num(&r0[ry]));
+            let speed = dx.hypot(dy);
+            let here: Vec<&Vec<String>> =
+                vehicles.iter().filter(|v| v[vk] == k.to_string()).collect();
+            assert_eq!(here.len(), 16);
+            let mx = here.iter().map(|v| num(&v[vx])).sum::<f64>() / 16.0;
+            let my = here.iter().map(|v| num(&v[vy])).sum::<f64>() / 16.0;
+            lags.push(-((mx - num(&r0[rx])) * dx + (my - num(&r0[ry])) * dy) / speed);
+        }
+        (warned, lags.iter().sum::<f64>() / lags.len() as f64)
+    };
+    let (warned, lag) = fly("water", &[]);
+    let delta: f64 = warned
+        .split("δ = dim·K·v0·h0²/α_h = ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("δ in {warned}"));
+    // 2 · 5 · 0.5 · 3² / 60.
+    assert!((delta - 0.75).abs() < 1e-9, "{delta}");
+    assert!(
+        (lag - delta).abs() <= 0.15 * delta,
+        "flown lag {lag} against the warned {delta}"
+    );
+    let (warned, lag) = fly("body", &["control.follow_body=true"]);
+    assert!(!warned.contains("trails its body"), "{warned}");
+    assert!(lag.abs() < 0.1 * delta, "following its body, lag {lag}");
+}

@@ -30,6 +30,7 @@ mod sets;
 mod stiffness;
 pub use envelope::MAX_ENVELOPE_VEHICLES;
 mod toml_text;
+mod trail;
 mod validate;
 
 #[cfg(test)]
@@ -53,6 +54,7 @@ pub use sections::{
 };
 pub use sets::KeySet;
 pub use stiffness::Stiffness;
+pub use trail::Trail;
 
 use serde::{Deserialize, Serialize};
 use vbap_math::{Mat3, Vec3};

@@ -374,3 +374,40 @@ fn the_robust_law_follows_its_body_where_the_envelope_holds_or_where_told() {
         "[control]\nlaw = \"paper\"\nfollow_body = true\n[links]\ndelay = 0.5\n"
     ));
 }
+
+/// (T.1) of `config/trail.rs`: a ring damped against the water lags its body by
+/// dim·K·v0·h0²/α_h; warned beyond a quarter spacing, never when it follows its body.
+#[test]
+fn a_ring_that_trails_its_body_by_more_than_a_quarter_spacing_is_warned_about() {
+    let ring = |v0: f64, extra: &str| {
+        parse_raw(&complete(&format!(
+            "[vehicles]\ncount = 16\ndamping = 4.0\n[formation]\nradius = 2.0\nalpha = 20.0\nmin_scale = 0.7\n\
+             [body]\nv0 = {v0}\n{extra}"
+        )))
+        .unwrap_or_else(|e| panic!("{extra}: {e}"))
+    };
+    let m = ring(0.5, "");
+    let t = m
+        .body_trail()
+        .expect("a central ring on ideal links trails");
+    // 2 · 4 · 0.5 · 2² / 20 = 0.8; spacing 2 · 2 · sin(π/16) = 0.7804.
+    assert!((t.lag - 0.8).abs() < 1e-12, "{t:?}");
+    assert!(
+        (t.spacing - 4.0 * (std::f64::consts::PI / 16.0).sin()).abs() < 1e-9,
+        "{t:?}"
+    );
+    let w = m.trail_warning().expect("1.03 spacings is warned about");
+    assert!(w.contains("1.03 neighbour spacings"), "{w}");
+    assert!(w.contains("control.follow_body = true"), "{w}");
+    // Slower, within a quarter spacing: no warning.
+    assert!(ring(0.05, "").trail_warning().is_none());
+    // Damping relative to the body: no lag at all.
+    assert!(ring(0.5, "[control]\nfollow_body = true\n")
+        .body_trail()
+        .is_none());
+    // The paper's law is told to change law.
+    let w = ring(0.5, "[control]\nlaw = \"paper\"\n")
+        .trail_warning()
+        .unwrap();
+    assert!(w.contains("control.law = \"robust\""), "{w}");
+}
