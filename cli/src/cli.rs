@@ -197,7 +197,7 @@ fn check(mission: &Path, sets: &[KeySet]) -> Result<i32> {
     if let Some(w) = vehicle_agent::initial_lyapunov_warning(&m) {
         eprintln!("vbap: warning: {w}");
     }
-    for line in m.envelope_lines() {
+    for line in m.envelope_lines().into_iter().chain(m.trail_line()) {
         println!("{line}");
     }
     println!(

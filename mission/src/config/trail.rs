@@ -50,6 +50,20 @@ impl Mission {
         })
     }
 
+    /// The line `vbap check` prints with the envelope: (T.1)'s lag at cruise speed and in
+    /// neighbour spacings (None when there is no lag: [`Mission::body_trail`]).
+    pub fn trail_line(&self) -> Option<String> {
+        let t = self.body_trail()?;
+        Some(format!(
+            "trail: damped against the water, the formation settles {:.4} ({:.2} neighbour \
+             spacings) behind its body at body.v0 = {} (in formation up to {IN_FORMATION} spacing; \
+             control.follow_body = true damps relative to the body: no lag)",
+            t.lag,
+            t.lag / t.spacing,
+            self.body.v0
+        ))
+    }
+
     /// A warning when (T.1)'s lag exceeds the quarter spacing that counts as in formation
     /// (`vbap_math::fit::IN_FORMATION`): such a formation cannot be in formation while it
     /// cruises, and on ideal links most such rings of the random-mission space broke

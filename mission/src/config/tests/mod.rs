@@ -399,8 +399,14 @@ fn a_ring_that_trails_its_body_by_more_than_a_quarter_spacing_is_warned_about() 
     let w = m.trail_warning().expect("1.03 spacings is warned about");
     assert!(w.contains("1.03 neighbour spacings"), "{w}");
     assert!(w.contains("control.follow_body = true"), "{w}");
-    // Slower, within a quarter spacing: no warning.
+    let line = m.trail_line().unwrap();
+    assert!(line.contains("0.8000 (1.03 neighbour spacings)"), "{line}");
+    // Slower, within a quarter spacing: no warning, the lag still shown.
     assert!(ring(0.05, "").trail_warning().is_none());
+    assert!(ring(0.05, "")
+        .trail_line()
+        .unwrap()
+        .contains("0.0800 (0.10"));
     // Damping relative to the body: no lag at all.
     assert!(ring(0.5, "[control]\nfollow_body = true\n")
         .body_trail()
