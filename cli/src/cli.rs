@@ -188,15 +188,7 @@ fn check(mission: &Path, sets: &[KeySet]) -> Result<i32> {
     let m = Mission::load_with(mission, sets)?;
     // The criteria and the sweep of `vbap batch`, checked as it will read them.
     vbap_batch::check(mission, sets, &m)?;
-    if let Some(w) = m.stiffness_warning() {
-        eprintln!("vbap: warning: {w}");
-    }
-    if let Some(w) = m.trail_warning() {
-        eprintln!("vbap: warning: {w}");
-    }
-    if let Some(w) = vehicle_agent::initial_lyapunov_warning(&m) {
-        eprintln!("vbap: warning: {w}");
-    }
+    warn_about(&m);
     for line in m.envelope_lines().into_iter().chain(m.trail_line()) {
         println!("{line}");
     }
@@ -392,16 +384,21 @@ fn prepare_mission(args: &RunArgs) -> Result<Mission> {
         pace: args.pace,
     };
     let mission = Mission::load_with(&args.mission, &args.sets)?.with_overrides(&overrides)?;
-    if let Some(w) = mission.stiffness_warning() {
-        eprintln!("vbap: warning: {w}");
-    }
-    if let Some(w) = mission.trail_warning() {
-        eprintln!("vbap: warning: {w}");
-    }
-    if let Some(w) = vehicle_agent::initial_lyapunov_warning(&mission) {
-        eprintln!("vbap: warning: {w}");
-    }
+    warn_about(&mission);
     Ok(mission)
+}
+
+/// The warnings of a valid mission that `check`, `run` and `sim` print on stderr: a time
+/// step stiff for the formation, a ring that trails its body, a start above `body.v_u`.
+fn warn_about(mission: &Mission) {
+    let warnings = [
+        mission.stiffness_warning(),
+        mission.trail_warning(),
+        vehicle_agent::initial_lyapunov_warning(mission),
+    ];
+    for w in warnings.into_iter().flatten() {
+        eprintln!("vbap: warning: {w}");
+    }
 }
 
 /// Creates the run directory of `mission` and writes the resolved `mission.toml` into it.
