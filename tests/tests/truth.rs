@@ -373,7 +373,9 @@ fn a_start_above_v_u_is_warned_about_with_the_truths_own_v() {
 /// water on ideal links, settle behind their cruising body by the δ the warning names
 /// (the mean of the vehicles' true positions, along the body's velocity, over 10–30 s;
 /// within 15 %: (T.1) is linear in δ); damped relative to the body
-/// (`control.follow_body = true`) they neither trail nor are warned about.
+/// (`control.follow_body = true`, and by default under the robust law, which follows a
+/// body it would trail by more than an eighth of a spacing) they neither trail nor are
+/// warned about.
 #[test]
 fn a_trailing_ring_lags_its_body_by_the_warned_distance() {
     let tmp = TempDir::new("trail");
@@ -412,7 +414,7 @@ fn a_trailing_ring_lags_its_body_by_the_warned_distance() {
         }
         (warned, lags.iter().sum::<f64>() / lags.len() as f64)
     };
-    let (warned, lag) = fly("water", &[]);
+    let (warned, lag) = fly("water", &["control.follow_body=false"]);
     let delta: f64 = warned
         .split("δ = dim·K·v0·h0²/α_h = ")
         .nth(1)
@@ -425,7 +427,17 @@ fn a_trailing_ring_lags_its_body_by_the_warned_distance() {
         (lag - delta).abs() <= 0.15 * delta,
         "flown lag {lag} against the warned {delta}"
     );
-    let (warned, lag) = fly("body", &["control.follow_body=true"]);
-    assert!(!warned.contains("trails its body"), "{warned}");
-    assert!(lag.abs() < 0.1 * delta, "following its body, lag {lag}");
+    // The default: the robust law follows a body it would trail by 0.75 L (0.44 spacing,
+    // beyond the eighth of `Mission::trails_its_body`), as it does when told.
+    for (name, extra) in [
+        ("default", &[][..]),
+        ("body", &["control.follow_body=true"][..]),
+    ] {
+        let (warned, lag) = fly(name, extra);
+        assert!(!warned.contains("trails its body"), "{name}: {warned}");
+        assert!(
+            lag.abs() < 0.1 * delta,
+            "{name}: following its body, lag {lag}"
+        );
+    }
 }

@@ -81,10 +81,12 @@ pub struct ControlSection {
     pub curvature_memory: f64,
     /// Under `law = "robust"`: damp each vehicle relative to the virtual body, −K(ẋ − ṙ),
     /// rather than relative to the water, −K ẋ (`vbap_math::robust`, "Following the body").
-    /// Absent: where the stability envelope holds (links that are not ideal), so that on
-    /// ideal links the law is the paper's, bit for bit. `true`: on ideal links too (a
-    /// formation moving with its body then never trails it); `false`: never. Ignored by
-    /// `law = "paper"`.
+    /// Absent: where the stability envelope holds (links that are not ideal), or where
+    /// damping against the water would leave the formation more than
+    /// `config::envelope::FOLLOW_TRAIL` spacing behind its body ((T.1),
+    /// `Mission::trails_its_body`); elsewhere on ideal links the law is the paper's, bit
+    /// for bit. `true`: everywhere (a formation moving with its body then never trails
+    /// it); `false`: never. Ignored by `law = "paper"`.
     pub follow_body: Option<bool>,
 }
 

@@ -12,6 +12,10 @@ use crate::horizon::plan_horizon;
 /// (dim·N)² eigenproblem per scale and age); the planner then keeps `formation.min_scale`.
 pub const MAX_ENVELOPE_VEHICLES: usize = 64;
 
+/// Above this lag of (T.1), in neighbour spacings at scale 1 and cruise speed, the robust
+/// law follows the body on ideal links too ([`Mission::follows_body`]).
+pub const FOLLOW_TRAIL: f64 = 0.125;
+
 impl Mission {
     /// True when the links are not ideal: some delay, jitter, loss or surfacing.
     pub fn links_impaired(&self) -> bool {
@@ -98,7 +102,15 @@ impl Mission {
             && self
                 .control
                 .follow_body
-                .unwrap_or_else(|| self.envelope_holds())
+                .unwrap_or_else(|| self.envelope_holds() || self.trails_its_body())
+    }
+
+    /// True when the paper's damping against the water would leave the formation more
+    /// than [`FOLLOW_TRAIL`] neighbour spacings behind its cruising body ((T.1),
+    /// [`Mission::water_trail`]).
+    pub fn trails_its_body(&self) -> bool {
+        self.water_trail()
+            .is_some_and(|t| t.lag > FOLLOW_TRAIL * t.spacing)
     }
 
     /// The envelope the planner is held to ([`Mission::envelope_holds`]), if any.

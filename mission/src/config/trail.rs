@@ -35,6 +35,13 @@ impl Mission {
         if self.follows_body() {
             return None;
         }
+        self.water_trail()
+    }
+
+    /// (T.1) for this mission's design at cruise speed were its vehicles damped against
+    /// the water, whatever its law; None when the design is not central or cannot be
+    /// designed.
+    pub fn water_trail(&self) -> Option<Trail> {
         let design = self.formation_design().ok()?;
         if !design.is_central() || design.n() < 2 {
             return None;

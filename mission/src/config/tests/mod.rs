@@ -364,7 +364,13 @@ fn the_robust_law_follows_its_body_where_the_envelope_holds_or_where_told() {
             .unwrap_or_else(|e| panic!("{extra}: {e}"))
             .follows_body()
     };
-    assert!(!follows(""), "ideal links: the paper's law");
+    // The defaults cruise at v0 = 0.5 and trail 1.06 spacings: followed. At v0 = 0.05
+    // (0.106 spacing) the paper's law is kept on ideal links.
+    assert!(follows(""), "the defaults trail their body");
+    assert!(
+        !follows("[body]\nv0 = 0.05\n"),
+        "ideal links, little trail: the paper's law"
+    );
     assert!(follows("[links]\ndelay = 0.5\n"));
     assert!(follows("[control]\nfollow_body = true\n"));
     assert!(!follows(
@@ -373,6 +379,19 @@ fn the_robust_law_follows_its_body_where_the_envelope_holds_or_where_told() {
     assert!(!follows(
         "[control]\nlaw = \"paper\"\nfollow_body = true\n[links]\ndelay = 0.5\n"
     ));
+    // On ideal links where damping against the water would leave the ring more than an
+    // eighth of a spacing behind (T.1): 2 · 4 · v0 · 2² / 20 = 1.6 v0 against a spacing
+    // of 0.7804, so above v0 = 0.061.
+    let ring = |v0: f64| {
+        format!(
+            "[vehicles]\ncount = 16\ndamping = 4.0\n[formation]\nradius = 2.0\nalpha = 20.0\n\
+             min_scale = 0.7\n[body]\nv0 = {v0}\n"
+        )
+    };
+    assert!(!follows(&ring(0.06)), "0.123 spacing");
+    assert!(follows(&ring(0.07)), "0.144 spacing");
+    assert!(!follows(&(ring(0.5) + "[control]\nfollow_body = false\n")));
+    assert!(!follows(&(ring(0.5) + "[control]\nlaw = \"paper\"\n")));
 }
 
 /// (T.1) of `config/trail.rs`: a ring damped against the water lags its body by
@@ -386,7 +405,9 @@ fn a_ring_that_trails_its_body_by_more_than_a_quarter_spacing_is_warned_about() 
         )))
         .unwrap_or_else(|e| panic!("{extra}: {e}"))
     };
-    let m = ring(0.5, "");
+    // The robust law (the default) follows a body it would trail by this much.
+    assert!(ring(0.5, "").body_trail().is_none());
+    let m = ring(0.5, "[control]\nfollow_body = false\n");
     let t = m
         .body_trail()
         .expect("a central ring on ideal links trails");
@@ -399,6 +420,7 @@ fn a_ring_that_trails_its_body_by_more_than_a_quarter_spacing_is_warned_about() 
     let w = m.trail_warning().expect("1.03 spacings is warned about");
     assert!(w.contains("1.03 neighbour spacings"), "{w}");
     assert!(w.contains("control.follow_body = true"), "{w}");
+    assert_eq!(m.water_trail(), Some(t));
     let line = m.trail_line().unwrap();
     assert!(line.contains("0.8000 (1.03 neighbour spacings)"), "{line}");
     // Slower, within a quarter spacing: no warning, the lag still shown.
