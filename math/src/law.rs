@@ -42,6 +42,15 @@ pub struct ControlInputs<'a> {
     pub slot: Option<Vec3>,
     /// Velocity of the virtual body centre, length unit/s.
     pub body_velocity: Vec3,
+    /// Relative growth rate of the body, k̇/k (1/s): the body's points move at
+    /// `ṙ + (k̇/k)(p − r)` (III.3). 0 when not known (no committed path).
+    pub body_growth: f64,
+    /// Centre r of the virtual body, length unit (with `body_growth`).
+    pub body_centre: Vec3,
+    /// The current this vehicle believes carries it, length unit/s (zero in still water
+    /// or when not estimated): its velocity over the ground is the velocity the law is
+    /// given (through the water) plus this.
+    pub current: Vec3,
 }
 
 impl<'a> ControlInputs<'a> {
@@ -69,7 +78,30 @@ impl<'a> ControlInputs<'a> {
             neighbour_ages: &[],
             slot: None,
             body_velocity: Vec3::zeros(),
+            body_growth: 0.0,
+            body_centre: Vec3::zeros(),
+            current: Vec3::zeros(),
         }
+    }
+
+    /// The velocity of this vehicle's own slot as the body moves, `ṙ + (k̇/k)(p_i − r)`
+    /// (length unit/s; (III.3) differentiated in time, without rotation): the body's
+    /// velocity when the slot or the growth is not known.
+    pub fn slot_velocity(&self) -> Vec3 {
+        match self.slot {
+            Some(p) if self.body_growth != 0.0 => {
+                self.body_velocity + self.body_growth * (p - self.body_centre)
+            }
+            _ => self.body_velocity,
+        }
+    }
+
+    /// What a vehicle that damps relative to its slot feeds forward, length unit/s: its
+    /// slot's velocity over the ground less the current ([`ControlInputs::slot_velocity`]
+    /// − `current`), so that −K ẋ on the velocity through the water plus K times this is
+    /// −K (ẋ + ĉ − ṗ_i), damping over the ground relative to the slot.
+    pub fn follow_velocity(&self) -> Vec3 {
+        self.slot_velocity() - self.current
     }
 
     /// True while this vehicle or a neighbour rejoins (some homing weight is > 0).

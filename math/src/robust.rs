@@ -39,11 +39,20 @@
 //! ring). `κ_T` goes as `1/k²`: a formation grown by adaptation to twice its size trails
 //! four times as far, a quarter of a spacing and more at the stress campaign's speeds,
 //! and a ring that far off its leader re-forms out of its slots (measured). Where the
-//! envelope holds (the robust law over impaired links, `RobustLaw::follow_body`) the law
-//! damps relative to the body instead, `−K (ẋ_i − ṙ)`: the slot spring's share of `K ṙ`
-//! above becomes the whole of it, on fresh information as well. A formation moving with
-//! its body then feels exactly the forces it feels at rest: no steady lag, whatever the
-//! scale. Each vehicle knows `ṙ` from the body it dead-reckons.
+//! envelope holds (the robust law over impaired links), or where that lag would pass an
+//! eighth of a spacing on ideal links (`RobustLaw::follow_body`, chosen by the mission),
+//! the law damps relative to the motion of the vehicle's slot instead,
+//! `−K (ẋ_i − ṗ_i)` with `ṗ_i = ṙ + (k̇/k)(p_i − r)` ([`ControlInputs::slot_velocity`]):
+//! the slot spring's share of `K ṙ` above becomes the whole of it, on fresh information as
+//! well, and a growing formation's slots are followed as they move outwards. A formation
+//! moving with its body then feels exactly the forces it feels at rest: no steady lag,
+//! whatever the scale. Each vehicle knows `ṙ`, `k̇` and `r` from the body it
+//! dead-reckons (`k̇` only along a committed path; `ṙ` alone otherwise). A glider is
+//! given its velocity through the water; with its estimate `ĉ` of the current it damps
+//! over the ground instead, `−K (ẋ_i + ĉ − ṗ_i)` ([`ControlInputs::follow_velocity`]):
+//! damped against the water, a formation holding still in a current settles downstream
+//! of its slots exactly as a cruising one trails its body, by (T.1) with `v = |ĉ|`
+//! (a 16-glider ring on 0.25 L/s of current: 0.4–0.55 L, two gliders squeezed out).
 
 use super::law::{ControlInputs, ControlLaw, PaperLaw};
 use super::potential::PairPotential;
@@ -155,7 +164,7 @@ impl ControlLaw for RobustLaw {
                 return u;
             }
             let own = 1.0 - inputs.homing.map_or(0.0, |h| h.sigma);
-            return u + own * inputs.damping * inputs.body_velocity;
+            return u + own * inputs.damping * inputs.follow_velocity();
         }
         let memory = self
             .memory
@@ -228,7 +237,7 @@ pub fn robust_control_law(
         }
     }
     if follow_body {
-        u += own * k * inputs.body_velocity;
+        u += own * k * inputs.follow_velocity();
     }
     if let Some(h) = inputs.homing {
         if h.sigma > 0.0 {

@@ -196,6 +196,12 @@ impl Moving {
     ) -> Vec3 {
         let kin = self.kin.clone();
         let land = kin.land.as_deref();
+        // The law is given the velocity through the water; what it knows of the current
+        // lets a law that damps relative to its slot do so over the ground.
+        let inputs = &ControlInputs {
+            current: self.estimate,
+            ..*inputs
+        };
         let mut u = if kin.dive.is_some() {
             // A diving glider flies a horizontal formation (`Mission::formation_dim`): the
             // law sees it in the formation's plane, where the leaders and the neighbours are.

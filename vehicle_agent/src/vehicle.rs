@@ -223,6 +223,21 @@ impl Vehicle {
         // the last command: along its committed path when it carries one (robust law:
         // centre, scale and the scaled potentials of (III.3)), else at its velocity.
         let planned = g.plan.as_ref().filter(|_| age > 0.0).map(|p| p.at(k, dt));
+        // The body's growth k̇/k now and its centre, from the committed path (the slots'
+        // velocity, `AgentInputs::slot_velocity`); unknown without one.
+        let (body_growth, body_centre) = match &g.plan {
+            Some(p) => {
+                let now = p.at(k, dt);
+                let rate = p.schedule.segment_at(k.max(p.tick)).scale_rate;
+                let growth = if now.scale > 0.0 {
+                    rate / now.scale
+                } else {
+                    0.0
+                };
+                (growth, now.r)
+            }
+            None => (0.0, Vec3::zeros()),
+        };
         let shift = g.velocity * age;
         let moved = |p: &Vec3| match &planned {
             Some(body) => body.carry(p),
@@ -267,6 +282,8 @@ impl Vehicle {
                 neighbour_ages: &ages,
                 slot: g.slot.as_ref().map(moved),
                 body_velocity,
+                body_growth,
+                body_centre,
                 ..AgentInputs::paper(&leaders, &neighbours, inter, leader, g.damping)
             };
             fly(
@@ -286,6 +303,8 @@ impl Vehicle {
                 neighbour_ages: &g.neighbour_ages,
                 slot: g.slot,
                 body_velocity: g.velocity,
+                body_growth,
+                body_centre,
                 ..AgentInputs::paper(&g.leaders, &g.neighbours, g.inter, g.leader, g.damping)
             };
             fly(

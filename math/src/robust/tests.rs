@@ -234,6 +234,49 @@ fn following_the_body_damps_relative_to_it() {
 }
 
 #[test]
+fn following_a_growing_body_damps_relative_to_the_slots_motion() {
+    // A hexagon whose body grows at k̇/k = 0.2 /s about a centre moving at ṙ: each slot
+    // moves at ṙ + 0.2 (p − r). A vehicle in its slot moving with it, among neighbours in
+    // theirs, feels no force; one at the centre's velocity only is pushed outwards by K
+    // times the difference.
+    let (inter, leader) = pots();
+    let centre = Vec3::new(0.5, -0.2, 0.0);
+    let ring: Vec<Vec3> = (0..6)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::PI / 3.0;
+            centre + Vec3::new(1.5 * a.cos(), 1.5 * a.sin(), 0.0)
+        })
+        .collect();
+    let body_v = Vec3::new(0.3, 0.1, 0.0);
+    let leaders = [centre];
+    let inp = ControlInputs {
+        body_velocity: body_v,
+        body_growth: 0.2,
+        body_centre: centre,
+        slot: Some(ring[0]),
+        ..ControlInputs::paper(&leaders, &ring[1..], inter, leader, 2.0)
+    };
+    let slot_v = body_v + 0.2 * (ring[0] - centre);
+    assert!((inp.slot_velocity() - slot_v).norm() < 1e-12);
+    let law = RobustLaw::default().following(true);
+    let u = law.control(&ring[0], &slot_v, &inp);
+    assert!(u.norm() < 1e-9, "{u}");
+    let u = law.control(&ring[0], &body_v, &inp);
+    assert!((u - 2.0 * 0.2 * (ring[0] - centre)).norm() < 1e-9, "{u}");
+    // Without its slot the vehicle follows the centre only.
+    let no_slot = ControlInputs { slot: None, ..inp };
+    assert_eq!(no_slot.slot_velocity(), body_v);
+    // In a current ĉ the law is given the velocity through the water: holding its moving
+    // slot over the ground (through the water at ṗ − ĉ) is again free of force, where the
+    // paper's damping on the water velocity would push it downstream by K ĉ.
+    let c = Vec3::new(0.1, -0.25, 0.0);
+    let drifting = ControlInputs { current: c, ..inp };
+    assert_eq!(drifting.follow_velocity(), slot_v - c);
+    let u = law.control(&ring[0], &(slot_v - c), &drifting);
+    assert!(u.norm() < 1e-9, "{u}");
+}
+
+#[test]
 fn a_rejoining_neighbour_counts_where_it_was_seen_not_where_its_velocity_points() {
     // Neighbour 0 rejoins (σ = 1) flying fast towards the vehicle, 0.5 s old: predicted
     // like a member it would sit next to the vehicle and repel it hard; it flies its own
