@@ -305,6 +305,58 @@ mod tests {
         assert!(shrank, "adaptation never shrank the formation");
     }
 
+    /// Gliders turn and accelerate at limited rates: the growth of the formation, like the
+    /// body's speed, starts gradually (`Planner::growth_limited`). Noisy readings make
+    /// adaptation (V.7) want a larger formation at once.
+    #[test]
+    fn a_glider_formation_starts_to_grow_no_faster_than_its_gliders_can_follow() {
+        let m = Mission::from_toml_str(
+            "[mission]\nname = \"t\"\ndt = 0.1\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\n\
+             width = 15.0\nnoise_std = 3.0\n[vehicles]\ncount = 4\nmodel = \"glider\"\n\
+             max_speed = 2.0\nmax_accel = 0.4\nmax_turn_rate = 3.0\n[formation]\nadapt = true\n\
+             max_scale = 3.0\n[links]\ndelay = 0.5\n[control]\nlaw = \"robust\"\n",
+            "<test>",
+        )
+        .unwrap();
+        let params = PlannerParams::from_mission(&m);
+        let limits = params.body_limits.expect("gliders under the robust law");
+        let reach = m
+            .formation_design()
+            .unwrap()
+            .slots
+            .iter()
+            .map(|p| p.norm())
+            .fold(0.0, f64::max);
+        let ids = [0, 1, 2, 3];
+        let mut p = Planner::new(params, m.start_vec(), &ids).unwrap();
+        let commands: Vec<_> = (0..400)
+            .map(|k| {
+                let q = reports(k, 5, p.body().r);
+                p.step(k, &q, &q, &[], 0.1).unwrap()
+            })
+            .collect();
+        let scales: Vec<f64> = commands.iter().map(|c| c.body.scale).collect();
+        let rates: Vec<f64> = scales.windows(2).map(|w| (w[1] - w[0]) / 0.1).collect();
+        let most_rise = rates
+            .windows(2)
+            .map(|w| w[1].abs() - w[0].abs())
+            .fold(0.0, f64::max);
+        let grew = rates.iter().fold(0.0, |a: f64, r| a.max(r.abs()));
+        assert!(grew > 0.0, "the formation never changed size");
+        // Under a schedule the decisions of one segment take effect together: the rise is
+        // bounded per segment of the committed path.
+        let seg_ticks = commands[0]
+            .schedule
+            .as_ref()
+            .expect("a committed path")
+            .seg_ticks as f64;
+        let bound = limits.max_accel * 0.1 * seg_ticks / reach;
+        assert!(
+            most_rise <= bound * (1.0 + 1e-9),
+            "|dk/dt| rose by {most_rise} in a tick, more than {bound}"
+        );
+    }
+
     #[test]
     fn the_robust_body_moves_only_as_committed_a_horizon_ahead() {
         let m = mission(

@@ -265,6 +265,9 @@ pub struct Planner {
     /// The body velocity dr/ds·ṡ of the last decision (length unit/s), from which
     /// [`PlannerParams::body_limits`] bound the next.
     last_decision: Vec3,
+    /// The scale rate dk/dt of the last decision, 1/s (without a committed path).
+    #[serde(default)]
+    last_scale_rate: f64,
     /// The committed body path (robust law with a plan horizon; None otherwise).
     #[serde(default)]
     schedule: Option<BodySchedule>,
@@ -333,6 +336,7 @@ impl Planner {
             turn: 0.0,
             last_velocity: Vec3::zeros(),
             last_decision: Vec3::zeros(),
+            last_scale_rate: 0.0,
             schedule,
             committed,
             settling: false,
@@ -457,7 +461,15 @@ impl Planner {
             }
             _ => sdot,
         };
+        let rates = match &self.params.body_limits {
+            Some(limits) => BodyRates {
+                dk_ds: self.growth_limited(limits, rates.dk_ds, sdot, dt),
+                ..rates
+            },
+            None => rates,
+        };
         self.last_decision = rates.dr_ds * sdot;
+        self.last_scale_rate = rates.dk_ds * sdot;
         let drift = self.drift_feed_forward(&(rates.dr_ds * sdot), holding);
         let in_force = self.commit(k, &rates, sdot, drift, oldest, dt);
         let (sdot_now, velocity) = match (in_force, drift) {
@@ -519,6 +531,41 @@ impl Planner {
     /// which the checkpoint does not keep.
     pub fn attach_land(&mut self, mission: &Mission) {
         self.params.grid_land = vbap_mission::loaded::Loaded(mission.land());
+    }
+
+    /// `dk_ds` bounded so that the slots' speed from the body's growth, |dk/dt|·|p̄_i|
+    /// ((III.3) differentiated in time), rises no faster than `limits` let the body's
+    /// centre speed up: from the last decision's dk/dt by at most `max_accel · Δt / max|p̄_i|`
+    /// (Δt: the tick, or under a committed path the segment; speed `sdot`, tick length
+    /// `dt` s). Gliders that must turn outwards to follow a
+    /// formation that starts to grow at full rate lag it as they lag a body that sets off
+    /// at full speed (`vbap_math::vehicle::BodyLimits`); slowing the growth is not limited.
+    fn growth_limited(&self, limits: &BodyLimits, dk_ds: f64, sdot: f64, dt: f64) -> f64 {
+        let reach = self
+            .design
+            .slots
+            .iter()
+            .map(|p| p.norm())
+            .fold(0.0, f64::max);
+        let wanted = dk_ds * sdot;
+        if reach <= 0.0 || sdot <= 0.0 {
+            return dk_ds;
+        }
+        // Under a committed path a decision is compared with the last one committed, one
+        // segment earlier; else with the last tick's.
+        let (last, span) = match &self.schedule {
+            Some(s) => (
+                s.segments.last().map_or(0.0, |g| g.scale_rate),
+                s.seg_ticks as f64 * dt,
+            ),
+            None => (self.last_scale_rate, dt),
+        };
+        let most = last.abs() + limits.max_accel * span / reach;
+        if wanted.abs() <= most {
+            dk_ds
+        } else {
+            most.copysign(wanted) / sdot
+        }
     }
 
     /// The body of the next tick: moved by `ds` along `rates` ((III.4), (V.7)) and by
