@@ -119,8 +119,10 @@ pub struct Envelope {
     /// `|dk/dt|·k` at most, 1/s: the adaptation rate at scale `k` is bounded by this over
     /// `k` (the lag bound goes as `1/k`); ∞ when nothing bounds it.
     pub scale_rate_times_k: f64,
-    /// `|dk/dt|·max|p̄_i|` at most, length/s, from the vehicles' speed budget less the body's
-    /// speed (∞: no limit).
+    /// `|dk/dt|·max|p̄_i|` at most, length/s: the vehicles' speed budget less the body's
+    /// speed (a tenth of the budget at least); without a budget (the paper's vehicle) the
+    /// body's speed `v0`, so that the growth adds no more kinetic energy to V of (II.2)
+    /// than cruising does.
     pub slot_speed: f64,
 }
 
@@ -396,7 +398,7 @@ pub fn envelope(inputs: &EnvelopeInputs<'_>) -> Envelope {
     // of the budget at least: the body slows when V grows, (IV.4)).
     let slot_speed = inputs
         .speed_budget
-        .map_or(f64::INFINITY, |b| (b - inputs.v0).max(0.1 * b));
+        .map_or(inputs.v0, |b| (b - inputs.v0).max(0.1 * b));
     Envelope {
         min_scale,
         limit,

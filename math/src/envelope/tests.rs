@@ -105,8 +105,17 @@ fn the_adaptation_rate_is_bounded_by_the_lag_and_by_the_speed_budget() {
     let mut inp = inputs(&d, Some((0.7, 1.9)), ROBUST);
     let env = envelope(&inp);
     assert!(env.scale_rate_times_k.is_finite() && env.scale_rate_times_k > 0.0);
-    assert!(env.max_scale_rate(0.5, 1.5) > env.max_scale_rate(1.0, 1.5));
     assert_eq!(env.max_body_speed, f64::INFINITY);
+    // Without a speed budget the growth moves the slots no faster than the body cruises:
+    // |k̇| R̄ ≤ v0, below the lag's bound (which grows as 1/k) at small scales.
+    assert_eq!(env.slot_speed, inp.v0);
+    let small = 0.01;
+    assert!(env.scale_rate_times_k / small > inp.v0 / 1.5);
+    assert!((env.max_scale_rate(small, 1.5) - inp.v0 / 1.5).abs() < 1e-12);
+    for k in [0.01, 0.1, 1.0, 5.0] {
+        let lag = env.scale_rate_times_k / k;
+        assert!((env.max_scale_rate(k, 1.5) - lag.min(inp.v0 / 1.5)).abs() < 1e-12);
+    }
     inp.speed_budget = Some(0.6);
     let env = envelope(&inp);
     assert_eq!(env.max_body_speed, 0.6);
