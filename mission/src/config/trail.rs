@@ -58,8 +58,24 @@ impl Mission {
     }
 
     /// The line `vbap check` prints with the envelope: (T.1)'s lag at cruise speed and in
-    /// neighbour spacings (None when there is no lag: [`Mission::body_trail`]).
+    /// neighbour spacings (None when there is no lag: [`Mission::body_trail`]), or, where
+    /// the robust law follows its body because of that lag ([`Mission::trails_its_body`]),
+    /// the lag it avoids.
     pub fn trail_line(&self) -> Option<String> {
+        if self.follows_body() && self.control.follow_body.is_none() && self.trails_its_body() {
+            let t = self.water_trail()?;
+            return Some(format!(
+                "trail: none: the robust law damps relative to the body here; against the \
+                 water (−K ẋ of (II.1)) the formation would settle {:.4} ({:.2} neighbour \
+                 spacings) behind it at body.v0 = {}, more than the {} spacing above which \
+                 the law follows its body (control.follow_body = false keeps the paper's \
+                 damping)",
+                t.lag,
+                t.lag / t.spacing,
+                self.body.v0,
+                super::envelope::FOLLOW_TRAIL,
+            ));
+        }
         let t = self.body_trail()?;
         Some(format!(
             "trail: damped against the water, the formation settles {:.4} ({:.2} neighbour \

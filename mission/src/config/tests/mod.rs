@@ -405,8 +405,16 @@ fn a_ring_that_trails_its_body_by_more_than_a_quarter_spacing_is_warned_about() 
         )))
         .unwrap_or_else(|e| panic!("{extra}: {e}"))
     };
-    // The robust law (the default) follows a body it would trail by this much.
+    // The robust law (the default) follows a body it would trail by this much, and
+    // `vbap check` says so.
     assert!(ring(0.5, "").body_trail().is_none());
+    assert!(ring(0.5, "").trail_warning().is_none());
+    let line = ring(0.5, "").trail_line().unwrap();
+    assert!(
+        line.starts_with("trail: none: the robust law damps relative to the body")
+            && line.contains("0.8000 (1.03 neighbour spacings)"),
+        "{line}"
+    );
     let m = ring(0.5, "[control]\nfollow_body = false\n");
     let t = m
         .body_trail()
