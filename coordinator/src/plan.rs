@@ -48,6 +48,13 @@ pub trait Plan {
     fn law(&self) -> LawKind {
         LawKind::Paper
     }
+    /// Every member's slot for `command` under the robust law ([`crate::slots::member_slots`]);
+    /// a plan that keeps its last assignment keeps it where it still holds. Assigned afresh
+    /// by default.
+    fn member_slots(&mut self, command: &Command, members: &[Report]) -> Vec<(u32, Vec3)> {
+        let mut none = std::collections::BTreeMap::new();
+        crate::slots::member_slots(self.design(), &mut none, command, members)
+    }
     /// Called on a plan restored from a checkpoint, with its mission: what the checkpoint
     /// does not keep (a gridded field's land, loaded with the mission) is attached again.
     /// Nothing by default.
@@ -96,6 +103,9 @@ impl Plan for Planner {
     fn restored(&mut self, mission: &Mission) {
         self.attach_land(mission);
     }
+    fn member_slots(&mut self, command: &Command, members: &[Report]) -> Vec<(u32, Vec3)> {
+        Planner::member_slots(self, command, members)
+    }
     fn drift(&self) -> Option<(vbap_math::Vec3, bool)> {
         Planner::drift(self)
     }
@@ -117,6 +127,9 @@ impl<P: Plan + ?Sized> Plan for Box<P> {
     }
     fn design(&self) -> &FormationDesign {
         (**self).design()
+    }
+    fn member_slots(&mut self, command: &Command, members: &[Report]) -> Vec<(u32, Vec3)> {
+        (**self).member_slots(command, members)
     }
     fn filter(&self) -> Option<&GradientFilter> {
         (**self).filter()

@@ -3,9 +3,11 @@
 //! every member's own slot (the virtual leader its law falls back on as its neighbours'
 //! positions age, `vbap_math::robust`).
 
+use std::collections::BTreeMap;
 use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
 use vbap_ipc::msg::from_vec3;
-use vbap_math::fit::held_slots;
+
+use vbap_math::fit::{held_slots, keep_slots};
 use vbap_math::formation::FormationDesign;
 use vbap_math::Vec3;
 
@@ -31,14 +33,32 @@ pub fn annotate(snapshot: &mut [SnapshotEntry], k: u64, dt: f64, members: &[Repo
 /// formation's rotation (s² + K s + κ_s (1 − e^{−sτ}) = 0, unstable once the round trip τ
 /// passes about π/√(2 κ_s); docs/ENVELOPE.md).
 /// A member left without a slot (more members than slots) has none.
+///
+/// The assignment changes only when it must: `held` (by id, the slot indices of the last
+/// call, forgotten when the formation is redesigned) is kept for every member still
+/// within one design spacing of its slot (`vbap_math::fit::keep_slots`), and updated.
+/// Assigned afresh each tick, a member thrown 0.3 spacing off its slot lost it to a
+/// neighbour and was sent two slots round the ring, through its neighbours (a near
+/// collision at 0.008 spacing; docs/STRESS.md, tenth stop).
 pub fn member_slots(
     design: &FormationDesign,
+    held: &mut BTreeMap<u32, usize>,
     command: &Command,
     members: &[Report],
 ) -> Vec<(u32, Vec3)> {
     let body = &command.body;
+    if command.reconfigured {
+        held.clear();
+    }
     let positions: Vec<Vec3> = members.iter().map(|r| r.position).collect();
-    let fit = held_slots(&positions, design, body, design.dim);
+    let mut fit = held_slots(&positions, design, body, design.dim);
+    let last: Vec<Option<usize>> = members.iter().map(|r| held.get(&r.id).copied()).collect();
+    fit.slot = keep_slots(&positions, design, body, &fit.rotation, &last, &fit.slot);
+    *held = members
+        .iter()
+        .zip(&fit.slot)
+        .filter_map(|(r, s)| s.map(|j| (r.id, j)))
+        .collect();
     members
         .iter()
         .zip(&fit.slot)
@@ -129,7 +149,7 @@ mod tests {
             rejoining: vec![(5, Vec3::new(9.0, 9.0, 0.0))],
             schedule: None,
         };
-        let slots = member_slots(&design, &command, &members);
+        let slots = member_slots(&design, &mut BTreeMap::new(), &command, &members);
         assert_eq!(slots.len(), 6);
         // The frame is the body's own: turning it to fit the (stale) positions would feed
         // the formation's rotation back through the links' delay.

@@ -59,7 +59,7 @@ pub fn plan_tick(
     let mut snapshot = fleet.snapshot(&members, &command.rejoining);
     crate::slots::annotate(&mut snapshot, k, dt, &members);
     if planner.law() == LawKind::Robust {
-        let slots = crate::slots::member_slots(planner.design(), &command, &members);
+        let slots = planner.member_slots(&command, &members);
         crate::slots::give_slots(&mut snapshot, &slots);
     }
     Ok(TickOutcome {

@@ -93,6 +93,54 @@ pub fn held_slots(
     fit_slots_turning(positions, design, body, dim, false)
 }
 
+/// An assignment of the vehicles at `positions` to the slots of `design` moved by `body`
+/// and turned by `rotation`, that changes only when it must: vehicle i keeps its slot
+/// `last[i]` while it is within one design spacing of it (and no vehicle before it kept
+/// the same one); the others take the free slots, the nearest vehicle–slot pair first
+/// (ties by vehicle, then slot). Where nobody has a last slot, `fresh` (an assignment
+/// such as [`held_slots`]'s) is returned as it is. `O(n m log(n m))` when some vehicles
+/// choose again.
+pub fn keep_slots(
+    positions: &[Vec3],
+    design: &FormationDesign,
+    body: &VirtualBody,
+    rotation: &Mat3,
+    last: &[Option<usize>],
+    fresh: &[Option<usize>],
+) -> Vec<Option<usize>> {
+    if last.iter().all(Option::is_none) {
+        return fresh.to_vec();
+    }
+    let reach = spacing(design, body);
+    let at = |j: usize| body.r + rotation * (body.scale * design.slots[j]);
+    let mut used = vec![false; design.slots.len()];
+    let mut slot: Vec<Option<usize>> = vec![None; positions.len()];
+    for (i, x) in positions.iter().enumerate() {
+        if let Some(j) = last.get(i).copied().flatten() {
+            if j < used.len() && !used[j] && (x - at(j)).norm() < reach {
+                slot[i] = Some(j);
+                used[j] = true;
+            }
+        }
+    }
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for (i, x) in positions.iter().enumerate() {
+        if slot[i].is_none() {
+            for (j, _) in used.iter().enumerate().filter(|(_, u)| !**u) {
+                pairs.push(((x - at(j)).norm(), i, j));
+            }
+        }
+    }
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+    for (_, i, j) in pairs {
+        if slot[i].is_none() && !used[j] {
+            slot[i] = Some(j);
+            used[j] = true;
+        }
+    }
+    slot
+}
+
 /// [`fit_slots`], free to turn about the centre only when `turn`.
 fn fit_slots_turning(
     positions: &[Vec3],
@@ -596,6 +644,43 @@ mod tests {
                 assert!(*e < 1e-9, "vehicle {i}: {e}");
             }
         }
+    }
+
+    /// A ring of 13 in which vehicles 0 and 1 have each been thrown 0.6 of the way towards
+    /// the other's slot: assigned afresh they swap slots; kept, every vehicle keeps its
+    /// slot while within a spacing of it.
+    #[test]
+    fn a_kept_assignment_changes_only_when_it_must() {
+        let d = design_regular(13, 2, 1.18, 1.0, 1.0).unwrap();
+        let body = body_at(Vec3::zeros(), 1.0);
+        let own = *body.rotation.matrix();
+        let at = |j: usize| body.scale * (own * d.slots[j]);
+        let spacing = spacing(&d, &body);
+        let mut x: Vec<Vec3> = (0..13).map(at).collect();
+        x[1] += 0.6 * (at(0) - at(1));
+        x[0] += 0.6 * (at(1) - at(0));
+        let fresh = held_slots(&x, &d, &body, 2);
+        assert_eq!(
+            (fresh.slot[0], fresh.slot[1]),
+            (Some(1), Some(0)),
+            "swapped afresh"
+        );
+        let last: Vec<Option<usize>> = (0..13).map(Some).collect();
+        let kept = keep_slots(&x, &d, &body, &own, &last, &fresh.slot);
+        assert_eq!(kept, last);
+        // Beyond a spacing it chooses again, among the free slots.
+        let mut far = x.clone();
+        far[1] = at(7) + 0.1 * (at(8) - at(7));
+        assert!((far[1] - at(1)).norm() > spacing);
+        let again = keep_slots(&far, &d, &body, &own, &last, &fresh.slot);
+        assert_eq!(again.iter().filter(|s| s.is_some()).count(), 13);
+        assert_eq!(again[7], Some(7), "vehicle 7 keeps its own");
+        assert_eq!(again[1], Some(1), "the only slot left free");
+        // Without a last assignment, the fresh one.
+        assert_eq!(
+            keep_slots(&x, &d, &body, &own, &[None; 13], &fresh.slot),
+            fresh.slot
+        );
     }
 
     #[test]

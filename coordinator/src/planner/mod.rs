@@ -268,6 +268,11 @@ pub struct Planner {
     /// The scale rate dk/dt of the last decision, 1/s (without a committed path).
     #[serde(default)]
     last_scale_rate: f64,
+    /// The members' slots (by id, indices into the design) last given to them
+    /// (`crate::slots::member_slots`): kept in the checkpoint so that a restarted
+    /// coordinator assigns as the one that died would have.
+    #[serde(default)]
+    held_slots: BTreeMap<u32, usize>,
     /// The committed body path (robust law with a plan horizon; None otherwise).
     #[serde(default)]
     schedule: Option<BodySchedule>,
@@ -337,6 +342,7 @@ impl Planner {
             last_velocity: Vec3::zeros(),
             last_decision: Vec3::zeros(),
             last_scale_rate: 0.0,
+            held_slots: BTreeMap::new(),
             schedule,
             committed,
             settling: false,
@@ -363,6 +369,11 @@ impl Planner {
     /// The current formation design.
     pub fn design(&self) -> &FormationDesign {
         &self.design
+    }
+    /// Every member's slot for `command` (`crate::slots::member_slots`), keeping the
+    /// assignment of the last call where it still holds.
+    pub fn member_slots(&mut self, command: &Command, members: &[Report]) -> Vec<(u32, Vec3)> {
+        crate::slots::member_slots(&self.design, &mut self.held_slots, command, members)
     }
     /// The gradient filter, once the first estimate was made.
     pub fn filter(&self) -> Option<&GradientFilter> {
