@@ -222,12 +222,12 @@ impl Vehicle {
         // Out of contact: dead-reckon the virtual body (leaders, neighbours, own slot) from
         // the last command: along its committed path when it carries one (robust law:
         // centre, scale and the scaled potentials of (III.3)), else at its velocity.
-        let planned = g.plan.as_ref().filter(|_| age > 0.0).map(|p| p.at(k, dt));
+        let now = g.plan.as_ref().map(|p| (p, p.at(k, dt)));
+        let planned = now.filter(|_| age > 0.0).map(|(_, b)| b);
         // The body's growth k̇/k now and its centre, from the committed path (the slots'
         // velocity, `AgentInputs::slot_velocity`); unknown without one.
-        let (body_growth, body_centre) = match &g.plan {
-            Some(p) => {
-                let now = p.at(k, dt);
+        let (body_growth, body_centre) = match now {
+            Some((p, now)) => {
                 let rate = p.schedule.segment_at(k.max(p.tick)).scale_rate;
                 let growth = if now.scale > 0.0 {
                     rate / now.scale
