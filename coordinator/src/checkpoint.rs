@@ -439,6 +439,29 @@ mod tests {
             !body.plan.is_empty() && body.plan_ticks > 0,
             "the record carries the plan"
         );
+        // The members' slot assignment, held at their slots, survives as well: after the
+        // restart, two members thrown towards each other's slot keep theirs as they would
+        // have (assigned afresh they would swap).
+        let at_slots: Vec<Report> = planner
+            .member_slots(&command, &reports(59, planner.body().r))
+            .iter()
+            .map(|&(id, slot)| Report {
+                position: slot,
+                ..reports(59, slot)[id as usize]
+            })
+            .collect();
+        planner.member_slots(&command, &at_slots);
+        let mut thrown = at_slots.clone();
+        let (s0, s1) = (at_slots[0].position, at_slots[1].position);
+        thrown[0].position += 0.6 * (s1 - s0);
+        thrown[1].position += 0.6 * (s0 - s1);
+        let fresh = crate::slots::member_slots(
+            planner.design(),
+            &mut Default::default(),
+            &command,
+            &thrown,
+        );
+        assert_eq!((fresh[0].1, fresh[1].1), (s1, s0), "swapped afresh");
         let mut writer = CheckpointWriter::open(&dir, None).unwrap();
         CheckpointRef {
             next_tick: 60,
@@ -461,6 +484,9 @@ mod tests {
         let back = Checkpoint::<Planner>::load(&dir).unwrap().unwrap();
         assert_eq!(back.body, body);
         let mut resumed = back.planner;
+        let kept = planner.member_slots(&command, &thrown);
+        assert_eq!((kept[0].1, kept[1].1), (s0, s1), "kept");
+        assert_eq!(resumed.member_slots(&command, &thrown), kept);
         for k in 60..120 {
             let q = reports(k, planner.body().r);
             let a = planner.step(k, &q, &q, &[], 0.1).unwrap();

@@ -51,23 +51,26 @@ pub fn member_slots(
         held.clear();
     }
     let positions: Vec<Vec3> = members.iter().map(|r| r.position).collect();
-    let mut fit = held_slots(&positions, design, body, design.dim);
+    // The body's own orientation: the frame `held_slots` assigns in (it never turns).
+    let rotation = *body.rotation.matrix();
     let last: Vec<Option<usize>> = members.iter().map(|r| held.get(&r.id).copied()).collect();
-    fit.slot = keep_slots(&positions, design, body, &fit.rotation, &last, &fit.slot);
+    let slots = keep_slots(&positions, design, body, &rotation, &last, || {
+        held_slots(&positions, design, body, design.dim).slot
+    });
     *held = members
         .iter()
-        .zip(&fit.slot)
+        .zip(&slots)
         .filter_map(|(r, s)| s.map(|j| (r.id, j)))
         .collect();
     members
         .iter()
-        .zip(&fit.slot)
+        .zip(&slots)
         .filter_map(|(r, slot)| {
             if let Some((_, target)) = command.rejoining.iter().find(|(id, _)| *id == r.id) {
                 return Some((r.id, *target));
             }
             let p = design.slots.get((*slot)?)?;
-            Some((r.id, body.r + fit.rotation * (body.scale * p)))
+            Some((r.id, body.r + rotation * (body.scale * p)))
         })
         .collect()
 }
@@ -85,6 +88,7 @@ pub fn give_slots(snapshot: &mut [SnapshotEntry], slots: &[(u32, Vec3)]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use vbap_math::body::VirtualBody;
     use vbap_math::formation::design_regular;
 
     #[test]
@@ -109,29 +113,9 @@ mod tests {
         assert_eq!(ages, vec![0.0, 0.0, 1.5]);
     }
 
-    #[test]
-    fn members_in_a_turned_polygon_get_the_slots_of_the_bodys_own_frame() {
-        // A hexagon turned by 0.2 rad about its centre, vehicles a little off their slots:
-        // each gets its own vertex of the turned hexagon.
-        let design = design_regular(6, 2, 1.5, 1.0, 1.0).unwrap();
-        let body = vbap_math::body::VirtualBody {
-            s: 0.0,
-            r: Vec3::new(3.0, -1.0, 0.0),
-            rotation: nalgebra::Rotation3::identity(),
-            scale: 1.0,
-        };
-        let turn = nalgebra::Rotation3::from_axis_angle(&Vec3::z_axis(), 0.2);
-        let truth: Vec<Vec3> = design.slots.iter().map(|p| body.r + turn * p).collect();
-        let members: Vec<Report> = (0..6)
-            .map(|i| Report {
-                id: i as u32,
-                tick: 0,
-                position: truth[i] + Vec3::new(0.05, -0.03 * i as f64, 0.0),
-                velocity: Vec3::zeros(),
-                measurement: 0.0,
-            })
-            .collect();
-        let command = Command {
+    /// A command of `body` for the members 0..n of `design`, nobody rejoining.
+    fn command(design: &FormationDesign, body: VirtualBody, reconfigured: bool) -> Command {
+        Command {
             body,
             sdot: 0.0,
             velocity: Vec3::zeros(),
@@ -144,11 +128,90 @@ mod tests {
             p_trace: 0.0,
             holding: false,
             estimate_failed: false,
-            reconfigured: false,
-            members: (0..6).collect(),
-            rejoining: vec![(5, Vec3::new(9.0, 9.0, 0.0))],
+            reconfigured,
+            members: (0..design.slots.len() as u32).collect(),
+            rejoining: vec![],
             schedule: None,
+        }
+    }
+
+    /// Members at `positions`, ids 0.. in order.
+    fn members_at(positions: &[Vec3]) -> Vec<Report> {
+        positions
+            .iter()
+            .enumerate()
+            .map(|(i, x)| Report {
+                id: i as u32,
+                tick: 0,
+                position: *x,
+                velocity: Vec3::zeros(),
+                measurement: 0.0,
+            })
+            .collect()
+    }
+
+    /// Vehicles 0 and 1 of a hexagon thrown 0.6 of the way towards each other's slot:
+    /// assigned afresh they swap slots; with the last assignment held they keep theirs;
+    /// at a redesign the held assignment is forgotten and they are assigned afresh.
+    #[test]
+    fn a_held_assignment_is_kept_until_a_redesign() {
+        let design = design_regular(6, 2, 1.5, 1.0, 1.0).unwrap();
+        let body = VirtualBody {
+            s: 0.0,
+            r: Vec3::new(3.0, -1.0, 0.0),
+            rotation: nalgebra::Rotation3::identity(),
+            scale: 1.0,
         };
+        let at = |j: usize| body.r + design.slots[j];
+        let own: Vec<(u32, Vec3)> = (0..6).map(|j| (j as u32, at(j))).collect();
+        let mut thrown: Vec<Vec3> = (0..6).map(at).collect();
+        thrown[0] += 0.6 * (at(1) - at(0));
+        thrown[1] += 0.6 * (at(0) - at(1));
+        let steady = command(&design, body, false);
+        // Afresh (nothing held): swapped.
+        let fresh = member_slots(&design, &mut BTreeMap::new(), &steady, &members_at(&thrown));
+        assert_eq!((fresh[0].1, fresh[1].1), (at(1), at(0)), "swapped afresh");
+        // Held from a tick at the slots: kept.
+        let mut held = BTreeMap::new();
+        let at_slots: Vec<Vec3> = (0..6).map(at).collect();
+        assert_eq!(
+            member_slots(&design, &mut held, &steady, &members_at(&at_slots)),
+            own
+        );
+        assert_eq!(held, (0..6).map(|j| (j as u32, j)).collect());
+        assert_eq!(
+            member_slots(&design, &mut held, &steady, &members_at(&thrown)),
+            own,
+            "kept"
+        );
+        // A redesign forgets it.
+        let redesigned = command(&design, body, true);
+        assert_eq!(
+            member_slots(&design, &mut held, &redesigned, &members_at(&thrown)),
+            fresh
+        );
+        assert_eq!(held[&0], 1, "the fresh assignment is held from now on");
+    }
+
+    #[test]
+    fn members_in_a_turned_polygon_get_the_slots_of_the_bodys_own_frame() {
+        // A hexagon turned by 0.2 rad about its centre, vehicles a little off their slots:
+        // each gets its own vertex of the turned hexagon.
+        let design = design_regular(6, 2, 1.5, 1.0, 1.0).unwrap();
+        let body = VirtualBody {
+            s: 0.0,
+            r: Vec3::new(3.0, -1.0, 0.0),
+            rotation: nalgebra::Rotation3::identity(),
+            scale: 1.0,
+        };
+        let turn = nalgebra::Rotation3::from_axis_angle(&Vec3::z_axis(), 0.2);
+        let truth: Vec<Vec3> = design.slots.iter().map(|p| body.r + turn * p).collect();
+        let near: Vec<Vec3> = (0..6)
+            .map(|i| truth[i] + Vec3::new(0.05, -0.03 * i as f64, 0.0))
+            .collect();
+        let members = members_at(&near);
+        let mut command = command(&design, body, false);
+        command.rejoining = vec![(5, Vec3::new(9.0, 9.0, 0.0))];
         let slots = member_slots(&design, &mut BTreeMap::new(), &command, &members);
         assert_eq!(slots.len(), 6);
         // The frame is the body's own: turning it to fit the (stale) positions would feed

@@ -97,19 +97,19 @@ pub fn held_slots(
 /// and turned by `rotation`, that changes only when it must: vehicle i keeps its slot
 /// `last[i]` while it is within one design spacing of it (and no vehicle before it kept
 /// the same one); the others take the free slots, the nearest vehicle–slot pair first
-/// (ties by vehicle, then slot). Where nobody has a last slot, `fresh` (an assignment
-/// such as [`held_slots`]'s) is returned as it is. `O(n m log(n m))` when some vehicles
-/// choose again.
+/// (ties by vehicle, then slot). Where nobody has a last slot, the assignment `fresh`
+/// makes (such as [`held_slots`]'s) is returned as it is; `fresh` is called only then.
+/// `O(n m log(n m))` when some vehicles choose again.
 pub fn keep_slots(
     positions: &[Vec3],
     design: &FormationDesign,
     body: &VirtualBody,
     rotation: &Mat3,
     last: &[Option<usize>],
-    fresh: &[Option<usize>],
+    fresh: impl FnOnce() -> Vec<Option<usize>>,
 ) -> Vec<Option<usize>> {
     if last.iter().all(Option::is_none) {
-        return fresh.to_vec();
+        return fresh();
     }
     let reach = spacing(design, body);
     let at = |j: usize| body.r + rotation * (body.scale * design.slots[j]);
@@ -666,19 +666,19 @@ mod tests {
             "swapped afresh"
         );
         let last: Vec<Option<usize>> = (0..13).map(Some).collect();
-        let kept = keep_slots(&x, &d, &body, &own, &last, &fresh.slot);
+        let kept = keep_slots(&x, &d, &body, &own, &last, || unreachable!());
         assert_eq!(kept, last);
         // Beyond a spacing it chooses again, among the free slots.
         let mut far = x.clone();
         far[1] = at(7) + 0.1 * (at(8) - at(7));
         assert!((far[1] - at(1)).norm() > spacing);
-        let again = keep_slots(&far, &d, &body, &own, &last, &fresh.slot);
+        let again = keep_slots(&far, &d, &body, &own, &last, || unreachable!());
         assert_eq!(again.iter().filter(|s| s.is_some()).count(), 13);
         assert_eq!(again[7], Some(7), "vehicle 7 keeps its own");
         assert_eq!(again[1], Some(1), "the only slot left free");
         // Without a last assignment, the fresh one.
         assert_eq!(
-            keep_slots(&x, &d, &body, &own, &[None; 13], &fresh.slot),
+            keep_slots(&x, &d, &body, &own, &[None; 13], || fresh.slot.clone()),
             fresh.slot
         );
     }

@@ -152,6 +152,13 @@ impl FormationDesign {
         self.slots.len()
     }
 
+    /// `max_i |p̄_i|`, the largest distance of a slot from the body centre at `k = 1`
+    /// (length); 0 without slots. A slot of the formation at scale `k` moves at
+    /// `|k̇| · extent` at most when the scale changes.
+    pub fn extent(&self) -> f64 {
+        extent(&self.slots)
+    }
+
     /// True when the design has one virtual leader at the body centre (one vehicle, the
     /// 2-D polygons, the tetrahedron, octahedron and icosahedron of [`design_regular`]):
     /// its energy does not change when the vehicles turn together about the centre
@@ -206,6 +213,11 @@ fn check_dim(dim: usize) -> Result<(), FormationError> {
     } else {
         Err(FormationError::BadDimension(dim))
     }
+}
+
+/// The largest norm of `slots` (length), 0 when empty.
+fn extent(slots: &[Vec3]) -> f64 {
+    slots.iter().map(|p| p.norm()).fold(0.0, f64::max)
 }
 
 /// A regular formation of `n` vehicles at distance `radius` (length) from the body centre
@@ -332,7 +344,7 @@ pub fn design_for_shape(
             return Err(FormationError::NotPlanar { index: i, z: p.z });
         }
     }
-    let extent = slots.iter().map(|p| p.norm()).fold(0.0, f64::max);
+    let extent = extent(slots);
     let (d0, d1) = if slots.len() == 1 {
         if extent <= 0.0 {
             return Err(FormationError::DegenerateShape);

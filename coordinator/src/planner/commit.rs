@@ -320,13 +320,7 @@ mod tests {
         .unwrap();
         let params = PlannerParams::from_mission(&m);
         let limits = params.body_limits.expect("gliders under the robust law");
-        let reach = m
-            .formation_design()
-            .unwrap()
-            .slots
-            .iter()
-            .map(|p| p.norm())
-            .fold(0.0, f64::max);
+        let reach = m.formation_design().unwrap().extent();
         let ids = [0, 1, 2, 3];
         let mut p = Planner::new(params, m.start_vec(), &ids).unwrap();
         let commands: Vec<_> = (0..400)

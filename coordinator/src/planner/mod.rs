@@ -552,12 +552,7 @@ impl Planner {
     /// formation that starts to grow at full rate lag it as they lag a body that sets off
     /// at full speed (`vbap_math::vehicle::BodyLimits`); slowing the growth is not limited.
     fn growth_limited(&self, limits: &BodyLimits, dk_ds: f64, sdot: f64, dt: f64) -> f64 {
-        let reach = self
-            .design
-            .slots
-            .iter()
-            .map(|p| p.norm())
-            .fold(0.0, f64::max);
+        let reach = self.design.extent();
         let wanted = dk_ds * sdot;
         if reach <= 0.0 || sdot <= 0.0 {
             return dk_ds;
