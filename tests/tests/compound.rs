@@ -175,3 +175,57 @@ fn a_silent_member_is_lost_after_its_limit_across_a_coordinator_restart() {
     assert!(log_count(&out, "coordinator", "resumed from the checkpoint") >= 1);
     assert_nothing_left(&name, &tmp);
 }
+
+fn field_server(out: &Path) -> String {
+    format!(
+        "field_server --mission {}",
+        out.join("mission.toml").display()
+    )
+}
+
+/// An agent killed while the field server is stopped, in a paced run: the coordinator that
+/// was running goes on ticking without the field server's readings, loses the agent and
+/// keeps commanding the others, all while the field server stays stopped. Before: the
+/// coordinator waited for the readings of the tick under way, so the death was decided
+/// only when the field server answered again, or, stopped for 10 s, when the coordinator
+/// gave up, failed and was restarted, its successor waiting for the readings again.
+#[test]
+fn a_paced_run_loses_an_agent_killed_while_its_field_server_is_stopped() {
+    let tmp = TempDir::new("cmp_field");
+    let name = unique_name("cmpfield");
+    let file = write_mission(&tmp, "m.toml", &mission(&name, 5, "10.0", ""));
+    let out = tmp.join("run");
+    let mut run = spawn_run(&file, &out);
+    wait_for_ticks(&out, 100);
+    // The field server answers nothing from here on.
+    signal("-STOP", &field_server(&out));
+    signal("-KILL", &agent(&out, 1));
+    wait_until_or(
+        || !of(&out, "lost", 1).is_empty(),
+        Duration::from_secs(60),
+        || {
+            format!(
+                "the killed agent was never lost; events: {:?}",
+                events(&out)
+            )
+        },
+    );
+    // Still stopped: the mission goes on ticking and commanding its other vehicles.
+    let ticks = line_count(&out.join("body.csv"));
+    wait_for_ticks(&out, ticks + 100);
+    let lost = of(&out, "lost", 1);
+    let blind = log_count(&out, "coordinator", "the paced ticks go on without them");
+    let resumed = log_count(&out, "coordinator", "resumed from the checkpoint");
+    signal("-CONT", &field_server(&out));
+    run.signal("INT");
+    let status = run.wait();
+    assert_eq!(status.code(), Some(130), "an interrupted run: {status:?}");
+    eprintln!("killed while the field server was stopped: {lost:?}");
+    assert_eq!(lost.len(), 1, "{lost:?}");
+    let by = lost[0]["detail"]["by"].as_str().unwrap();
+    assert!(["supervisor", "scan"].contains(&by), "{by}");
+    // Decided by the coordinator that was running, which went on without the readings.
+    assert_eq!(resumed, 0, "the coordinator was restarted");
+    assert!(blind >= 1, "no tick went on without its readings");
+    assert_nothing_left(&name, &tmp);
+}
