@@ -175,3 +175,140 @@ fn a_silent_member_is_lost_after_its_limit_across_a_coordinator_restart() {
     assert!(log_count(&out, "coordinator", "resumed from the checkpoint") >= 1);
     assert_nothing_left(&name, &tmp);
 }
+
+fn field_server(out: &Path) -> String {
+    format!(
+        "field_server --mission {}",
+        out.join("mission.toml").display()
+    )
+}
+
+/// An agent killed while the field server is stopped, in a paced run: the coordinator that
+/// was running goes on ticking without the field server's readings, loses the agent and
+/// keeps commanding the others, all while the field server stays stopped. Before: the
+/// coordinator waited for the readings of the tick under way, so the death was decided
+/// only when the field server answered again, or, stopped for 10 s, when the coordinator
+/// gave up, failed and was restarted, its successor waiting for the readings again.
+#[test]
+fn a_paced_run_loses_an_agent_killed_while_its_field_server_is_stopped() {
+    let tmp = TempDir::new("cmp_field");
+    let name = unique_name("cmpfield");
+    let file = write_mission(&tmp, "m.toml", &mission(&name, 5, "10.0", ""));
+    let out = tmp.join("run");
+    let mut run = spawn_run(&file, &out);
+    wait_for_ticks(&out, 100);
+    // The field server answers nothing from here on.
+    signal("-STOP", &field_server(&out));
+    signal("-KILL", &agent(&out, 1));
+    wait_until_or(
+        || !of(&out, "lost", 1).is_empty(),
+        Duration::from_secs(60),
+        || {
+            format!(
+                "the killed agent was never lost; events: {:?}",
+                events(&out)
+            )
+        },
+    );
+    // Still stopped: the mission goes on ticking and commanding its other vehicles.
+    let ticks = line_count(&out.join("body.csv"));
+    wait_for_ticks(&out, ticks + 100);
+    let lost = of(&out, "lost", 1);
+    let blind = log_count(&out, "coordinator", "the paced ticks go on without them");
+    let resumed = log_count(&out, "coordinator", "resumed from the checkpoint");
+    signal("-CONT", &field_server(&out));
+    run.signal("INT");
+    let status = run.wait();
+    assert_eq!(status.code(), Some(130), "an interrupted run: {status:?}");
+    eprintln!("killed while the field server was stopped: {lost:?}");
+    assert_eq!(lost.len(), 1, "{lost:?}");
+    let by = lost[0]["detail"]["by"].as_str().unwrap();
+    assert!(["supervisor", "scan"].contains(&by), "{by}");
+    // Decided by the coordinator that was running, which went on without the readings.
+    assert_eq!(resumed, 0, "the coordinator was restarted");
+    assert!(blind >= 1, "no tick went on without its readings");
+    assert_nothing_left(&name, &tmp);
+}
+
+/// The supervisor's record of a run: one JSON value a line.
+fn exit_record(out: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(out.join("supervisor.exits.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
+}
+
+/// The wall time (ns) of the record's `event` about the process of `role` (0 agent, 1
+/// coordinator), `vehicle` for an agent, of incarnation `incarnation`.
+fn recorded_at(out: &Path, event: &str, role: u64, vehicle: u64, incarnation: u64) -> Option<u64> {
+    exit_record(out)
+        .iter()
+        .find(|r| {
+            r["event"] == event
+                && r["role"].as_u64() == Some(role)
+                && (role != 0 || r["vehicle"].as_u64() == Some(vehicle))
+                && r["incarnation"].as_u64() == Some(incarnation)
+        })
+        .and_then(|r| r["at_ns"].as_u64())
+}
+
+/// An agent killed while the coordinator's restart waits out its backoff is started again
+/// after its own backoff, not after the coordinator's restart as well: before, the
+/// supervisor restarted one process at a time (the coordinator's backoff, its start-up
+/// until ready, and only then the agent's backoff: more than two backoffs after the
+/// agent's death; 3.98 s for a 2 s backoff). The backoff is 3 s here, so the bound of
+/// 1.5 backoffs leaves 1.5 s for the supervisor's timer and the reaping on a busy machine
+/// and is still half a backoff short of the old order.
+#[test]
+fn an_agent_killed_during_a_coordinator_restart_waits_only_its_own_backoff() {
+    let tmp = TempDir::new("cmp_backoff");
+    let name = unique_name("cmpbackoff");
+    let backoff_s = 3.0;
+    let extra = format!("[restart]\nvehicles = \"on-failure\"\nbackoff = {backoff_s}\n");
+    let file = write_mission(&tmp, "m.toml", &mission(&name, 5, "\"lockstep\"", &extra));
+    let out = tmp.join("run");
+    let mut run = spawn_run(&file, &out);
+    wait_for_ticks(&out, 200);
+    signal("-KILL", &coordinator(&out));
+    // The supervisor has reaped the coordinator: its restart's backoff is under way.
+    wait_until(
+        || recorded_at(&out, "died", 1, 0, 1).is_some(),
+        Duration::from_secs(30),
+        "the coordinator's death to be recorded",
+    );
+    signal("-KILL", &agent(&out, 1));
+    wait_until_or(
+        || recorded_at(&out, "restarted", 0, 1, 2).is_some(),
+        Duration::from_secs(60),
+        || format!("the agent was never restarted: {:?}", exit_record(&out)),
+    );
+    wait_until_or(
+        || !of(&out, "rejoin", 1).is_empty(),
+        Duration::from_secs(120),
+        || {
+            format!(
+                "the restarted agent was never readmitted; events: {:?}",
+                events(&out)
+            )
+        },
+    );
+    run.signal("INT");
+    let status = run.wait();
+    assert_eq!(status.code(), Some(130), "an interrupted run: {status:?}");
+    let died = recorded_at(&out, "died", 0, 1, 1).expect("the agent's death is recorded");
+    let restarted = recorded_at(&out, "restarted", 0, 1, 2).unwrap();
+    let coordinator_back = recorded_at(&out, "restarted", 1, 0, 2);
+    let waited_s = restarted.saturating_sub(died) as f64 / 1e9;
+    eprintln!(
+        "agent restarted {waited_s:.3} s after its death (backoff {backoff_s} s); record: {:?}",
+        exit_record(&out)
+    );
+    assert!(coordinator_back.is_some(), "the coordinator was restarted");
+    assert!(
+        waited_s < 1.5 * backoff_s,
+        "the agent's restart waited {waited_s:.3} s: behind the coordinator's restart"
+    );
+    assert_eq!(of(&out, "lost", 1).len(), 1);
+    assert_nothing_left(&name, &tmp);
+}

@@ -33,7 +33,7 @@ use vbap_mission::config::Mission;
 use vbap_mission::rundir::{RunDir, Summary};
 
 use crate::progress::ProgressView;
-use ends::{on_exit, AfterExit};
+use ends::{on_exit, restart, until, AfterExit, PendingRestarts};
 use notices::Notices;
 pub use programs::{Executable, Executables, HostPlan, ROLE_COMMAND};
 use role::Role;
@@ -178,8 +178,9 @@ struct Ends<'a> {
 
 impl Ends<'_> {
     /// Watches the set until the mission is over, acting on every process that ends
-    /// ([`on_exit`]); returns (the coordinator ended with success, a signal stopped the
-    /// run).
+    /// ([`on_exit`]) and starting each restart when its own backoff is over
+    /// ([`PendingRestarts`]); returns (the coordinator ended with success, a signal
+    /// stopped the run).
     async fn supervise(
         &self,
         set: &mut ProcessSet<'_>,
@@ -187,31 +188,35 @@ impl Ends<'_> {
         shutdown: &mut Shutdown,
     ) -> (bool, bool) {
         let mut restarts_done = 0u32;
+        let mut pending = PendingRestarts::default();
         loop {
             let exit = tokio::select! {
                 e = exits.recv() => e,
+                _ = until(pending.next_due()) => {
+                    for slot in pending.take_due(Instant::now()) {
+                        restart(set, self.notices, self.domain, slot, &mut restarts_done).await;
+                    }
+                    continue;
+                }
                 _ = shutdown.requested() => return (false, true),
             };
             let Some(exit) = exit else {
                 return (false, false);
             };
-            let after = on_exit(
-                set,
-                self.notices,
-                self.domain,
-                exit,
-                &mut restarts_done,
-                shutdown,
-            );
-            match after.await {
+            match on_exit(set, self.notices, exit).await {
                 AfterExit::GoOn => {}
+                AfterExit::Restart { slot, backoff } => {
+                    pending.schedule(slot, Instant::now() + backoff)
+                }
                 AfterExit::CoordinatorDone => return (true, false),
                 AfterExit::Stop => return (false, false),
-                AfterExit::Interrupted => return (false, true),
             }
             // A host without the coordinator: its share is done when all its processes
             // are, and done well when the mission's final command reached it.
-            if self.plan.is_some_and(|p| !p.shore) && set.running() == 0 {
+            if self.plan.is_some_and(|p| !p.shore)
+                && pending.next_due().is_none()
+                && set.running() == 0
+            {
                 return (self.notices.mission_finished().await, false);
             }
         }

@@ -231,10 +231,14 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             .filter(|v| !admitted.contains(v))
             .filter_map(|v| self.inbox.state(v, k, paced).copied())
             .collect();
+        // A paced tick does not wait for a field server that owes its answer longer than
+        // READINGS_GRACE: the states without their reading are dropped below.
+        let grace = paced.then_some(sensors::READINGS_GRACE);
         let waited = self.sensors.wait_for(
             k,
             self.dt,
             &states,
+            grace,
             self.ports,
             &mut self.inbox.msgs,
             &mut self.live,
@@ -249,6 +253,9 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         let mut truth: Vec<Report> = Vec::with_capacity(states.len());
         let mut told: Vec<Told> = Vec::with_capacity(states.len());
         for s in &states {
+            if !self.sensors.has(s) {
+                continue; // paced, the field server silent: as a state late at the deadline
+            }
             let Some(measurement) = self.sensors.take(s) else {
                 self.inbox.counts.rejected += 1;
                 warn!(

@@ -29,6 +29,13 @@ const RENOTIFY_AFTER: Duration = Duration::from_millis(500);
 const RESEND_AFTER: Duration = Duration::from_secs(1);
 /// How long the coordinator waits for the readings of a tick before it gives up.
 const SAMPLE_TIMEOUT: Duration = Duration::from_secs(10);
+/// How long a paced tick waits for readings the field server has not answered yet: past
+/// it the tick goes on without them (its states dropped, as states late at the deadline
+/// are), and the next ticks do not wait at all until the field server answers again. A
+/// field server that is stopped or restarting then holds up neither the mission's clock
+/// nor the coordinator's liveness verdicts (a lockstep tick needs every reading and
+/// waits; see docs/design/faults.md).
+pub(super) const READINGS_GRACE: Duration = Duration::from_millis(100);
 
 /// The request-response types of the sensor reads.
 type SampleResponse =
@@ -45,6 +52,11 @@ pub(super) struct SensorReads {
     pending: Option<(SampleResponse, Vec<(u32, u64)>)>,
     /// When the request in flight was sent.
     sent_at: Instant,
+    /// Since when the field server owes an answer: the first request it has not answered
+    /// (kept across requests sent again; None once an answer came).
+    unanswered_since: Option<Instant>,
+    /// Paced ticks that went on without some of their readings since the last answer.
+    blind_ticks: u64,
     /// Readings received and not used yet.
     readings: Readings,
 }
@@ -108,6 +120,8 @@ impl SensorReads {
             seq: 0,
             pending: None,
             sent_at: Instant::now(),
+            unanswered_since: None,
+            blind_ticks: 0,
             readings: Readings::default(),
         }
     }
@@ -166,6 +180,7 @@ impl SensorReads {
         self.notify_field()?;
         self.pending = Some((pending, keys));
         self.sent_at = Instant::now();
+        self.unanswered_since.get_or_insert(self.sent_at);
         Ok(())
     }
 
@@ -228,18 +243,30 @@ impl SensorReads {
         }
         drop(reply);
         self.pending = None;
+        self.unanswered_since = None;
+        if self.blind_ticks > 0 {
+            info!(
+                ticks_without = std::mem::take(&mut self.blind_ticks),
+                "sensor readings again from the field server"
+            );
+        }
         Ok(())
     }
 
     /// Blocks until the readings of every state in `needed` are in (asking for them when
-    /// no request is in flight). None on a termination signal. Vehicle events consumed
-    /// meanwhile are harmless (every tick starts with a full drain); the supervisor's
-    /// process exits are kept in `live` for the tick's liveness check.
+    /// no request is in flight); `grace`: in a paced run, [`READINGS_GRACE`], how long the
+    /// field server may owe an answer before the tick goes on without the readings not in
+    /// (None in lockstep: every reading is waited for). None on a termination signal.
+    /// Vehicle events consumed meanwhile are harmless (every tick starts with a full
+    /// drain); the supervisor's process exits are kept in `live` for the tick's liveness
+    /// check.
+    #[allow(clippy::too_many_arguments)]
     pub fn wait_for(
         &mut self,
         k: u64,
         dt: f64,
         needed: &[VehicleState],
+        grace: Option<Duration>,
         ports: &Ports,
         msgs: &mut MsgLog,
         live: &mut Liveness,
@@ -257,24 +284,52 @@ impl SensorReads {
                 self.forget_pending("no answer");
             }
             self.request(k, dt, needed)?;
-            let left = SAMPLE_TIMEOUT.saturating_sub(started.elapsed());
+            // A lockstep tick gives up after SAMPLE_TIMEOUT of its own wait; a paced one
+            // after SAMPLE_TIMEOUT without any answer (its ticks meanwhile went on).
+            let owed = match grace {
+                None => started,
+                Some(_) => self.unanswered_since.unwrap_or(started),
+            };
+            let left = SAMPLE_TIMEOUT.saturating_sub(owed.elapsed());
             anyhow::ensure!(
                 !left.is_zero(),
                 "no sensor readings from the field server within {SAMPLE_TIMEOUT:?} (tick {k})"
             );
+            let renotify = left.min(RENOTIFY_AFTER);
+            let mut wait = renotify;
+            if let Some(grace) = grace {
+                let Some(wait_left) = blind_wait(self.unanswered_since, grace) else {
+                    if self.blind_ticks == 0 {
+                        warn!(
+                            tick = k,
+                            waited_ms = owed.elapsed().as_secs_f64() * 1e3,
+                            "no sensor readings: the paced ticks go on without them"
+                        );
+                    }
+                    self.blind_ticks += 1;
+                    return Ok(Some(()));
+                };
+                wait = wait.min(wait_left);
+            }
             let mut ids = Vec::new();
-            match ports.wait(left.min(RENOTIFY_AFTER), &mut ids)? {
+            match ports.wait(wait, &mut ids)? {
                 Wake::Stop => return Ok(None),
-                Wake::Timeout => {
+                Wake::Timeout if wait == renotify => {
                     warn!(
                         tick = k,
                         "no sensor readings yet: waking the field server again"
                     );
                     self.notify_field()?;
                 }
+                Wake::Timeout => {}
                 Wake::Events => self.note_events(&ids),
             }
         }
+    }
+
+    /// True when the reading of `s` is in (good or rejected).
+    pub fn has(&self, s: &VehicleState) -> bool {
+        self.readings.has(read_key(s))
     }
 
     /// The reading of state `s` (None: rejected, or never asked for), forgotten here.
@@ -289,9 +344,39 @@ impl SensorReads {
     }
 }
 
+/// How much longer a paced tick may wait for readings the field server has owed since
+/// `owed_since` (None: it owes nothing), given `grace`; None when the tick goes on without
+/// them now.
+fn blind_wait(owed_since: Option<Instant>, grace: Duration) -> Option<Duration> {
+    let owed = owed_since.map_or(Duration::ZERO, |t| t.elapsed());
+    let left = grace.saturating_sub(owed);
+    (!left.is_zero()).then_some(left)
+}
+
 #[cfg(test)]
 mod tests {
-    use super::Readings;
+    use super::{blind_wait, Readings};
+    use std::time::{Duration, Instant};
+
+    /// A paced tick waits for the field server's answer at most the grace counted from
+    /// the first request it has not answered, not from this tick: after an outage began,
+    /// no later tick waits at all.
+    #[test]
+    fn a_paced_tick_waits_for_readings_only_within_the_grace_of_the_first_unanswered_request() {
+        let grace = Duration::from_millis(100);
+        // Nothing owed: the whole grace.
+        assert_eq!(blind_wait(None, grace), Some(grace));
+        // Owed since just now: the grace less the time since.
+        let now = Instant::now();
+        let left = blind_wait(Some(now), grace).expect("within the grace");
+        assert!(left <= grace && left + now.elapsed() >= grace, "{left:?}");
+        // Owed longer than the grace: no wait.
+        if let Some(long_ago) = Instant::now().checked_sub(Duration::from_secs(2)) {
+            assert_eq!(blind_wait(Some(long_ago), grace), None);
+        }
+        // A zero grace never waits.
+        assert_eq!(blind_wait(None, Duration::ZERO), None);
+    }
 
     #[test]
     fn unread_from_starts_after_the_newest_reading_of_the_vehicle() {
