@@ -115,6 +115,14 @@ pub fn agent_deaths(root: &Path) -> Vec<ProcessExit> {
         .collect()
 }
 
+/// [`agent_deaths`] of processes that died at or before `before_ns` (wall clock, ns since
+/// the Unix epoch).
+pub fn agent_deaths_by(root: &Path, before_ns: u64) -> Vec<ProcessExit> {
+    let mut deaths = agent_deaths(root);
+    deaths.retain(|e| e.died_ns <= before_ns);
+    deaths
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -160,6 +168,9 @@ mod tests {
         );
         assert_eq!(deaths[0].died_ns, 7);
         assert_eq!(deaths[0].header.sender, Header::SUPERVISOR);
+        // Read again by a running coordinator: only deaths at or before the given time.
+        assert_eq!(agent_deaths_by(&dir, 7), deaths);
+        assert!(agent_deaths_by(&dir, 6).is_empty());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

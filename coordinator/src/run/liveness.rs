@@ -3,6 +3,7 @@
 //! new processes, and a scan of the node list when a vehicle is silent (the fallback of a
 //! coordinator started without a supervisor); and how long silence is tolerated.
 
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
@@ -35,6 +36,13 @@ const SCAN_SHARE: u32 = 5;
 /// process is readmitted as soon as it speaks again (SIGCONT). In lockstep this is the
 /// tick's wait.
 const SILENCE_LIMIT: Duration = LOCKSTEP_TIMEOUT;
+/// How often the supervisor's record of deaths ([`crate::exits`]) is read again.
+const RECORD_EVERY: Duration = Duration::from_millis(250);
+/// How old a recorded death must be before the record, not the supervisor's report, acts
+/// on it: the supervisor writes the record first and reports at once, so a death recorded
+/// this long ago and not heard of was a report this coordinator missed (one published
+/// before its subscriber was connected, at a restart).
+const REPORT_GRACE: Duration = Duration::from_millis(500);
 
 /// The supervisor's reports and the state of the node-list scans.
 pub(super) struct Liveness {
@@ -45,6 +53,10 @@ pub(super) struct Liveness {
     /// Agent deaths read from the supervisor's record ([`crate::exits`]) by a resumed
     /// coordinator, not acted on yet: those it missed while no coordinator ran.
     pub recorded: Vec<ProcessExit>,
+    /// The run directory whose record is read again every [`RECORD_EVERY`].
+    pub record_root: PathBuf,
+    /// When the record was last read.
+    pub record_read: Instant,
     pub last_scan: Instant,
     /// Wall time the last node-list scan took.
     pub scan_cost: Duration,
@@ -68,14 +80,18 @@ pub(super) struct Liveness {
 }
 
 impl Liveness {
-    /// The liveness watch of a coordinator starting now, told of process exits by `exits`.
+    /// The liveness watch of a coordinator starting now, told of process exits by `exits`
+    /// and by the supervisor's record of run directory `record_root`.
     pub fn new(
         exits: iceoryx2::port::subscriber::Subscriber<ipc::Service, ProcessExit, ()>,
+        record_root: PathBuf,
     ) -> Self {
         Self {
             exits,
             agent_exits: Vec::new(),
             recorded: Vec::new(),
+            record_root,
+            record_read: Instant::now(),
             last_scan: Instant::now(),
             scan_cost: Duration::ZERO,
             since: Instant::now(),
@@ -105,6 +121,20 @@ impl Liveness {
             }
         }
         Ok(field_died)
+    }
+
+    /// Every [`RECORD_EVERY`]: takes in the agents' deaths the supervisor recorded at least
+    /// [`REPORT_GRACE`] ago. Each is acted on at most once ([`Coordinator::lose`] skips a
+    /// vehicle already lost or a process no longer its own), so a death whose report never
+    /// reached this coordinator is still decided, within `RECORD_EVERY + REPORT_GRACE`.
+    fn reread_record(&mut self) {
+        if self.record_read.elapsed() < RECORD_EVERY {
+            return;
+        }
+        self.record_read = Instant::now();
+        let before = wall_ns().saturating_sub(REPORT_GRACE.as_nanos() as u64);
+        self.recorded
+            .extend(crate::exits::agent_deaths_by(&self.record_root, before));
     }
 
     /// How long `peer` has been silent (since this process started, when never heard).
@@ -162,6 +192,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         if self.live.hear()? {
             self.sensors.forget_pending("the field server died");
         }
+        self.live.reread_record();
         let mut lost = self.supervisor_reports()?;
         lost |= self.restarted_unseen()?;
         let suspect = match self.paced {
@@ -181,15 +212,18 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
     }
 
     /// Loses the vehicles whose process the supervisor reported dead, or recorded dead
-    /// while no coordinator ran (`by = "record"`); true when one was.
+    /// while no coordinator ran or without a report this coordinator heard (`by =
+    /// "record"`); true when one was.
     fn supervisor_reports(&mut self) -> Result<bool> {
         let mut lost = false;
         let recorded = std::mem::take(&mut self.live.recorded);
         let heard = std::mem::take(&mut self.live.agent_exits);
-        let reports = recorded
+        // The supervisor's own reports first: a death both reported and recorded is
+        // found by the report.
+        let reports = heard
             .into_iter()
-            .map(|e| (e, "record"))
-            .chain(heard.into_iter().map(|e| (e, "supervisor")));
+            .map(|e| (e, "supervisor"))
+            .chain(recorded.into_iter().map(|e| (e, "record")));
         for (e, by) in reports {
             let v = e.vehicle;
             let Some(peer) = self.inbox.peers.get(v as usize) else {

@@ -104,7 +104,7 @@ pub fn run_with<P: Plan + Serialize + DeserializeOwned>(
             opened.sample.1,
             Box::new(SampleBatch::empty()),
         ),
-        Liveness::new(opened.exits),
+        Liveness::new(opened.exits, dir.root.clone()),
         Setup {
             msgs,
             truth,
