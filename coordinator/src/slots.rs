@@ -135,6 +135,16 @@ mod tests {
         }
     }
 
+    /// A body at (3, −1) in its own frame, scale 1.
+    fn body_off_origin() -> VirtualBody {
+        VirtualBody {
+            s: 0.0,
+            r: Vec3::new(3.0, -1.0, 0.0),
+            rotation: nalgebra::Rotation3::identity(),
+            scale: 1.0,
+        }
+    }
+
     /// Members at `positions`, ids 0.. in order.
     fn members_at(positions: &[Vec3]) -> Vec<Report> {
         positions
@@ -156,12 +166,7 @@ mod tests {
     #[test]
     fn a_held_assignment_is_kept_until_a_redesign() {
         let design = design_regular(6, 2, 1.5, 1.0, 1.0).unwrap();
-        let body = VirtualBody {
-            s: 0.0,
-            r: Vec3::new(3.0, -1.0, 0.0),
-            rotation: nalgebra::Rotation3::identity(),
-            scale: 1.0,
-        };
+        let body = body_off_origin();
         let at = |j: usize| body.r + design.slots[j];
         let own: Vec<(u32, Vec3)> = (0..6).map(|j| (j as u32, at(j))).collect();
         let mut thrown: Vec<Vec3> = (0..6).map(at).collect();
@@ -198,12 +203,7 @@ mod tests {
         // A hexagon turned by 0.2 rad about its centre, vehicles a little off their slots:
         // each gets its own vertex of the turned hexagon.
         let design = design_regular(6, 2, 1.5, 1.0, 1.0).unwrap();
-        let body = VirtualBody {
-            s: 0.0,
-            r: Vec3::new(3.0, -1.0, 0.0),
-            rotation: nalgebra::Rotation3::identity(),
-            scale: 1.0,
-        };
+        let body = body_off_origin();
         let turn = nalgebra::Rotation3::from_axis_angle(&Vec3::z_axis(), 0.2);
         let truth: Vec<Vec3> = design.slots.iter().map(|p| body.r + turn * p).collect();
         let near: Vec<Vec3> = (0..6)

@@ -66,6 +66,23 @@ fn log_count(out: &Path, process: &str, text: &str) -> usize {
         .unwrap_or(0)
 }
 
+/// Waits (at most `limit`) for an event of `kind` about vehicle `v`; on failure the panic
+/// says `what` never happened and lists the run's events.
+fn await_event(out: &Path, kind: &str, v: u64, limit: Duration, what: &str) {
+    wait_until_or(
+        || !of(out, kind, v).is_empty(),
+        limit,
+        || format!("{what}; events: {:?}", events(out)),
+    );
+}
+
+/// Interrupts the run (SIGINT to `vbap run`) and checks it ended as an interrupted run.
+fn interrupt(mut run: ChildGuard) {
+    run.signal("INT");
+    let status = run.wait();
+    assert_eq!(status.code(), Some(130), "an interrupted run: {status:?}");
+}
+
 /// An agent killed while the coordinator cannot listen (stopped, then killed itself) and
 /// restarted by the supervisor before any coordinator could notice: the new coordinator
 /// learns of the death from the supervisor's record (or its report) and readmits the new
@@ -79,7 +96,7 @@ fn an_agent_killed_and_restarted_while_the_coordinator_restarts_is_lost_then_rea
     let extra = "[restart]\nvehicles = \"on-failure\"\nbackoff = 0.05\n";
     let file = write_mission(&tmp, "m.toml", &mission(&name, 5, "\"lockstep\"", extra));
     let out = tmp.join("run");
-    let mut run = spawn_run(&file, &out);
+    let run = spawn_run(&file, &out);
     wait_for_ticks(&out, 200);
     // The coordinator hears nothing from here on.
     signal("-STOP", &coordinator(&out));
@@ -91,19 +108,14 @@ fn an_agent_killed_and_restarted_while_the_coordinator_restarts_is_lost_then_rea
     );
     // Its one join request went to a coordinator that is now killed.
     signal("-KILL", &coordinator(&out));
-    wait_until_or(
-        || !of(&out, "rejoin", 1).is_empty(),
+    await_event(
+        &out,
+        "rejoin",
+        1,
         Duration::from_secs(120),
-        || {
-            format!(
-                "the restarted agent was never readmitted; events: {:?}",
-                events(&out)
-            )
-        },
+        "the restarted agent was never readmitted",
     );
-    run.signal("INT");
-    let status = run.wait();
-    assert_eq!(status.code(), Some(130), "an interrupted run: {status:?}");
+    interrupt(run);
     let lost = of(&out, "lost", 1);
     let rejoin = of(&out, "rejoin", 1);
     eprintln!("compound kill: lost {lost:?}, rejoin {rejoin:?}");
@@ -145,19 +157,16 @@ fn a_silent_member_is_lost_after_its_limit_across_a_coordinator_restart() {
     let name = unique_name("cmpsilent");
     let file = write_mission(&tmp, "m.toml", &mission(&name, 4, "\"lockstep\"", ""));
     let out = tmp.join("run");
-    let mut run = spawn_run(&file, &out);
+    let run = spawn_run(&file, &out);
     wait_for_ticks(&out, 200);
     signal("-STOP", &agent(&out, 2));
     signal("-KILL", &coordinator(&out));
-    wait_until_or(
-        || !of(&out, "lost", 2).is_empty(),
+    await_event(
+        &out,
+        "lost",
+        2,
         Duration::from_secs(120),
-        || {
-            format!(
-                "the silent member was never lost; events: {:?}",
-                events(&out)
-            )
-        },
+        "the silent member was never lost",
     );
     signal("-CONT", &agent(&out, 2));
     wait_until(
@@ -165,9 +174,7 @@ fn a_silent_member_is_lost_after_its_limit_across_a_coordinator_restart() {
         Duration::from_secs(60),
         "the continued agent to be readmitted",
     );
-    run.signal("INT");
-    let status = run.wait();
-    assert_eq!(status.code(), Some(130), "an interrupted run: {status:?}");
+    interrupt(run);
     let lost = of(&out, "lost", 2);
     eprintln!("silent across a restart: {lost:?}");
     assert_eq!(lost.len(), 1, "{lost:?}");
@@ -195,20 +202,17 @@ fn a_paced_run_loses_an_agent_killed_while_its_field_server_is_stopped() {
     let name = unique_name("cmpfield");
     let file = write_mission(&tmp, "m.toml", &mission(&name, 5, "10.0", ""));
     let out = tmp.join("run");
-    let mut run = spawn_run(&file, &out);
+    let run = spawn_run(&file, &out);
     wait_for_ticks(&out, 100);
     // The field server answers nothing from here on.
     signal("-STOP", &field_server(&out));
     signal("-KILL", &agent(&out, 1));
-    wait_until_or(
-        || !of(&out, "lost", 1).is_empty(),
+    await_event(
+        &out,
+        "lost",
+        1,
         Duration::from_secs(60),
-        || {
-            format!(
-                "the killed agent was never lost; events: {:?}",
-                events(&out)
-            )
-        },
+        "the killed agent was never lost",
     );
     // Still stopped: the mission goes on ticking and commanding its other vehicles.
     let ticks = line_count(&out.join("body.csv"));
@@ -217,9 +221,7 @@ fn a_paced_run_loses_an_agent_killed_while_its_field_server_is_stopped() {
     let blind = log_count(&out, "coordinator", "the paced ticks go on without them");
     let resumed = log_count(&out, "coordinator", "resumed from the checkpoint");
     signal("-CONT", &field_server(&out));
-    run.signal("INT");
-    let status = run.wait();
-    assert_eq!(status.code(), Some(130), "an interrupted run: {status:?}");
+    interrupt(run);
     eprintln!("killed while the field server was stopped: {lost:?}");
     assert_eq!(lost.len(), 1, "{lost:?}");
     let by = lost[0]["detail"]["by"].as_str().unwrap();
@@ -268,7 +270,7 @@ fn an_agent_killed_during_a_coordinator_restart_waits_only_its_own_backoff() {
     let extra = format!("[restart]\nvehicles = \"on-failure\"\nbackoff = {backoff_s}\n");
     let file = write_mission(&tmp, "m.toml", &mission(&name, 5, "\"lockstep\"", &extra));
     let out = tmp.join("run");
-    let mut run = spawn_run(&file, &out);
+    let run = spawn_run(&file, &out);
     wait_for_ticks(&out, 200);
     signal("-KILL", &coordinator(&out));
     // The supervisor has reaped the coordinator: its restart's backoff is under way.
@@ -283,19 +285,14 @@ fn an_agent_killed_during_a_coordinator_restart_waits_only_its_own_backoff() {
         Duration::from_secs(60),
         || format!("the agent was never restarted: {:?}", exit_record(&out)),
     );
-    wait_until_or(
-        || !of(&out, "rejoin", 1).is_empty(),
+    await_event(
+        &out,
+        "rejoin",
+        1,
         Duration::from_secs(120),
-        || {
-            format!(
-                "the restarted agent was never readmitted; events: {:?}",
-                events(&out)
-            )
-        },
+        "the restarted agent was never readmitted",
     );
-    run.signal("INT");
-    let status = run.wait();
-    assert_eq!(status.code(), Some(130), "an interrupted run: {status:?}");
+    interrupt(run);
     let died = recorded_at(&out, "died", 0, 1, 1).expect("the agent's death is recorded");
     let restarted = recorded_at(&out, "restarted", 0, 1, 2).unwrap();
     let coordinator_back = recorded_at(&out, "restarted", 1, 0, 2);
