@@ -66,6 +66,23 @@ fn log_count(out: &Path, process: &str, text: &str) -> usize {
         .unwrap_or(0)
 }
 
+/// A run of `mission(name, n, pace, extra)` started in a new temporary directory named
+/// after `label`, its mission's name unique: (the directory, the name, the run directory,
+/// the `vbap run` process).
+fn start(
+    label: &str,
+    n: usize,
+    pace: &str,
+    extra: &str,
+) -> (TempDir, String, std::path::PathBuf, ChildGuard) {
+    let tmp = TempDir::new(&format!("cmp_{label}"));
+    let name = unique_name(&format!("cmp{label}"));
+    let file = write_mission(&tmp, "m.toml", &mission(&name, n, pace, extra));
+    let out = tmp.join("run");
+    let run = spawn_run(&file, &out);
+    (tmp, name, out, run)
+}
+
 /// Waits (at most `limit`) for an event of `kind` about vehicle `v`; on failure the panic
 /// says `what` never happened and lists the run's events.
 fn await_event(out: &Path, kind: &str, v: u64, limit: Duration, what: &str) {
@@ -91,12 +108,8 @@ fn interrupt(mut run: ChildGuard) {
 /// once, was never readmitted.
 #[test]
 fn an_agent_killed_and_restarted_while_the_coordinator_restarts_is_lost_then_readmitted() {
-    let tmp = TempDir::new("cmp_kill");
-    let name = unique_name("cmpkill");
     let extra = "[restart]\nvehicles = \"on-failure\"\nbackoff = 0.05\n";
-    let file = write_mission(&tmp, "m.toml", &mission(&name, 5, "\"lockstep\"", extra));
-    let out = tmp.join("run");
-    let run = spawn_run(&file, &out);
+    let (tmp, name, out, run) = start("kill", 5, "\"lockstep\"", extra);
     wait_for_ticks(&out, 200);
     // The coordinator hears nothing from here on.
     signal("-STOP", &coordinator(&out));
@@ -153,11 +166,7 @@ fn an_agent_killed_and_restarted_while_the_coordinator_restarts_is_lost_then_rea
 /// tick 10 s, "waiting for reports").
 #[test]
 fn a_silent_member_is_lost_after_its_limit_across_a_coordinator_restart() {
-    let tmp = TempDir::new("cmp_silent");
-    let name = unique_name("cmpsilent");
-    let file = write_mission(&tmp, "m.toml", &mission(&name, 4, "\"lockstep\"", ""));
-    let out = tmp.join("run");
-    let run = spawn_run(&file, &out);
+    let (tmp, name, out, run) = start("silent", 4, "\"lockstep\"", "");
     wait_for_ticks(&out, 200);
     signal("-STOP", &agent(&out, 2));
     signal("-KILL", &coordinator(&out));
@@ -169,10 +178,12 @@ fn a_silent_member_is_lost_after_its_limit_across_a_coordinator_restart() {
         "the silent member was never lost",
     );
     signal("-CONT", &agent(&out, 2));
-    wait_until(
-        || !of(&out, "rejoin", 2).is_empty(),
+    await_event(
+        &out,
+        "rejoin",
+        2,
         Duration::from_secs(60),
-        "the continued agent to be readmitted",
+        "the continued agent was never readmitted",
     );
     interrupt(run);
     let lost = of(&out, "lost", 2);
@@ -198,11 +209,7 @@ fn field_server(out: &Path) -> String {
 /// gave up, failed and was restarted, its successor waiting for the readings again.
 #[test]
 fn a_paced_run_loses_an_agent_killed_while_its_field_server_is_stopped() {
-    let tmp = TempDir::new("cmp_field");
-    let name = unique_name("cmpfield");
-    let file = write_mission(&tmp, "m.toml", &mission(&name, 5, "10.0", ""));
-    let out = tmp.join("run");
-    let run = spawn_run(&file, &out);
+    let (tmp, name, out, run) = start("field", 5, "10.0", "");
     wait_for_ticks(&out, 100);
     // The field server answers nothing from here on.
     signal("-STOP", &field_server(&out));
@@ -264,13 +271,9 @@ fn recorded_at(out: &Path, event: &str, role: u64, vehicle: u64, incarnation: u6
 /// and is still half a backoff short of the old order.
 #[test]
 fn an_agent_killed_during_a_coordinator_restart_waits_only_its_own_backoff() {
-    let tmp = TempDir::new("cmp_backoff");
-    let name = unique_name("cmpbackoff");
     let backoff_s = 3.0;
     let extra = format!("[restart]\nvehicles = \"on-failure\"\nbackoff = {backoff_s}\n");
-    let file = write_mission(&tmp, "m.toml", &mission(&name, 5, "\"lockstep\"", &extra));
-    let out = tmp.join("run");
-    let run = spawn_run(&file, &out);
+    let (tmp, name, out, run) = start("backoff", 5, "\"lockstep\"", &extra);
     wait_for_ticks(&out, 200);
     signal("-KILL", &coordinator(&out));
     // The supervisor has reaped the coordinator: its restart's backoff is under way.
