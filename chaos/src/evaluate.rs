@@ -234,7 +234,7 @@ struct Evidence<'a> {
     events: Vec<Value>,
     /// Coordinator log lines with their time, s since the Unix epoch.
     log: Vec<(f64, Value)>,
-    /// Publication time of the command of each tick with a `lost` event.
+    /// Publication time of the command of each tick with a `lost` or `rejoin` event.
     published: BTreeMap<u64, f64>,
     /// The coordinator's `coordinator done`, else the end of `vbap run`.
     mission_end: f64,
@@ -260,12 +260,17 @@ impl<'a> Evidence<'a> {
                 ))
             })
             .collect();
-        let lost_ticks: BTreeSet<u64> = events
+        let membership_ticks: BTreeSet<u64> = events
             .iter()
-            .filter(|e| e.get("kind").and_then(Value::as_str) == Some("lost"))
+            .filter(|e| {
+                matches!(
+                    e.get("kind").and_then(Value::as_str),
+                    Some("lost" | "rejoin")
+                )
+            })
             .filter_map(|e| e.get("k").and_then(Value::as_u64))
             .collect();
-        let published = command_times(&run_dir.join("logs"), &lost_ticks);
+        let published = command_times(&run_dir.join("logs"), &membership_ticks);
         let mission_end = log
             .iter()
             .rev()
@@ -311,7 +316,9 @@ impl<'a> Evidence<'a> {
     }
 
     /// A kill of an agent: detected (its `lost` event, the detection latency), then
-    /// readmitted (`restarts_vehicles`) or left out of a redesigned formation.
+    /// readmitted (`restarts_vehicles`) or left out of a redesigned formation. An agent
+    /// already lost as `stopped` when killed (a lockstep coordinator loses a stopped member)
+    /// needs no detection: its kill is judged by the readmission of the new process.
     fn judge_agent_kill(
         &self,
         a: &mut Action,
@@ -319,31 +326,89 @@ impl<'a> Evidence<'a> {
         restarts_vehicles: bool,
         problems: &mut Vec<String>,
     ) {
-        let lost = self.of("lost", k.v);
-        let found = lost.get(k.i);
-        a.detected = Some(found.is_some());
+        let (found, out_already) = self.loss_of_kill(k);
+        a.detected = Some(found.is_some() || out_already.is_some());
         a.detected_t = found.and_then(|e| e.get("t")).and_then(Value::as_f64);
         let lost_k = found.and_then(|e| e.get("k")).and_then(Value::as_u64);
         if found.is_some() {
             a.detection_ms = self.detection_ms(lost_k, k);
-        } else {
+        } else if out_already.is_none() {
             problems.push("not detected".into());
         }
+        let out_k = lost_k.or(out_already);
         if restarts_vehicles {
-            let rejoin = self.of("rejoin", k.v);
-            let r = rejoin.get(k.i);
+            let r = self.rejoin_after_kill(k, out_k);
             a.rejoined = Some(r.is_some());
             a.rejoin_t = r.and_then(|e| e.get("t")).and_then(Value::as_f64);
             if r.is_none() {
                 problems.push("not readmitted".into());
             }
         } else {
-            let re = lost_k.is_some_and(|lk| self.reconfigured_without(k.v, lk));
+            let re = out_k.is_some_and(|lk| self.reconfigured_without(k.v, lk));
             a.reconfigured = Some(re);
             if !re {
                 problems.push("no formation redesigned without it".into());
             }
         }
+    }
+
+    /// The command publication time of an event's tick, s since the Unix epoch.
+    fn published_at(&self, e: &Value) -> Option<f64> {
+        e.get("k")
+            .and_then(Value::as_u64)
+            .and_then(|k| self.published.get(&k))
+            .copied()
+    }
+
+    /// The `lost` event that detected kill `k` (a death: any cause but `stopped`), and
+    /// else, when the vehicle was already out as `stopped` at the kill, that loss's tick.
+    /// With the commands' publication times: the first such loss published at or after
+    /// the kill and before the slot's next kill; without them (no message records): the
+    /// i-th such loss of the vehicle.
+    fn loss_of_kill(&self, k: &AgentKill) -> (Option<&Value>, Option<u64>) {
+        let lost = self.of("lost", k.v);
+        let cause =
+            |e: &Value| e.pointer("/detail/cause").and_then(Value::as_str) == Some("stopped");
+        let deaths: Vec<&Value> = lost.iter().copied().filter(|e| !cause(e)).collect();
+        if self.published.is_empty() {
+            return (deaths.get(k.i).copied(), None);
+        }
+        let found = deaths.iter().copied().find(|e| {
+            self.published_at(e)
+                .is_some_and(|t| t >= k.at && t < k.next_kill)
+        });
+        if found.is_some() {
+            return (found, None);
+        }
+        // Out already: its last loss before the kill was a stop, not followed by a rejoin
+        // published before the kill.
+        let before = |e: &&Value| self.published_at(e).is_some_and(|t| t < k.at);
+        let last_loss = lost.iter().copied().rfind(before);
+        let out = last_loss.filter(|e| cause(e)).and_then(|e| {
+            let lk = e.get("k").and_then(Value::as_u64)?;
+            let rejoined = self
+                .of("rejoin", k.v)
+                .into_iter()
+                .filter(before)
+                .any(|r| r.get("k").and_then(Value::as_u64).is_some_and(|rk| rk > lk));
+            (!rejoined).then_some(lk)
+        });
+        (None, out)
+    }
+
+    /// The `rejoin` event of the process started after kill `k` (vehicle out from tick
+    /// `out_k`): the first rejoin at a later tick published after the kill; without
+    /// publication times, the i-th rejoin of the vehicle.
+    fn rejoin_after_kill(&self, k: &AgentKill, out_k: Option<u64>) -> Option<&Value> {
+        let rejoins = self.of("rejoin", k.v);
+        if self.published.is_empty() {
+            return rejoins.get(k.i).copied();
+        }
+        rejoins.into_iter().find(|r| {
+            let rk = r.get("k").and_then(Value::as_u64);
+            rk.zip(out_k).is_some_and(|(rk, lk)| rk > lk)
+                && self.published_at(r).is_some_and(|t| t >= k.at)
+        })
     }
 
     /// Wall time from the kill to the command of the `lost` event's tick `lost_k`, ms;
@@ -396,5 +461,93 @@ impl<'a> Evidence<'a> {
                 problems.push("declared lost and never readmitted".into());
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn event(kind: &str, v: u32, k: u64, cause: Option<&str>) -> Value {
+        let mut e = serde_json::json!({ "kind": kind, "vehicle": v, "k": k, "t": k as f64 * 0.05 });
+        if let Some(c) = cause {
+            e["detail"] = serde_json::json!({ "cause": c });
+        }
+        e
+    }
+
+    fn evidence<'a>(
+        events: Vec<Value>,
+        published: &[(u64, f64)],
+        seen: &'a BTreeMap<u32, Seen>,
+    ) -> Evidence<'a> {
+        Evidence {
+            events,
+            log: Vec::new(),
+            published: published.iter().copied().collect(),
+            mission_end: 1e9,
+            seen,
+            kill_times: BTreeMap::new(),
+        }
+    }
+
+    /// Kills are matched to the losses and rejoins published after them, a stop's loss
+    /// (lockstep loses a stopped member) never taken for a kill's detection; a kill of an
+    /// agent already out as stopped needs no detection and is judged by its rejoin.
+    #[test]
+    fn a_kill_is_judged_by_the_loss_and_rejoin_published_after_it() {
+        let seen = BTreeMap::new();
+        let ev = evidence(
+            vec![
+                event("lost", 2, 100, Some("stopped")),
+                event("rejoin", 2, 120, None),
+                event("lost", 2, 200, Some("process died")),
+                event("rejoin", 2, 230, None),
+                event("lost", 2, 300, Some("stopped")),
+                event("rejoin", 2, 340, None),
+            ],
+            &[
+                (100, 10.0),
+                (120, 11.0),
+                (200, 15.1),
+                (230, 16.0),
+                (300, 20.0),
+                (340, 22.0),
+            ],
+            &seen,
+        );
+        // Killed at 15.0 while a member: detected by the loss of tick 200.
+        let kill = AgentKill {
+            v: 2,
+            i: 0,
+            at: 15.0,
+            next_kill: 20.3,
+        };
+        let (found, out) = ev.loss_of_kill(&kill);
+        assert_eq!(found.and_then(|e| e["k"].as_u64()), Some(200));
+        assert_eq!(out, None);
+        let rejoin = ev.rejoin_after_kill(&kill, Some(200));
+        assert_eq!(rejoin.and_then(|e| e["k"].as_u64()), Some(230));
+        // Killed at 20.3 while stopped and already lost (tick 300): out already.
+        let kill = AgentKill {
+            v: 2,
+            i: 1,
+            at: 20.3,
+            next_kill: f64::INFINITY,
+        };
+        let (found, out) = ev.loss_of_kill(&kill);
+        assert!(found.is_none());
+        assert_eq!(out, Some(300));
+        let rejoin = ev.rejoin_after_kill(&kill, out);
+        assert_eq!(rejoin.and_then(|e| e["k"].as_u64()), Some(340));
+        // Killed at 12.0, a member again since tick 120, its death never decided: not
+        // detected (the stop's loss before it is no detection).
+        let kill = AgentKill {
+            v: 2,
+            i: 0,
+            at: 12.0,
+            next_kill: 14.0,
+        };
+        assert_eq!(ev.loss_of_kill(&kill), (None, None));
     }
 }

@@ -47,6 +47,10 @@ pub enum Event {
     Died,
     /// The supervisor started a new process in the slot.
     Restarted,
+    /// The supervisor saw the process stopped by a signal (`signal`): alive, not running.
+    Stopped,
+    /// The supervisor saw the stopped process run again.
+    Continued,
 }
 
 impl ExitRecord {
@@ -115,6 +119,34 @@ pub fn agent_deaths(root: &Path) -> Vec<ProcessExit> {
         .collect()
 }
 
+/// The agents of the record of run directory `root` stopped at or before `before_ns` (wall
+/// clock, ns since the Unix epoch) and neither continued nor dead since, as
+/// [`ProcessExit::STOPPED`] reports: processes that will not report until continued.
+pub fn agents_stopped_by(root: &Path, before_ns: u64) -> Vec<ProcessExit> {
+    let mut stopped: std::collections::BTreeMap<u32, ExitRecord> = Default::default();
+    for r in read(root)
+        .into_iter()
+        .filter(|r| r.role == ProcessExit::AGENT)
+    {
+        match r.event {
+            Event::Stopped if r.at_ns <= before_ns => {
+                stopped.insert(r.pid, r);
+            }
+            Event::Continued | Event::Died => {
+                stopped.remove(&r.pid);
+            }
+            Event::Stopped | Event::Restarted => {}
+        }
+    }
+    stopped
+        .values()
+        .map(|r| ProcessExit {
+            role: ProcessExit::STOPPED,
+            ..r.as_exit()
+        })
+        .collect()
+}
+
 /// [`agent_deaths`] of processes that died at or before `before_ns` (wall clock, ns since
 /// the Unix epoch).
 pub fn agent_deaths_by(root: &Path, before_ns: u64) -> Vec<ProcessExit> {
@@ -171,6 +203,42 @@ mod tests {
         // Read again by a running coordinator: only deaths at or before the given time.
         assert_eq!(agent_deaths_by(&dir, 7), deaths);
         assert!(agent_deaths_by(&dir, 6).is_empty());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn an_agent_is_stopped_from_its_stop_until_it_continues_or_dies() {
+        let dir = std::env::temp_dir().join(format!("vbap-stops-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let _ = std::fs::remove_file(path(&dir));
+        let rec = |event, vehicle, pid, at_ns| ExitRecord {
+            event,
+            role: ProcessExit::AGENT,
+            vehicle,
+            pid,
+            incarnation: 1,
+            signal: if event == Event::Stopped { 19 } else { 0 },
+            at_ns,
+        };
+        for r in [
+            rec(Event::Stopped, 1, 51, 10),
+            rec(Event::Stopped, 2, 52, 11),
+            rec(Event::Stopped, 3, 53, 12),
+            rec(Event::Continued, 2, 52, 13),
+            rec(Event::Died, 3, 53, 14),
+            rec(Event::Stopped, 4, 54, 20),
+        ] {
+            append(&dir, &r).unwrap();
+        }
+        let at = |before| {
+            agents_stopped_by(&dir, before)
+                .iter()
+                .map(|e| (e.role, e.vehicle, e.pid, e.signal, e.died_ns))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(at(15), vec![(ProcessExit::STOPPED, 1, 51, 19, 10)]);
+        assert_eq!(at(20).len(), 2, "a stop is taken from its time on");
+        assert!(agent_deaths(&dir).iter().all(|e| e.vehicle == 3));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

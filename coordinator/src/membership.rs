@@ -28,7 +28,7 @@ pub struct Found {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Loss {
     /// `scheduled kill`, `process died`, `process ended`, `process gone`, `process
-    /// restarted`, `silent`.
+    /// restarted`, `silent`, `stopped` (the last two are no deaths: the process lives on).
     pub cause: &'static str,
     /// How it was found (None: a scheduled kill, which the coordinator does itself).
     pub found: Option<Found>,
@@ -52,26 +52,32 @@ impl Loss {
     }
 
     /// The detection latency this loss adds to `summary.json` (`detection_latency_ms`),
-    /// wall ms: none for a scheduled kill, and none for silence, which is no death.
+    /// wall ms: none for a scheduled kill, and none for silence or a stop, which are no
+    /// deaths.
     pub fn detection_ms(&self) -> Option<f64> {
-        if self.cause == "silent" {
+        if !self.is_death() {
             return None;
         }
         self.found.and_then(|f| f.ms)
     }
 
+    /// False for a process that lives on (`silent`, `stopped`).
+    pub fn is_death(&self) -> bool {
+        !matches!(self.cause, "silent" | "stopped")
+    }
+
     /// The `detail` of the `lost` event: `cause`, and when found, `by`, `pid` and
-    /// `detection_ms` (or `silent_ms` for silence).
+    /// `detection_ms` (`silent_ms` for silence, `stopped_ms`, since the stop, for a stop).
     pub fn detail(&self) -> serde_json::Value {
         let Some(f) = self.found else {
             return serde_json::json!({ "cause": self.cause });
         };
         let mut detail = serde_json::json!({ "cause": self.cause, "by": f.by, "pid": f.pid });
         if let Some(ms) = f.ms {
-            let key = if self.cause == "silent" {
-                "silent_ms"
-            } else {
-                "detection_ms"
+            let key = match self.cause {
+                "silent" => "silent_ms",
+                "stopped" => "stopped_ms",
+                _ => "detection_ms",
             };
             detail[key] = serde_json::json!(ms);
         }

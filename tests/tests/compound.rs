@@ -159,13 +159,15 @@ fn an_agent_killed_and_restarted_while_the_coordinator_restarts_is_lost_then_rea
     assert_nothing_left(&name, &tmp);
 }
 
-/// A member that never reports again is lost after its liveness limit (10 s of silence),
-/// whatever restarts of the coordinator did meanwhile: here an agent is stopped and the
-/// coordinator killed. Before: the resumed coordinator had never heard of the stopped
-/// agent, took it for one still starting up, and waited for it forever (every lockstep
-/// tick 10 s, "waiting for reports").
+/// A member stopped (SIGSTOP) never reports until continued: whatever restarts of the
+/// coordinator do meanwhile, it is lost, as `stopped`, from the supervisor's report or its
+/// record. Here an agent is stopped and the coordinator killed at once. Before the
+/// supervisor watched stops: lost as `silent` after 10 s of silence; before that, the
+/// resumed coordinator had never heard of the stopped agent, took it for one still
+/// starting up, and waited for it forever (every lockstep tick 10 s, "waiting for
+/// reports").
 #[test]
-fn a_silent_member_is_lost_after_its_limit_across_a_coordinator_restart() {
+fn a_stopped_member_is_lost_across_a_coordinator_restart() {
     let (tmp, name, out, run) = start("silent", 4, "\"lockstep\"", "");
     wait_for_ticks(&out, 200);
     signal("-STOP", &agent(&out, 2));
@@ -175,7 +177,7 @@ fn a_silent_member_is_lost_after_its_limit_across_a_coordinator_restart() {
         "lost",
         2,
         Duration::from_secs(120),
-        "the silent member was never lost",
+        "the stopped member was never lost",
     );
     signal("-CONT", &agent(&out, 2));
     await_event(
@@ -187,10 +189,70 @@ fn a_silent_member_is_lost_after_its_limit_across_a_coordinator_restart() {
     );
     interrupt(run);
     let lost = of(&out, "lost", 2);
-    eprintln!("silent across a restart: {lost:?}");
+    eprintln!("stopped across a restart: {lost:?}");
     assert_eq!(lost.len(), 1, "{lost:?}");
-    assert_eq!(lost[0]["detail"]["cause"], "silent");
+    assert_eq!(lost[0]["detail"]["cause"], "stopped");
     assert!(log_count(&out, "coordinator", "resumed from the checkpoint") >= 1);
+    assert_nothing_left(&name, &tmp);
+}
+
+/// A lockstep tick does not wait for a stopped member: the supervisor sees the stop (it is
+/// the agent's parent), records and reports it, and the coordinator loses the member at
+/// once (`stopped`, `by = "supervisor"`), so an agent killed during the stop is decided and
+/// the mission commands its other vehicles while the first is still stopped; continued, the
+/// stopped agent is readmitted. Before: lockstep waited for the stopped member's state up
+/// to its 10 s silence limit, and lost it then as `silent`; every other decision waited.
+#[test]
+fn a_lockstep_tick_does_not_wait_for_a_stopped_member() {
+    let (tmp, name, out, run) = start("stopped", 5, "\"lockstep\"", "");
+    wait_for_ticks(&out, 200);
+    signal("-STOP", &agent(&out, 2));
+    await_event(
+        &out,
+        "lost",
+        2,
+        Duration::from_secs(60),
+        "the stopped member was never lost",
+    );
+    signal("-KILL", &agent(&out, 3));
+    await_event(
+        &out,
+        "lost",
+        3,
+        Duration::from_secs(60),
+        "the agent killed during the stop was never lost",
+    );
+    // Still stopped: the mission goes on commanding the others.
+    let ticks = line_count(&out.join("body.csv"));
+    wait_for_ticks(&out, ticks + 100);
+    let rejoined_while_stopped = of(&out, "rejoin", 2).len();
+    signal("-CONT", &agent(&out, 2));
+    await_event(
+        &out,
+        "rejoin",
+        2,
+        Duration::from_secs(60),
+        "the continued agent was never readmitted",
+    );
+    interrupt(run);
+    let stopped = of(&out, "lost", 2);
+    eprintln!(
+        "stopped in lockstep: {stopped:?}; killed: {:?}",
+        of(&out, "lost", 3)
+    );
+    assert_eq!(stopped.len(), 1, "{stopped:?}");
+    assert_eq!(stopped[0]["detail"]["cause"], "stopped");
+    assert_eq!(stopped[0]["detail"]["by"], "supervisor");
+    assert_eq!(rejoined_while_stopped, 0, "readmitted while stopped");
+    let record = exit_record(&out);
+    for event in ["stopped", "continued"] {
+        assert!(
+            record
+                .iter()
+                .any(|r| r["event"] == event && r["vehicle"].as_u64() == Some(2)),
+            "no {event} of agent 2 in the supervisor's record: {record:?}"
+        );
+    }
     assert_nothing_left(&name, &tmp);
 }
 

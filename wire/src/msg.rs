@@ -493,8 +493,9 @@ pub mod supervisor_to_coordinator {
     #[repr(C)]
     pub struct ProcessExit {
         pub header: Header,
-        /// [`ProcessExit::AGENT`], [`ProcessExit::COORDINATOR`], [`ProcessExit::FIELD_SERVER`] or
-        /// [`ProcessExit::UNREACHABLE`].
+        /// [`ProcessExit::AGENT`], [`ProcessExit::COORDINATOR`], [`ProcessExit::FIELD_SERVER`],
+        /// [`ProcessExit::UNREACHABLE`], or an agent [`ProcessExit::STOPPED`] or
+        /// [`ProcessExit::CONTINUED`] (alive: not an exit).
         pub role: u32,
         /// Vehicle id (agents only).
         pub vehicle: u32,
@@ -519,5 +520,14 @@ pub mod supervisor_to_coordinator {
         /// vanished: Zenoh liveliness). Told by this host's bridge, not a supervisor's
         /// reaping: the process may be alive, so its next word is a join request.
         pub const UNREACHABLE: u32 = 3;
+        /// Role: a vehicle agent the supervisor saw stopped by a signal (`signal`: SIGSTOP,
+        /// SIGTSTP…; `died_ns`: when it saw the stop). Alive, but it will not report until
+        /// it is continued: a lockstep coordinator loses it at once rather than wait for
+        /// it, and takes its next word as a join request. Local to a host (a bridge does
+        /// not forward it).
+        pub const STOPPED: u32 = 4;
+        /// Role: a vehicle agent [`ProcessExit::STOPPED`] before that runs again (SIGCONT;
+        /// `died_ns`: when the supervisor saw it continue).
+        pub const CONTINUED: u32 = 5;
     }
 }

@@ -9,8 +9,9 @@
 //! The parts: [`programs`] (what is started for each role), [`set`] (the process set, its
 //! start and its slots), [`child`] (one child: spawn, ready, reap), [`notices`] (the
 //! iceoryx2 side: exits to the coordinator, the final command), [`ends`] (a process ended:
-//! restart or not), [`stop`] (ending the set), [`summary`] (the run's summary and
-//! pictures), [`shutdown`] (SIGINT/SIGTERM), [`role`] (what a process is).
+//! restart or not), [`stops`] (agents stopped and continued by a signal), [`stop`] (ending
+//! the set), [`summary`] (the run's summary and pictures), [`shutdown`] (SIGINT/SIGTERM),
+//! [`role`] (what a process is).
 
 mod child;
 mod ends;
@@ -20,6 +21,7 @@ mod role;
 mod set;
 mod shutdown;
 mod stop;
+mod stops;
 mod summary;
 
 use std::time::{Duration, Instant};
@@ -40,6 +42,7 @@ use role::Role;
 use set::{Exit, Proc, ProcessSet};
 pub use shutdown::Shutdown;
 use stop::{await_for, await_the_rest, stop_all};
+use stops::StopWatch;
 
 /// How a supervised run ended.
 #[derive(Debug)]
@@ -189,9 +192,19 @@ impl Ends<'_> {
     ) -> (bool, bool) {
         let mut restarts_done = 0u32;
         let mut pending = PendingRestarts::default();
+        let mut stops = StopWatch::listen().ok();
         loop {
             let exit = tokio::select! {
                 e = exits.recv() => e,
+                () = async { match stops.as_mut() {
+                    Some(s) => s.changed().await,
+                    None => std::future::pending().await,
+                } } => {
+                    if let Some(s) = stops.as_mut() {
+                        s.check(set);
+                    }
+                    continue;
+                }
                 _ = until(pending.next_due()) => {
                     for slot in pending.take_due(Instant::now()) {
                         restart(set, self.notices, self.domain, slot, &mut restarts_done).await;

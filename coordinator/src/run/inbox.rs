@@ -183,17 +183,18 @@ impl Inbox {
         } else {
             peer.commands_read.max(s.commands_read)
         };
-        if h.flags & VehicleState::ACK != 0 {
-            return; // no new state, only what the agent has read
-        }
-        if joining || fleet.is_lost(id) || new_process {
-            if new_process {
-                info!(vehicle = id, tick = h.tick, pid = s.pid, "join request");
-                peer.join_request = Some(Instant::now());
-                self.joins.insert(id);
-                self.states.remove(&id);
-            }
+        if new_process {
+            // Whatever it says, an acknowledgement included: a lost process continued
+            // after a stop may only acknowledge the commands it finds (it cannot step on
+            // them, the one it waited for having overflowed its buffer).
+            info!(vehicle = id, tick = h.tick, pid = s.pid, "join request");
+            peer.join_request = Some(Instant::now());
+            self.joins.insert(id);
+            self.states.remove(&id);
             return;
+        }
+        if h.flags & VehicleState::ACK != 0 || joining || fleet.is_lost(id) {
+            return; // only what the agent has read; or a request already taken
         }
         if !fleet.is_alive(id) {
             return;
@@ -381,6 +382,31 @@ mod tests {
         inbox.take_in(2, of(0, 600, 10, 1), &fleet, 10);
         inbox.take_in(2, of(0, 601, 11, 1), &fleet, 11);
         assert!(!inbox.joins.contains(&2));
+    }
+
+    /// A member lost while its process lived on (stopped, then continued): the coordinator
+    /// forgot its pid, so whatever the process says next is a join request, an
+    /// acknowledgement of the commands it finds included (all a lockstep agent whose next
+    /// command overflowed its buffer sends). Before, the acknowledgement took the pid back
+    /// without a request, and the process was never readmitted.
+    #[test]
+    fn a_lost_process_that_only_acknowledges_asks_to_join() {
+        let (mut inbox, mut fleet) = setup();
+        inbox.take_in(1, state(1, 10, 40, 0.0), &fleet, 10);
+        assert!(fleet.lose(1));
+        inbox.peers[1].pid = 0;
+        let ack = VehicleState {
+            header: Header {
+                flags: VehicleState::ACK,
+                ..state(1, 10, 41, 0.0).header
+            },
+            commands_read: 30,
+            ..state(1, 10, 41, 0.0)
+        };
+        inbox.take_in(1, ack, &fleet, 30);
+        assert!(inbox.joins.contains(&1), "the lost process asks to join");
+        assert_eq!(inbox.peers[1].pid, 101);
+        assert!(inbox.state(1, 10, false).is_none());
     }
 
     /// A replay (a sequence number not above the last one) is still rejected as such.

@@ -3,6 +3,7 @@
 //! new processes, and a scan of the node list when a vehicle is silent (the fallback of a
 //! coordinator started without a supervisor); and how long silence is tolerated.
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -38,6 +39,14 @@ const SCAN_SHARE: u32 = 5;
 const SILENCE_LIMIT: Duration = LOCKSTEP_TIMEOUT;
 /// How often the supervisor's record of deaths ([`crate::exits`]) is read again.
 const RECORD_EVERY: Duration = Duration::from_millis(250);
+/// How long a lockstep tick waits for a member whose agent the supervisor saw stopped: a
+/// stop shorter than this (a debugger or `strace -p` attaching) keeps the run equal to
+/// the simulator; a longer one (Ctrl-Z, SIGSTOP) loses the member, so the decisions of the
+/// tick under way wait at most this long for it.
+const STOPPED_GRACE: Duration = Duration::from_millis(250);
+/// How long after a recorded stop a vehicle's message may still be one it sent before the
+/// stop (in flight, or read late): one heard later means the process was continued.
+const STOP_HEARD_SLACK: Duration = Duration::from_millis(50);
 /// How old a recorded death must be before the record, not the supervisor's report, acts
 /// on it: the supervisor writes the record first and reports at once, so a death recorded
 /// this long ago and not heard of was a report this coordinator missed (one published
@@ -53,6 +62,12 @@ pub(super) struct Liveness {
     /// Agent deaths read from the supervisor's record ([`crate::exits`]) by a resumed
     /// coordinator, not acted on yet: those it missed while no coordinator ran.
     pub recorded: Vec<ProcessExit>,
+    /// Agents the supervisor reported stopped and not continued since, by vehicle (acted on
+    /// in lockstep only: a paced tick does not wait for them).
+    pub stopped: BTreeMap<u32, ProcessExit>,
+    /// Agents stopped and not continued by the supervisor's record, not acted on yet: stops
+    /// whose report this coordinator missed.
+    pub recorded_stops: Vec<ProcessExit>,
     /// The run directory whose record is read again every [`RECORD_EVERY`].
     pub record_root: PathBuf,
     /// When the record was last read.
@@ -90,6 +105,8 @@ impl Liveness {
             exits,
             agent_exits: Vec::new(),
             recorded: Vec::new(),
+            stopped: BTreeMap::new(),
+            recorded_stops: Vec::new(),
             record_root,
             record_read: Instant::now(),
             last_scan: Instant::now(),
@@ -117,6 +134,14 @@ impl Liveness {
             match e.role {
                 ProcessExit::AGENT | ProcessExit::UNREACHABLE => self.agent_exits.push(e),
                 ProcessExit::FIELD_SERVER => field_died = true,
+                ProcessExit::STOPPED => {
+                    self.stopped.insert(e.vehicle, e);
+                }
+                ProcessExit::CONTINUED
+                    if self.stopped.get(&e.vehicle).is_some_and(|s| s.pid == e.pid) =>
+                {
+                    self.stopped.remove(&e.vehicle);
+                }
                 _ => {}
             }
         }
@@ -135,6 +160,7 @@ impl Liveness {
         let before = wall_ns().saturating_sub(REPORT_GRACE.as_nanos() as u64);
         self.recorded
             .extend(crate::exits::agent_deaths_by(&self.record_root, before));
+        self.recorded_stops = crate::exits::agents_stopped_by(&self.record_root, before);
     }
 
     /// How long `peer` has been silent (since this process started, when never heard).
@@ -171,8 +197,13 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
                 cause = loss.cause,
                 by = f.by,
                 pid = f.pid,
-                detection_ms = f.ms,
-                "vehicle process is dead"
+                ms = f.ms,
+                "{}",
+                if loss.is_death() {
+                    "vehicle process is dead"
+                } else {
+                    "vehicle lost: its process lives on but does not report"
+                }
             );
         }
         self.inbox.states.remove(&v);
@@ -194,6 +225,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         }
         self.live.reread_record();
         let mut lost = self.supervisor_reports()?;
+        lost |= self.stopped_members()?;
         lost |= self.restarted_unseen()?;
         let suspect = match self.paced {
             None => !missing.is_empty() && gather_start.elapsed() >= SUSPECT_AFTER,
@@ -258,6 +290,62 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
                 "process ended"
             };
             self.lose(v, Loss::found(cause, by, e.pid, Some(ms)))?;
+            lost = true;
+        }
+        Ok(lost)
+    }
+
+    /// Lockstep: loses the members whose agent the supervisor reported (or recorded) stopped
+    /// [`STOPPED_GRACE`] ago and not continued: they will not report until continued, and
+    /// a lockstep tick would wait for them (cause `stopped`, `by = "supervisor"`). The process stays: its next
+    /// word, once continued, is a join request. A recorded stop is taken only when the
+    /// vehicle was not heard from since ([`STOP_HEARD_SLACK`] after it): one heard later
+    /// was continued, whatever the record says yet. A paced tick does not wait for a
+    /// stopped member: there its silence is held to [`SILENCE_LIMIT`]. True when a vehicle
+    /// was lost.
+    fn stopped_members(&mut self) -> Result<bool> {
+        let recorded = std::mem::take(&mut self.live.recorded_stops);
+        if self.paced.is_some() {
+            self.live.stopped.clear();
+            return Ok(false);
+        }
+        let now = wall_ns();
+        for e in recorded {
+            let Some(peer) = self.inbox.peers.get(e.vehicle as usize) else {
+                continue;
+            };
+            // Heard by this process (a resumed coordinator's silences are inherited).
+            let heard_ns = peer
+                .last_recv
+                .filter(|t| *t >= self.live.since)
+                .map(|t| now.saturating_sub(t.elapsed().as_nanos() as u64));
+            let heard_since =
+                heard_ns.is_some_and(|h| h > e.died_ns + STOP_HEARD_SLACK.as_nanos() as u64);
+            if !heard_since {
+                self.live.stopped.entry(e.vehicle).or_insert(e);
+            }
+        }
+        let mut lost = false;
+        let due_ns = now.saturating_sub(STOPPED_GRACE.as_nanos() as u64);
+        let (due, waiting): (BTreeMap<u32, ProcessExit>, _) =
+            std::mem::take(&mut self.live.stopped)
+                .into_iter()
+                .partition(|(_, e)| e.died_ns <= due_ns);
+        self.live.stopped = waiting;
+        for (v, e) in due {
+            let Some(peer) = self.inbox.peers.get(v as usize) else {
+                continue;
+            };
+            // The supervisor tells only of its live children: a stopped process is the
+            // vehicle's unless another is known (pid 0: none known yet, as in a resumed
+            // coordinator, whose checkpoint keeps no pids).
+            let ours = peer.pid == e.pid || peer.pid == 0;
+            if !ours || !self.fleet.is_alive(v) {
+                continue;
+            }
+            self.inbox.peers[v as usize].pid = 0; // its next word is a join request
+            let ms = now.saturating_sub(e.died_ns) as f64 / 1e6;
+            self.lose(v, Loss::found("stopped", "supervisor", e.pid, Some(ms)))?;
             lost = true;
         }
         Ok(lost)

@@ -197,6 +197,8 @@ fn resume<P>(
     // Deaths the supervisor recorded while no coordinator listened (and older ones, of
     // processes no longer ours: ignored as such).
     live.recorded = crate::exits::agent_deaths(&dir.root);
+    // Agents stopped and not continued: a lockstep tick does not wait for them.
+    live.recorded_stops = crate::exits::agents_stopped_by(&dir.root, wall_ns());
     // The mission's wall clock goes on: the ticks missed while no coordinator ran are due
     // already (caught up, late), not postponed by the outage.
     let mut clock = MissionClock::default();
