@@ -397,7 +397,8 @@ impl<'a> Evidence<'a> {
     }
 
     /// The `rejoin` event of the process started after kill `k` (vehicle out from tick
-    /// `out_k`): the first rejoin at a later tick published after the kill; without
+    /// `out_k`): the first rejoin at that tick or later (a process restarted before its
+    /// death was decided is lost and admitted at one tick) published after the kill; without
     /// publication times, the i-th rejoin of the vehicle.
     fn rejoin_after_kill(&self, k: &AgentKill, out_k: Option<u64>) -> Option<&Value> {
         let rejoins = self.of("rejoin", k.v);
@@ -406,7 +407,7 @@ impl<'a> Evidence<'a> {
         }
         rejoins.into_iter().find(|r| {
             let rk = r.get("k").and_then(Value::as_u64);
-            rk.zip(out_k).is_some_and(|(rk, lk)| rk > lk)
+            rk.zip(out_k).is_some_and(|(rk, lk)| rk >= lk)
                 && self.published_at(r).is_some_and(|t| t >= k.at)
         })
     }
@@ -505,6 +506,8 @@ mod tests {
                 event("rejoin", 2, 230, None),
                 event("lost", 2, 300, Some("stopped")),
                 event("rejoin", 2, 340, None),
+                event("lost", 2, 400, Some("process restarted")),
+                event("rejoin", 2, 400, None),
             ],
             &[
                 (100, 10.0),
@@ -513,6 +516,7 @@ mod tests {
                 (230, 16.0),
                 (300, 20.0),
                 (340, 22.0),
+                (400, 26.0),
             ],
             &seen,
         );
@@ -533,7 +537,7 @@ mod tests {
             v: 2,
             i: 1,
             at: 20.3,
-            next_kill: f64::INFINITY,
+            next_kill: 25.0,
         };
         let (found, out) = ev.loss_of_kill(&kill);
         assert!(found.is_none());
@@ -549,5 +553,17 @@ mod tests {
             next_kill: 14.0,
         };
         assert_eq!(ev.loss_of_kill(&kill), (None, None));
+        // Killed at 25.0 and restarted before its death was decided: lost and readmitted
+        // at one tick (400).
+        let kill = AgentKill {
+            v: 2,
+            i: 2,
+            at: 25.0,
+            next_kill: f64::INFINITY,
+        };
+        let (found, _) = ev.loss_of_kill(&kill);
+        assert_eq!(found.and_then(|e| e["k"].as_u64()), Some(400));
+        let rejoin = ev.rejoin_after_kill(&kill, Some(400));
+        assert_eq!(rejoin.and_then(|e| e["k"].as_u64()), Some(400));
     }
 }
