@@ -20,12 +20,14 @@ fn num_list(v: Option<&Value>) -> Vec<f64> {
 /// Wall time (s since the Unix epoch) at which the coordinator published the command of
 /// each tick of `ticks`, from the agents' message records (`logs/vehicle_agent_*.msgs.csv`,
 /// hop `body`: `sent_ns` is the coordinator's clock when it published): the earliest over
-/// every record of that tick. A `lost` event of tick k is written before the command of
-/// tick k is published, so this is the first publication after the verdict (at most one
-/// tick period after it in a paced run).
-fn command_times(logs: &Path, ticks: &BTreeSet<u64>) -> BTreeMap<u64, f64> {
+/// every record of each publication of that tick, in order (a resumed coordinator
+/// publishes again the command its predecessor may have published). A `lost` event of
+/// tick k is written before the command of tick k is published, so the first publication
+/// after the kill is the first after the verdict (at most one tick period after it in a
+/// paced run).
+fn command_times(logs: &Path, ticks: &BTreeSet<u64>) -> BTreeMap<u64, Vec<f64>> {
     use std::io::BufRead as _;
-    let mut out: BTreeMap<u64, u64> = BTreeMap::new();
+    let mut out: BTreeMap<u64, BTreeSet<u64>> = BTreeMap::new();
     if ticks.is_empty() {
         return BTreeMap::new();
     }
@@ -57,13 +59,12 @@ fn command_times(logs: &Path, ticks: &BTreeSet<u64>) -> BTreeMap<u64, f64> {
                 continue;
             };
             if ticks.contains(&tick) {
-                let t = out.entry(tick).or_insert(sent);
-                *t = (*t).min(sent);
+                out.entry(tick).or_default().insert(sent);
             }
         }
     }
     out.into_iter()
-        .map(|(k, ns)| (k, ns as f64 * 1e-9))
+        .map(|(k, ns)| (k, ns.into_iter().map(|ns| ns as f64 * 1e-9).collect()))
         .collect()
 }
 
@@ -202,6 +203,18 @@ fn run_failures(report: &mut RunReport, completed: bool, has_summary: bool, run_
     }
 }
 
+/// An event's `kind`.
+fn kind(e: &Value) -> Option<&str> {
+    e.get("kind").and_then(Value::as_str)
+}
+
+/// An event's `vehicle`.
+fn vehicle(e: &Value) -> Option<u32> {
+    e.get("vehicle")
+        .and_then(Value::as_u64)
+        .and_then(|v| u32::try_from(v).ok())
+}
+
 /// Judged or not, and the outcome, from the problems found and how long the mission went
 /// on after the action (`mission_end`, s since the Unix epoch).
 fn conclude(a: &mut Action, at: f64, problems: Vec<String>, mission_end: f64) {
@@ -234,8 +247,8 @@ struct Evidence<'a> {
     events: Vec<Value>,
     /// Coordinator log lines with their time, s since the Unix epoch.
     log: Vec<(f64, Value)>,
-    /// Publication time of the command of each tick with a `lost` or `rejoin` event.
-    published: BTreeMap<u64, f64>,
+    /// Publication time of the command of each tick with a `lost` event.
+    published: BTreeMap<u64, Vec<f64>>,
     /// The coordinator's `coordinator done`, else the end of `vbap run`.
     mission_end: f64,
     seen: &'a BTreeMap<u32, Seen>,
@@ -260,17 +273,12 @@ impl<'a> Evidence<'a> {
                 ))
             })
             .collect();
-        let membership_ticks: BTreeSet<u64> = events
+        let lost_ticks: BTreeSet<u64> = events
             .iter()
-            .filter(|e| {
-                matches!(
-                    e.get("kind").and_then(Value::as_str),
-                    Some("lost" | "rejoin")
-                )
-            })
+            .filter(|e| kind(e) == Some("lost"))
             .filter_map(|e| e.get("k").and_then(Value::as_u64))
             .collect();
-        let published = command_times(&run_dir.join("logs"), &membership_ticks);
+        let published = command_times(&run_dir.join("logs"), &lost_ticks);
         let mission_end = log
             .iter()
             .rev()
@@ -316,9 +324,12 @@ impl<'a> Evidence<'a> {
     }
 
     /// A kill of an agent: detected (its `lost` event, the detection latency), then
-    /// readmitted (`restarts_vehicles`) or left out of a redesigned formation. An agent
-    /// already lost as `stopped` when killed (a lockstep coordinator loses a stopped member)
-    /// needs no detection: its kill is judged by the readmission of the new process.
+    /// readmitted (`restarts_vehicles`) or left out of a redesigned formation. The i-th
+    /// kill of a vehicle is its i-th death in `events.jsonl`: a `lost` event of any cause
+    /// but `stopped` (a lockstep coordinator loses a stopped member: no death), or a `died`
+    /// event (the process of a vehicle already lost while stopped died: it needs no
+    /// detection, and is judged by its readmission). Its rejoin is the vehicle's first
+    /// after that death in the file's order.
     fn judge_agent_kill(
         &self,
         a: &mut Action,
@@ -326,25 +337,41 @@ impl<'a> Evidence<'a> {
         restarts_vehicles: bool,
         problems: &mut Vec<String>,
     ) {
-        let (found, out_already) = self.loss_of_kill(k);
-        a.detected = Some(found.is_some() || out_already.is_some());
-        a.detected_t = found.and_then(|e| e.get("t")).and_then(Value::as_f64);
-        let lost_k = found.and_then(|e| e.get("k")).and_then(Value::as_u64);
-        if found.is_some() {
-            a.detection_ms = self.detection_ms(lost_k, k);
-        } else if out_already.is_none() {
+        let deaths = self.deaths_of(k.v);
+        let found = deaths.get(k.i).copied();
+        a.detected = Some(found.is_some());
+        let Some((at, death)) = found else {
             problems.push("not detected".into());
+            return;
+        };
+        let out_already = kind(death) == Some("died");
+        let lost_k = death.get("k").and_then(Value::as_u64);
+        if !out_already {
+            a.detected_t = death.get("t").and_then(Value::as_f64);
+            a.detection_ms = self.detection_ms(lost_k, k);
         }
-        let out_k = lost_k.or(out_already);
         if restarts_vehicles {
-            let r = self.rejoin_after_kill(k, out_k);
+            let r = self.events[at..]
+                .iter()
+                .find(|e| kind(e) == Some("rejoin") && vehicle(e) == Some(k.v));
             a.rejoined = Some(r.is_some());
             a.rejoin_t = r.and_then(|e| e.get("t")).and_then(Value::as_f64);
             if r.is_none() {
                 problems.push("not readmitted".into());
             }
         } else {
-            let re = out_k.is_some_and(|lk| self.reconfigured_without(k.v, lk));
+            // Out since its loss, or (out already) since the stop's.
+            let from = if out_already {
+                self.events[..at]
+                    .iter()
+                    .rev()
+                    .find(|e| kind(e) == Some("lost") && vehicle(e) == Some(k.v))
+                    .and_then(|e| e.get("k"))
+                    .and_then(Value::as_u64)
+            } else {
+                lost_k
+            };
+            let re = from.is_some_and(|lk| self.reconfigured_without(k.v, lk));
             a.reconfigured = Some(re);
             if !re {
                 problems.push("no formation redesigned without it".into());
@@ -352,72 +379,32 @@ impl<'a> Evidence<'a> {
         }
     }
 
-    /// The command publication time of an event's tick, s since the Unix epoch.
-    fn published_at(&self, e: &Value) -> Option<f64> {
-        e.get("k")
-            .and_then(Value::as_u64)
-            .and_then(|k| self.published.get(&k))
-            .copied()
+    /// The deaths of vehicle `v` in `events.jsonl` with their index in it, in order: its
+    /// `lost` events but those of a stop (and of scheduled kills), and its `died` events.
+    fn deaths_of(&self, v: u32) -> Vec<(usize, &Value)> {
+        self.events
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| vehicle(e) == Some(v))
+            .filter(|(_, e)| {
+                let cause = e.pointer("/detail/cause").and_then(Value::as_str);
+                match kind(e) {
+                    Some("lost") => !matches!(cause, Some("stopped" | "scheduled kill")),
+                    Some("died") => true,
+                    _ => false,
+                }
+            })
+            .collect()
     }
 
-    /// The `lost` event that detected kill `k` (a death: any cause but `stopped`), and
-    /// else, when the vehicle was already out as `stopped` at the kill, that loss's tick.
-    /// With the commands' publication times: the first such loss published at or after
-    /// the kill and before the slot's next kill; without them (no message records): the
-    /// i-th such loss of the vehicle.
-    fn loss_of_kill(&self, k: &AgentKill) -> (Option<&Value>, Option<u64>) {
-        let lost = self.of("lost", k.v);
-        let cause =
-            |e: &Value| e.pointer("/detail/cause").and_then(Value::as_str) == Some("stopped");
-        let deaths: Vec<&Value> = lost.iter().copied().filter(|e| !cause(e)).collect();
-        if self.published.is_empty() {
-            return (deaths.get(k.i).copied(), None);
-        }
-        let found = deaths.iter().copied().find(|e| {
-            self.published_at(e)
-                .is_some_and(|t| t >= k.at && t < k.next_kill)
-        });
-        if found.is_some() {
-            return (found, None);
-        }
-        // Out already: its last loss before the kill was a stop, not followed by a rejoin
-        // published before the kill.
-        let before = |e: &&Value| self.published_at(e).is_some_and(|t| t < k.at);
-        let last_loss = lost.iter().copied().rfind(before);
-        let out = last_loss.filter(|e| cause(e)).and_then(|e| {
-            let lk = e.get("k").and_then(Value::as_u64)?;
-            let rejoined = self
-                .of("rejoin", k.v)
-                .into_iter()
-                .filter(before)
-                .any(|r| r.get("k").and_then(Value::as_u64).is_some_and(|rk| rk > lk));
-            (!rejoined).then_some(lk)
-        });
-        (None, out)
-    }
-
-    /// The `rejoin` event of the process started after kill `k` (vehicle out from tick
-    /// `out_k`): the first rejoin at that tick or later (a process restarted before its
-    /// death was decided is lost and admitted at one tick) published after the kill; without
-    /// publication times, the i-th rejoin of the vehicle.
-    fn rejoin_after_kill(&self, k: &AgentKill, out_k: Option<u64>) -> Option<&Value> {
-        let rejoins = self.of("rejoin", k.v);
-        if self.published.is_empty() {
-            return rejoins.get(k.i).copied();
-        }
-        rejoins.into_iter().find(|r| {
-            let rk = r.get("k").and_then(Value::as_u64);
-            rk.zip(out_k).is_some_and(|(rk, lk)| rk >= lk)
-                && self.published_at(r).is_some_and(|t| t >= k.at)
-        })
-    }
-
-    /// Wall time from the kill to the command of the `lost` event's tick `lost_k`, ms;
+    /// Wall time from the kill to the first publication after it of the command of the
+    /// `lost` event's tick `lost_k`, ms;
     /// without message records, to the coordinator's warning about the vehicle.
     fn detection_ms(&self, lost_k: Option<u64>, k: &AgentKill) -> Option<f64> {
         let at = k.at;
         lost_k
             .and_then(|lk| self.published.get(&lk))
+            .and_then(|ts| ts.iter().find(|t| **t >= at))
             .map(|t| (t - at) * 1e3)
             .or_else(|| {
                 // No message records: the coordinator's warning about the vehicle (its
@@ -477,93 +464,63 @@ mod tests {
         e
     }
 
-    fn evidence<'a>(
-        events: Vec<Value>,
-        published: &[(u64, f64)],
-        seen: &'a BTreeMap<u32, Seen>,
-    ) -> Evidence<'a> {
-        Evidence {
-            events,
-            log: Vec::new(),
-            published: published.iter().copied().collect(),
-            mission_end: 1e9,
-            seen,
-            kill_times: BTreeMap::new(),
-        }
-    }
-
-    /// Kills are matched to the losses and rejoins published after them, a stop's loss
-    /// (lockstep loses a stopped member) never taken for a kill's detection; a kill of an
-    /// agent already out as stopped needs no detection and is judged by its rejoin.
-    #[test]
-    fn a_kill_is_judged_by_the_loss_and_rejoin_published_after_it() {
-        let seen = BTreeMap::new();
-        let ev = evidence(
-            vec![
-                event("lost", 2, 100, Some("stopped")),
-                event("rejoin", 2, 120, None),
-                event("lost", 2, 200, Some("process died")),
-                event("rejoin", 2, 230, None),
-                event("lost", 2, 300, Some("stopped")),
-                event("rejoin", 2, 340, None),
-                event("lost", 2, 400, Some("process restarted")),
-                event("rejoin", 2, 400, None),
-            ],
-            &[
-                (100, 10.0),
-                (120, 11.0),
-                (200, 15.1),
-                (230, 16.0),
-                (300, 20.0),
-                (340, 22.0),
-                (400, 26.0),
-            ],
-            &seen,
-        );
-        // Killed at 15.0 while a member: detected by the loss of tick 200.
+    fn judge(ev: &Evidence, i: usize, restarts: bool) -> (Action, Vec<String>) {
+        let mut a = Action::default();
+        let mut problems = Vec::new();
         let kill = AgentKill {
             v: 2,
-            i: 0,
-            at: 15.0,
-            next_kill: 20.3,
-        };
-        let (found, out) = ev.loss_of_kill(&kill);
-        assert_eq!(found.and_then(|e| e["k"].as_u64()), Some(200));
-        assert_eq!(out, None);
-        let rejoin = ev.rejoin_after_kill(&kill, Some(200));
-        assert_eq!(rejoin.and_then(|e| e["k"].as_u64()), Some(230));
-        // Killed at 20.3 while stopped and already lost (tick 300): out already.
-        let kill = AgentKill {
-            v: 2,
-            i: 1,
-            at: 20.3,
-            next_kill: 25.0,
-        };
-        let (found, out) = ev.loss_of_kill(&kill);
-        assert!(found.is_none());
-        assert_eq!(out, Some(300));
-        let rejoin = ev.rejoin_after_kill(&kill, out);
-        assert_eq!(rejoin.and_then(|e| e["k"].as_u64()), Some(340));
-        // Killed at 12.0, a member again since tick 120, its death never decided: not
-        // detected (the stop's loss before it is no detection).
-        let kill = AgentKill {
-            v: 2,
-            i: 0,
-            at: 12.0,
-            next_kill: 14.0,
-        };
-        assert_eq!(ev.loss_of_kill(&kill), (None, None));
-        // Killed at 25.0 and restarted before its death was decided: lost and readmitted
-        // at one tick (400).
-        let kill = AgentKill {
-            v: 2,
-            i: 2,
-            at: 25.0,
+            i,
+            at: 0.0,
             next_kill: f64::INFINITY,
         };
-        let (found, _) = ev.loss_of_kill(&kill);
-        assert_eq!(found.and_then(|e| e["k"].as_u64()), Some(400));
-        let rejoin = ev.rejoin_after_kill(&kill, Some(400));
-        assert_eq!(rejoin.and_then(|e| e["k"].as_u64()), Some(400));
+        ev.judge_agent_kill(&mut a, &kill, restarts, &mut problems);
+        (a, problems)
+    }
+
+    /// The i-th kill is the i-th death: a stop's loss is none, and the death of a process
+    /// lost while stopped (`died`) is one that needs no detection; each rejoin follows its
+    /// death in the file's order (at the same tick for a process restarted before its
+    /// death was decided).
+    #[test]
+    fn a_kill_is_judged_by_its_death_and_the_rejoin_after_it() {
+        let seen = BTreeMap::new();
+        let mut events = vec![
+            event("lost", 2, 100, Some("stopped")),
+            event("rejoin", 2, 120, None),
+            event("lost", 2, 200, Some("process died")),
+            event("rejoin", 2, 230, None),
+            event("lost", 2, 300, Some("stopped")),
+            event("reconfigured", 9, 300, None),
+            event("died", 2, 310, None),
+            event("rejoin", 2, 340, None),
+            event("lost", 2, 400, Some("process restarted")),
+            event("rejoin", 2, 400, None),
+        ];
+        events[5]["detail"] = serde_json::json!({ "vehicles": [0, 1, 3] });
+        let ev = Evidence {
+            events,
+            log: Vec::new(),
+            published: BTreeMap::new(),
+            mission_end: 1e9,
+            seen: &seen,
+            kill_times: BTreeMap::new(),
+        };
+        let (a, p) = judge(&ev, 0, true);
+        assert!(p.is_empty(), "{p:?}");
+        assert_eq!((a.detected_t, a.rejoin_t), (Some(10.0), Some(11.5)));
+        let (a, p) = judge(&ev, 1, true);
+        assert!(p.is_empty(), "{p:?}");
+        assert_eq!(a.detected, Some(true));
+        assert_eq!((a.detected_t, a.rejoin_t), (None, Some(17.0)));
+        // Never restarted: out since the stop's loss, redesigned without it then.
+        let (a, p) = judge(&ev, 1, false);
+        assert!(p.is_empty(), "{p:?}");
+        assert_eq!(a.reconfigured, Some(true));
+        let (a, p) = judge(&ev, 2, true);
+        assert!(p.is_empty(), "{p:?}");
+        assert_eq!((a.detected_t, a.rejoin_t), (Some(20.0), Some(20.0)));
+        let (a, p) = judge(&ev, 3, true);
+        assert_eq!(a.detected, Some(false));
+        assert_eq!(p, vec!["not detected".to_string()]);
     }
 }

@@ -36,16 +36,19 @@
 //!
 //! # Rules of the table
 //!
-//! - **Agent kill, detected**: the coordinator wrote a `lost` event for that vehicle (any
-//!   cause but a scheduled kill). The i-th kill of a vehicle in a run is matched to its
-//!   i-th `lost` event. `detected_t`: the event's mission time. `detection_ms`: wall time
-//!   from the SIGKILL to the coordinator's publication of the command of the event's tick
-//!   (the first it published after its verdict; from the `sent_ns` of the agents' message
-//!   records, same host clock); without message records (`RUST_LOG=info`), to the
-//!   coordinator's warning about that vehicle.
+//! - **Agent kill, detected**: the coordinator wrote a death of that vehicle: a `lost`
+//!   event of any cause but a scheduled kill or `stopped` (a lockstep coordinator loses a
+//!   stopped member, which is no death), or a `died` event (the process of a vehicle lost
+//!   while stopped died: out already, it needs no detection and has no `detection_ms`).
+//!   The i-th kill of a vehicle in a run is matched to its i-th death. `detected_t`: the
+//!   event's mission time. `detection_ms`: wall time from the SIGKILL to the coordinator's
+//!   first publication after it of the command of the event's tick (the first after its
+//!   verdict; from the `sent_ns` of the agents' message records, same host clock); without
+//!   message records (`RUST_LOG=info`), to the coordinator's warning about that vehicle.
 //! - **Agent kill, recovered**: detected, the run completed, and then — policy `never`: a
-//!   `reconfigured` event at or after the loss whose formation leaves the vehicle out;
-//!   `on-failure` / `always`: the vehicle's i-th `rejoin` event (it was admitted back).
+//!   `reconfigured` event at or after the loss (for a `died` vehicle, the stop's loss)
+//!   whose formation leaves the vehicle out; `on-failure` / `always`: a `rejoin` event of
+//!   the vehicle after its death in `events.jsonl` (it was admitted back).
 //! - **Coordinator or field server kill, detected**: the supervisor started a new process
 //!   in its place (seen by the campaign); `detection_ms` is then the time to that new
 //!   process (restart backoff included). **Recovered**: detected and the mission went on

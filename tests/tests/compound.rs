@@ -301,6 +301,45 @@ fn a_paced_run_loses_an_agent_killed_while_its_field_server_is_stopped() {
     assert_nothing_left(&name, &tmp);
 }
 
+/// An agent killed while the field server is stopped, in lockstep: the tick waits for
+/// every reading (its run equals `vbap sim`), but the coordinator decides the death while
+/// it waits, from the supervisor's report, without waiting for the field server's answer;
+/// continued, the field server answers and the mission goes on. Before: the death was
+/// decided only after the readings came in, or, the field server stopped for 10 s, by a
+/// restarted coordinator from the record.
+#[test]
+fn a_lockstep_coordinator_decides_a_death_while_it_waits_for_a_stopped_field_server() {
+    let (tmp, name, out, run) = start("lsfield", 5, "\"lockstep\"", "");
+    wait_for_ticks(&out, 200);
+    signal("-STOP", &field_server(&out));
+    signal("-KILL", &agent(&out, 1));
+    // The verdict is logged at once; its `lost` event is written with the tick, which
+    // waits for the readings.
+    wait_until_or(
+        || log_count(&out, "coordinator", "vehicle process is dead") >= 1,
+        Duration::from_secs(60),
+        || "the death was not decided while the field server was stopped".to_string(),
+    );
+    let resumed = log_count(&out, "coordinator", "resumed from the checkpoint");
+    signal("-CONT", &field_server(&out));
+    await_event(
+        &out,
+        "lost",
+        1,
+        Duration::from_secs(60),
+        "the killed agent was never lost",
+    );
+    let ticks = line_count(&out.join("body.csv"));
+    wait_for_ticks(&out, ticks + 100);
+    interrupt(run);
+    let lost = of(&out, "lost", 1);
+    eprintln!("killed while the field server was stopped, lockstep: {lost:?}");
+    assert_eq!(lost.len(), 1, "{lost:?}");
+    assert_eq!(lost[0]["detail"]["by"], "supervisor");
+    assert_eq!(resumed, 0, "decided by a restarted coordinator");
+    assert_nothing_left(&name, &tmp);
+}
+
 /// The supervisor's record of a run: one JSON value a line.
 fn exit_record(out: &Path) -> Vec<serde_json::Value> {
     std::fs::read_to_string(out.join("supervisor.exits.jsonl"))

@@ -132,8 +132,9 @@ impl<'a> ProcessSet<'a> {
         }
     }
 
-    /// The backoff before the next restart of `slot` (`restart.backoff` doubled per restart
-    /// inside the policy window), the restart counted; None past `restart.max_restarts`.
+    /// The backoff before the next restart of `slot` (`RestartSection::backoff_after` of the
+    /// restarts inside the policy window), the restart counted; None past
+    /// `restart.max_restarts`.
     pub fn next_restart(&mut self, slot: usize) -> Option<Duration> {
         let r = &self.mission.restart;
         let window = Duration::from_secs_f64(r.window);
@@ -144,7 +145,7 @@ impl<'a> ProcessSet<'a> {
         if p.restarts.len() >= r.max_restarts as usize {
             return None;
         }
-        let backoff = Duration::from_secs_f64(r.backoff * 2f64.powi(p.restarts.len() as i32));
+        let backoff = Duration::from_secs_f64(r.backoff_after(p.restarts.len()));
         p.restarts.push_back(Instant::now());
         Some(backoff)
     }

@@ -68,6 +68,10 @@ pub(super) struct Liveness {
     /// Agents stopped and not continued by the supervisor's record, not acted on yet: stops
     /// whose report this coordinator missed.
     pub recorded_stops: Vec<ProcessExit>,
+    /// Vehicles lost while their process lived on (stopped), by vehicle: that process's
+    /// pid. Its later death is written as a `died` event (no loss: the vehicle is out
+    /// already); it is forgotten when the process speaks again.
+    pub out_alive: BTreeMap<u32, u32>,
     /// The run directory whose record is read again every [`RECORD_EVERY`].
     pub record_root: PathBuf,
     /// When the record was last read.
@@ -107,6 +111,7 @@ impl Liveness {
             recorded: Vec::new(),
             stopped: BTreeMap::new(),
             recorded_stops: Vec::new(),
+            out_alive: BTreeMap::new(),
             record_root,
             record_read: Instant::now(),
             last_scan: Instant::now(),
@@ -246,7 +251,13 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
     /// Loses the vehicles whose process the supervisor reported dead, or recorded dead
     /// while no coordinator ran or without a report this coordinator heard (`by =
     /// "record"`); true when one was.
-    fn supervisor_reports(&mut self) -> Result<bool> {
+    pub(super) fn supervisor_reports(&mut self) -> Result<bool> {
+        // A process lost while stopped that speaks again (continued) is no longer out
+        // alive: it asks to join.
+        let (joins, peers) = (&self.inbox.joins, &self.inbox.peers);
+        self.live
+            .out_alive
+            .retain(|v, pid| !(joins.contains(v) && peers[*v as usize].pid == *pid));
         let mut lost = false;
         let recorded = std::mem::take(&mut self.live.recorded);
         let heard = std::mem::take(&mut self.live.agent_exits);
@@ -268,6 +279,19 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
                 // Across hosts: even a vehicle already lost (its proxy node found dead when
                 // the shore's bridge died) may live on: its next word is a join request.
                 self.inbox.peers[v as usize].pid = 0;
+            }
+            if self.live.out_alive.get(&v) == Some(&e.pid) && e.role == ProcessExit::AGENT {
+                // The process of a vehicle lost while stopped died: no loss (it is out
+                // already), but the death is told.
+                self.live.out_alive.remove(&v);
+                self.recorder.event(vbap_mission::rundir::Event {
+                    t: self.k as f64 * self.dt,
+                    k: self.k,
+                    kind: "died".into(),
+                    vehicle: Some(v),
+                    detail: serde_json::json!({ "by": by, "pid": e.pid, "signal": e.signal }),
+                })?;
+                continue;
             }
             if !self.fleet.is_alive(v) || !ours {
                 continue;
@@ -344,6 +368,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
                 continue;
             }
             self.inbox.peers[v as usize].pid = 0; // its next word is a join request
+            self.live.out_alive.insert(v, e.pid);
             let ms = now.saturating_sub(e.died_ns) as f64 / 1e6;
             self.lose(v, Loss::found("stopped", "supervisor", e.pid, Some(ms)))?;
             lost = true;

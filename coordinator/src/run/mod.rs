@@ -225,7 +225,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
     fn readings(&mut self, admitted: &BTreeSet<u32>) -> Result<Option<(Vec<Report>, Vec<Told>)>> {
         let k = self.k;
         let paced = self.paced.is_some();
-        let states: Vec<VehicleState> = self
+        let mut states: Vec<VehicleState> = self
             .fleet
             .alive()
             .filter(|v| !admitted.contains(v))
@@ -234,17 +234,28 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         // A paced tick does not wait for a field server that owes its answer longer than
         // READINGS_GRACE: the states without their reading are dropped below.
         let grace = paced.then_some(sensors::READINGS_GRACE);
-        let waited = self.sensors.wait_for(
-            k,
-            self.dt,
-            &states,
-            grace,
-            self.ports,
-            &mut self.inbox.msgs,
-            &mut self.live,
-        )?;
-        if waited.is_none() {
-            return Ok(None);
+        loop {
+            let waited = self.sensors.wait_for(
+                k,
+                self.dt,
+                &states,
+                grace,
+                self.ports,
+                &mut self.inbox.msgs,
+                &mut self.live,
+            )?;
+            match waited {
+                None => return Ok(None),
+                Some(sensors::Waited::Done) => break,
+                // A death reported while the field server is slow, stopped or restarting
+                // (lockstep waits for every reading) is decided now, at this tick, not
+                // when the field server answers.
+                Some(sensors::Waited::Deaths) => {
+                    if self.supervisor_reports()? {
+                        states.retain(|s| self.fleet.is_alive(s.header.sender));
+                    }
+                }
+            }
         }
         if !paced && self.sensors.idle() {
             let ahead = self.read_ahead(admitted);

@@ -37,6 +37,16 @@ const SAMPLE_TIMEOUT: Duration = Duration::from_secs(10);
 /// waits; see docs/design/faults.md).
 pub(super) const READINGS_GRACE: Duration = Duration::from_millis(100);
 
+/// How a wait for readings ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Waited {
+    /// The readings are in (or, paced, the tick goes on without those not in).
+    Done,
+    /// The supervisor reported agents' deaths (in `Liveness::agent_exits`): decide them,
+    /// then wait again.
+    Deaths,
+}
+
 /// The request-response types of the sensor reads.
 type SampleResponse =
     iceoryx2::pending_response::PendingResponse<ipc::Service, SampleBatch, (), ReadingBatch, ()>;
@@ -256,10 +266,11 @@ impl SensorReads {
     /// Blocks until the readings of every state in `needed` are in (asking for them when
     /// no request is in flight); `grace`: in a paced run, [`READINGS_GRACE`], how long the
     /// field server may owe an answer before the tick goes on without the readings not in
-    /// (None in lockstep: every reading is waited for). None on a termination signal.
-    /// Vehicle events consumed meanwhile are harmless (every tick starts with a full
-    /// drain); the supervisor's process exits are kept in `live` for the tick's liveness
-    /// check.
+    /// (None in lockstep: every reading is waited for). Returns early, with
+    /// [`Waited::Deaths`], when the supervisor reports an agent's death (kept in `live`):
+    /// the caller decides it at once, not when the field server answers, then waits again.
+    /// None on a termination signal. Vehicle events consumed meanwhile are harmless (every
+    /// tick starts with a full drain).
     #[allow(clippy::too_many_arguments)]
     pub fn wait_for(
         &mut self,
@@ -270,15 +281,18 @@ impl SensorReads {
         ports: &Ports,
         msgs: &mut MsgLog,
         live: &mut Liveness,
-    ) -> Result<Option<()>> {
+    ) -> Result<Option<Waited>> {
         let started = Instant::now();
         loop {
             if live.hear()? {
                 self.forget_pending("the field server died");
             }
+            if !live.agent_exits.is_empty() {
+                return Ok(Some(Waited::Deaths));
+            }
             self.poll(msgs)?;
             if self.has_all(needed) {
-                return Ok(Some(()));
+                return Ok(Some(Waited::Done));
             }
             if self.pending.is_some() && self.sent_at.elapsed() >= RESEND_AFTER {
                 self.forget_pending("no answer");
@@ -307,7 +321,7 @@ impl SensorReads {
                         );
                     }
                     self.blind_ticks += 1;
-                    return Ok(Some(()));
+                    return Ok(Some(Waited::Done));
                 };
                 wait = wait.min(wait_left);
             }

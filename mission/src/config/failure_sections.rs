@@ -81,8 +81,14 @@ pub struct RestartSection {
     pub coordinator: RestartPolicy,
     /// Policy for the field server.
     pub field_server: RestartPolicy,
-    /// Wall time before a restart (s); doubles with each restart inside the window.
+    /// Wall time before a restart (s); doubles with each restart inside the window, up to
+    /// `max_backoff`.
     pub backoff: f64,
+    /// Longest wall time before a restart (s): the doubling stops there (a `backoff` above
+    /// it is used as it is, never doubled). A coordinator or field server killed again and
+    /// again holds the whole mission for its backoff, while `max_restarts` already bounds a
+    /// crash loop.
+    pub max_backoff: f64,
     /// Largest number of restarts of one process inside `window`; past it, no more.
     pub max_restarts: u32,
     /// Length of the restart-counting window (s, wall time).
@@ -96,9 +102,20 @@ impl Default for RestartSection {
             coordinator: RestartPolicy::OnFailure,
             field_server: RestartPolicy::OnFailure,
             backoff: 0.2,
+            max_backoff: 0.8,
             max_restarts: 5,
             window: 60.0,
         }
+    }
+}
+
+impl RestartSection {
+    /// Wall time before a restart of a process restarted `restarts` times already inside
+    /// the window (s): `backoff` doubled per restart, at most `max_backoff` (or `backoff`
+    /// when that is the larger).
+    pub fn backoff_after(&self, restarts: usize) -> f64 {
+        let doubled = self.backoff * 2f64.powi(restarts.min(64) as i32);
+        doubled.min(self.max_backoff.max(self.backoff))
     }
 }
 
@@ -145,4 +162,23 @@ pub struct FaultConfig {
     /// (optional); not used by other kinds.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_restart_backoff_doubles_up_to_its_cap() {
+        let r = RestartSection::default();
+        let seq: Vec<f64> = (0..6).map(|n| r.backoff_after(n)).collect();
+        assert_eq!(seq, vec![0.2, 0.4, 0.8, 0.8, 0.8, 0.8]);
+        // A backoff above the cap is used as it is, never doubled.
+        let long = RestartSection {
+            backoff: 3.0,
+            ..RestartSection::default()
+        };
+        assert_eq!(long.backoff_after(0), 3.0);
+        assert_eq!(long.backoff_after(3), 3.0);
+    }
 }

@@ -114,6 +114,7 @@ const BAD: &[(&str, &str)] = &[
     ("[links]\nburst_enter = 1.5", "links.burst_enter"),
     ("[links]\nburst_enter = 0.1\nburst_exit = 0.0", "links.burst_exit"),
     ("[restart]\nbackoff = 0", "restart.backoff"),
+    ("[restart]\nmax_backoff = -1", "restart.max_backoff"),
     ("[control]\nneighbour_memory = 0", "control.neighbour_memory"),
     ("[control]\nneighbour_memory = -3.0", "control.neighbour_memory"),
     ("[restart]\nvehicles = \"sometimes\"", "restart.vehicles"),

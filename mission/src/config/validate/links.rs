@@ -74,6 +74,7 @@ pub(super) fn links(c: &Check, l: &LinksSection) -> Checked {
 /// Checks `[restart]`.
 pub(super) fn restart(c: &Check, r: &RestartSection) -> Checked {
     c.positive("restart.backoff", r.backoff)?;
+    c.positive("restart.max_backoff", r.max_backoff)?;
     c.positive("restart.window", r.window)?;
     Ok(())
 }
