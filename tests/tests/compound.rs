@@ -93,6 +93,18 @@ fn await_event(out: &Path, kind: &str, v: u64, limit: Duration, what: &str) {
     );
 }
 
+/// Continues stopped agent `v` (SIGCONT) and waits until it is readmitted.
+fn continue_and_await_rejoin(out: &Path, v: u32) {
+    signal("-CONT", &agent(out, v));
+    await_event(
+        out,
+        "rejoin",
+        u64::from(v),
+        Duration::from_secs(60),
+        "the continued agent was never readmitted",
+    );
+}
+
 /// Interrupts the run (SIGINT to `vbap run`) and checks it ended as an interrupted run.
 fn interrupt(mut run: ChildGuard) {
     run.signal("INT");
@@ -179,14 +191,7 @@ fn a_stopped_member_is_lost_across_a_coordinator_restart() {
         Duration::from_secs(120),
         "the stopped member was never lost",
     );
-    signal("-CONT", &agent(&out, 2));
-    await_event(
-        &out,
-        "rejoin",
-        2,
-        Duration::from_secs(60),
-        "the continued agent was never readmitted",
-    );
+    continue_and_await_rejoin(&out, 2);
     interrupt(run);
     let lost = of(&out, "lost", 2);
     eprintln!("stopped across a restart: {lost:?}");
@@ -226,14 +231,7 @@ fn a_lockstep_tick_does_not_wait_for_a_stopped_member() {
     let ticks = line_count(&out.join("body.csv"));
     wait_for_ticks(&out, ticks + 100);
     let rejoined_while_stopped = of(&out, "rejoin", 2).len();
-    signal("-CONT", &agent(&out, 2));
-    await_event(
-        &out,
-        "rejoin",
-        2,
-        Duration::from_secs(60),
-        "the continued agent was never readmitted",
-    );
+    continue_and_await_rejoin(&out, 2);
     interrupt(run);
     let stopped = of(&out, "lost", 2);
     eprintln!(
