@@ -39,6 +39,11 @@ pub struct Fleet {
     alive: BTreeSet<u32>,
     latest: BTreeMap<u32, Report>,
     last_truth: BTreeMap<u32, Report>,
+    /// The last report delivered from each lost vehicle (its `latest` when it was lost):
+    /// where its hull was last heard of, which the snapshot tells the others
+    /// ([`Fleet::snapshot`]). Until it is admitted back.
+    #[serde(default)]
+    hulls: BTreeMap<u32, Report>,
     lost: BTreeSet<u32>,
     admitted: Vec<Report>,
     /// Vehicles with at least one report delivered (the planned start states in `latest`
@@ -93,6 +98,7 @@ impl Fleet {
             alive: ids.iter().copied().collect(),
             latest,
             last_truth: BTreeMap::new(),
+            hulls: BTreeMap::new(),
             lost: BTreeSet::new(),
             admitted: Vec::new(),
             heard: BTreeSet::new(),
@@ -193,7 +199,9 @@ impl Fleet {
             return false;
         }
         self.lost.insert(v);
-        self.latest.remove(&v);
+        if let Some(last) = self.latest.remove(&v) {
+            self.hulls.insert(v, last);
+        }
         self.purged.push((v, self.inbox.next_seq()));
         self.inbox.retain(|r| r.id != v);
         self.admitted.retain(|r| r.id != v);
@@ -209,6 +217,7 @@ impl Fleet {
         }
         let restore = *self.last_truth.get(&v)?;
         self.lost.remove(&v);
+        self.hulls.remove(&v);
         self.alive.insert(v);
         self.admitted.push(restore);
         Some(restore)
@@ -329,8 +338,9 @@ impl Fleet {
 
     /// The swarm snapshot of this tick: members (their last delivered state; those admitted
     /// now flagged [`SnapshotEntry::ADMITTED`], at their restore state; those in
-    /// `rejoining` flagged rejoining, with the slot they fly to) and lost vehicles (their
-    /// last true state), ordered by id.
+    /// `rejoining` flagged rejoining, with the slot they fly to) and lost vehicles (the last
+    /// state heard from each: where its hull was last known to be, never the truth),
+    /// ordered by id.
     pub fn snapshot(&self, members: &[Report], rejoining: &[(u32, Vec3)]) -> Vec<SnapshotEntry> {
         let entry = |r: &Report, alive: u32| {
             let target = rejoining
@@ -361,12 +371,17 @@ impl Fleet {
             .chain(
                 self.lost
                     .iter()
-                    .filter_map(|v| self.last_truth.get(v))
+                    .filter_map(|v| self.hulls.get(v))
                     .map(|r| entry(r, SnapshotEntry::LOST)),
             )
             .collect();
         rows.sort_by_key(|e| e.id);
         rows
+    }
+
+    /// Where each lost vehicle was last heard of (its hull; ordered by id), length unit.
+    pub fn hulls(&self) -> Vec<Vec3> {
+        self.hulls.values().map(|r| r.position).collect()
     }
 
     /// Ends the tick (admissions become ordinary).

@@ -225,6 +225,37 @@ mod tests {
         assert_eq!(tick(&mut fleet, 6).0, vec![0, 1, 2, 3]);
     }
 
+    /// A lost vehicle is in the snapshot where it was last heard of (its hull), not where
+    /// its truth was: over delayed links the two differ. Admitted back, it is a member.
+    #[test]
+    fn a_lost_vehicle_s_hull_is_where_it_was_last_heard_of() {
+        use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+        let m = mission("[links]\ndelay = 0.1");
+        let mut fleet = Fleet::new(&m, &[0, 1, 2, 3]);
+        for k in 0..6 {
+            tick(&mut fleet, k);
+            fleet.end_tick();
+        }
+        let heard = *fleet.newest_report(2).unwrap();
+        assert!(heard.tick < 5, "the links hold the newest reports");
+        lose(&mut fleet, 6, DT, 2, &Loss::scheduled_kill()).unwrap();
+        let (members, _) = fleet.deliver(6.0 * DT, DT);
+        let snapshot = fleet.snapshot(&members, &[]);
+        let hull = snapshot.iter().find(|e| e.id == 2).unwrap();
+        assert_eq!(hull.alive, SnapshotEntry::LOST);
+        assert_eq!(vbap_ipc::msg::to_vec3(&hull.position), heard.position);
+        assert_ne!(heard.position, report(2, 5).position, "not the truth");
+        fleet.end_tick();
+        let (restore, _) = rejoin(&mut fleet, 7, DT, 2).unwrap();
+        assert_eq!(restore, report(2, 5), "restarted at its last true state");
+        let (members, _) = fleet.deliver(7.0 * DT, DT);
+        let snapshot = fleet.snapshot(&members, &[]);
+        assert!(snapshot
+            .iter()
+            .filter(|e| e.id == 2)
+            .all(|e| e.alive != SnapshotEntry::LOST));
+    }
+
     /// Reports a lost vehicle sent that the links still hold are dropped with it.
     #[test]
     fn a_lost_vehicle_s_reports_in_flight_are_dropped() {
@@ -250,6 +281,67 @@ mod tests {
             assert!(!members.contains(&1) && !fresh.contains(&1));
             fleet.end_tick();
         }
+    }
+
+    /// Two losses leave two holes; a vehicle that comes back nearer the other lost
+    /// vehicle's hole than its own is given its own: the other's hull is still in its hole
+    /// (where it was last heard of), and its process, restarted, comes back there.
+    #[test]
+    fn a_returning_vehicle_is_not_given_a_hole_with_another_lost_vehicle_s_hull() {
+        let m = Mission::from_toml_str(
+            "[mission]\nname = \"t\"\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 6\n[control]\nlaw = \"robust\"\n",
+            "<test>",
+        )
+        .unwrap();
+        let ids: Vec<u32> = (0..6).collect();
+        let mut fleet = Fleet::new(&m, &ids);
+        let mut planner =
+            Planner::new(PlannerParams::from_mission(&m), m.start_vec(), &ids).unwrap();
+        let home: Vec<Vec3> = planner
+            .design()
+            .slots
+            .iter()
+            .map(|p| m.start_vec() + p)
+            .collect();
+        let (slot1, slot2) = (home[1], home[2]);
+        // Vehicle 1 was last heard of between the two slots, nearer vehicle 2's.
+        let drifted = slot2 + 0.4 * (slot1 - slot2);
+        let mut step = |fleet: &mut Fleet, k: u64| {
+            let truth: Vec<Report> = fleet
+                .alive()
+                .map(|id| Report {
+                    id,
+                    tick: k,
+                    position: if id == 1 { drifted } else { home[id as usize] },
+                    velocity: Vec3::zeros(),
+                    measurement: 1.0,
+                })
+                .collect();
+            fleet.receive(k, DT, &truth);
+            fleet.track_body(k, planner.body().r);
+            let joined: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
+            let (members, fresh) = fleet.deliver(k as f64 * DT, DT);
+            planner.see_hulls(&fleet.hulls());
+            let c = planner.step(k, &members, &fresh, &joined, DT).unwrap();
+            fleet.end_tick();
+            c
+        };
+        for k in 0..3 {
+            step(&mut fleet, k);
+        }
+        lose(&mut fleet, 3, DT, 1, &Loss::scheduled_kill()).unwrap();
+        step(&mut fleet, 3);
+        lose(&mut fleet, 4, DT, 2, &Loss::scheduled_kill()).unwrap();
+        step(&mut fleet, 4);
+        assert_eq!(fleet.hulls(), vec![drifted, slot2]);
+        let (restore, _) = rejoin(&mut fleet, 5, DT, 1).unwrap();
+        assert_eq!(restore.position, drifted);
+        let c = step(&mut fleet, 5);
+        let target = c.rejoining.iter().find(|(id, _)| *id == 1).unwrap().1;
+        assert!(
+            (target - slot1).norm() < 0.1 * (slot1 - slot2).norm(),
+            "its own hole {slot1:?}, not {slot2:?}: {target:?}"
+        );
     }
 
     /// Losing a member redesigns the formation for the vehicles left at the planner's next

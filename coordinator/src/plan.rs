@@ -25,6 +25,11 @@ pub trait Plan {
         joined: &[u32],
         dt: f64,
     ) -> Result<Command, PlannerError>;
+    /// Where the vehicles the fleet has lost were last heard of (`Fleet::hulls`, length
+    /// unit), told before each [`Plan::step`]. Ignored by default.
+    fn see_hulls(&mut self, hulls: &[Vec3]) {
+        let _ = hulls;
+    }
     /// The virtual body the next step starts from.
     fn body(&self) -> &VirtualBody;
     /// The point that moves with the body's MOTION (length unit): what a member out of
@@ -79,6 +84,9 @@ impl Plan for Planner {
     ) -> Result<Command, PlannerError> {
         Planner::step(self, k, members, fresh, joined, dt)
     }
+    fn see_hulls(&mut self, hulls: &[Vec3]) {
+        Planner::see_hulls(self, hulls)
+    }
     fn body(&self) -> &VirtualBody {
         Planner::body(self)
     }
@@ -121,6 +129,9 @@ impl<P: Plan + ?Sized> Plan for Box<P> {
         dt: f64,
     ) -> Result<Command, PlannerError> {
         (**self).step(k, members, fresh, joined, dt)
+    }
+    fn see_hulls(&mut self, hulls: &[Vec3]) {
+        (**self).see_hulls(hulls)
     }
     fn body(&self) -> &VirtualBody {
         (**self).body()

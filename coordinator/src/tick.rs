@@ -52,6 +52,7 @@ pub fn plan_tick(
     fleet.track_body(k, planner.motion_point());
     let joined: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
     let (members, fresh) = fleet.deliver(t, dt);
+    planner.see_hulls(&fleet.hulls());
     let command = planner.step(k, &members, &fresh, &joined, dt)?;
     recorder.inputs(k, &members, &fresh, &joined)?;
     recorder.tick(k, truth, told, &command)?;

@@ -206,13 +206,12 @@ pub fn robust_control_law(
             _ => *x_j,
         };
         add_force(&mut u, x_i, &seen, &inputs.inter, own * w * (1.0 - sigma_j));
-        add_repulsion(
-            &mut u,
-            x_i,
-            &seen,
-            &inputs.inter,
-            1.0 - own * (1.0 - sigma_j),
-        );
+        // The repulsion kept while someone rejoins acts where the neighbour was seen, not
+        // where its last velocity extrapolates it: a member ringing at 3 L/s was predicted
+        // 0.7 L ahead over 0.8 s, 0.2 L from a homing vehicle it was 0.9 L from, whose
+        // repulsion then threw that vehicle at 23 L/s (stress seed 29, m0015: true V
+        // 2.5 V_U). The extrapolation serves the faded spring, which weighs it by `w`.
+        add_repulsion(&mut u, x_i, x_j, &inputs.inter, 1.0 - own * (1.0 - sigma_j));
         if sigma_j > 0.0 {
             let ghost = inputs.neighbour_slots.get(j).copied().unwrap_or(seen);
             add_force(&mut u, x_i, &ghost, &inputs.inter, own * sigma_j);

@@ -227,7 +227,8 @@ pub mod coordinator_to_agent {
     }
 
     impl SnapshotEntry {
-        /// A lost vehicle: its last true state (a restarted agent resumes from it).
+        /// A lost vehicle: the last state the coordinator received from it (where its hull
+        /// was last heard of; a restarted agent resumes from its ADMITTED entry instead).
         pub const LOST: u32 = 0;
         /// A member of the formation: its last state the coordinator received.
         pub const MEMBER: u32 = 1;

@@ -254,6 +254,11 @@ pub struct Planner {
     /// index of its slot in the design (None: to be chosen).
     #[serde(default)]
     rejoining: BTreeMap<u32, Option<usize>>,
+    /// Where the vehicles the fleet has lost were last heard of (their hulls, length
+    /// unit), told before each step ([`Planner::see_hulls`]): a returning vehicle is not
+    /// given a hole with a hull in it. Not in the checkpoint: told again every tick.
+    #[serde(skip)]
+    hulls: Vec<Vec3>,
     /// Turn of the slots about the body's z axis (rad) that follows the settled members of
     /// a 2-D central design (`vbap_math::rejoin::fit_turn`).
     #[serde(default)]
@@ -338,6 +343,7 @@ impl Planner {
             last_r: start,
             reconfigurations: 0,
             rejoining: BTreeMap::new(),
+            hulls: Vec::new(),
             turn: 0.0,
             last_velocity: Vec3::zeros(),
             last_decision: Vec3::zeros(),
@@ -396,6 +402,15 @@ impl Planner {
         self.params.law
     }
 
+    /// Where the vehicles the fleet has lost were last heard of (`Fleet::hulls`, length
+    /// unit), for the next [`Planner::step`]: a hull stays in the water, and a process
+    /// restarted there comes back there, so no returning vehicle is given the hole it
+    /// sits in.
+    pub fn see_hulls(&mut self, hulls: &[Vec3]) {
+        self.hulls.clear();
+        self.hulls.extend_from_slice(hulls);
+    }
+
     /// One tick `k`. `members` holds the last known report of every vehicle in the
     /// formation, ordered by id (the formation, the Lyapunov function and the swarm
     /// snapshot use them); `fresh` the reports delivered since the last tick, in delivery
@@ -425,6 +440,7 @@ impl Planner {
             &self.design,
             &self.body,
             members,
+            &self.hulls,
         );
         // A rejoining vehicle samples far from the formation the estimator's error model
         // (V.6) assumes: its readings wait until it is in its slot.

@@ -15,7 +15,7 @@ use vbap_math::body::VirtualBody;
 use vbap_math::bumpless::bumpless_body;
 use vbap_math::fit::held_slots;
 use vbap_math::formation::{design_regular, FormationDesign};
-use vbap_math::rejoin::{choose_slot, clearance, fit_turn, homing_weight, turned_slots};
+use vbap_math::rejoin::{choose_slot, clearance, fit_turn, homing_weight, turned_slots, FREE};
 use vbap_math::Vec3;
 use vbap_mission::config::LawKind;
 
@@ -89,6 +89,19 @@ impl Planner {
         }
         let all = self.body.slot_positions(&base);
         let free: Vec<usize> = (0..base.n()).filter(|m| !taken.contains(m)).collect();
+        // A hole with a lost vehicle's hull in it is left to that vehicle, while there
+        // are other holes for the ones that come back (`update_rejoining`).
+        let spacing = self.body.scale * base.neighbour_spacing();
+        let open: Vec<usize> = free
+            .iter()
+            .copied()
+            .filter(|&m| clearance(&all[m], &self.hulls) >= FREE * spacing)
+            .collect();
+        let free = if open.len() >= others.len() {
+            open
+        } else {
+            free
+        };
         let free_slots: Vec<Vec3> = free.iter().map(|&m| all[m]).collect();
         let from: Vec<Vec3> = others.iter().map(|q| q.position).collect();
         taken.extend(
@@ -259,15 +272,22 @@ impl Planner {
     /// every vehicle that became a member after the start rejoins until its last known
     /// position is within the capture radius of its slot. Its slot is chosen once (when it
     /// joins, or again when the formation is redesigned): the nearest free slot of the
-    /// design; the slots move with the body and, for a 2-D central design, follow the
-    /// settled members as they turn about the centre (`turn`). Returns the slots
-    /// (inertial), by id.
+    /// design, a slot with a lost vehicle's hull in it (`hulls`, where each was last heard
+    /// of) counting as taken; the slots move with the body and, for a 2-D central design,
+    /// follow the settled members as they turn about the centre (`turn`). Returns the
+    /// slots (inertial), by id.
+    ///
+    /// Why the hulls: a loss leaves a hole, and a vehicle that came back took the nearest
+    /// hole, which may be another lost vehicle's; that one's process, restarted where its
+    /// hull had stayed, came back 0.03 spacing from it, and their repulsion threw it 60
+    /// spacings (stress seed 17, m0927: true V 1300 V_U).
     pub(super) fn update_rejoining(
         rejoining: &mut BTreeMap<u32, Option<usize>>,
         turn: &mut f64,
         design: &FormationDesign,
         body: &VirtualBody,
         members: &[Report],
+        hulls: &[Vec3],
     ) -> Vec<(u32, Vec3)> {
         if rejoining.is_empty() {
             return Vec::new();
@@ -282,6 +302,7 @@ impl Planner {
         let slots = turned_slots(design, body, *turn);
         let mut occupants = settled;
         occupants.extend(rejoining.values().flatten().filter_map(|m| slots.get(*m)));
+        occupants.extend_from_slice(hulls);
         // Slots are given out nearest first: the vehicles closest to a slot choose first
         // (ties by id), so a vehicle already in a slot keeps it.
         let mut unassigned: Vec<(f64, u32, Vec3)> = members

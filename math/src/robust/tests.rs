@@ -301,3 +301,30 @@ fn a_rejoining_neighbour_counts_where_it_was_seen_not_where_its_velocity_points(
     // A member is predicted: the same velocity moves it, and the force with it.
     assert_ne!(with(&fast, &[0.0, 0.0]), with(&still, &[0.0, 0.0]));
 }
+
+#[test]
+fn the_repulsion_kept_during_a_rejoin_acts_where_a_member_was_seen() {
+    // The vehicle flies home (σ = 1: only the repulsion of the others and its homing act
+    // on it); member 0, 0.8 s old, was seen 0.6 away, its last velocity pointing at the
+    // vehicle. Extrapolated, it would sit next to the vehicle and throw it (stress seed 29,
+    // m0015); the repulsion takes it where it was seen, whatever its velocity.
+    let sc = Scene::off_slot();
+    let seen = [sc.x + Vec3::new(0.0, 0.6, 0.0), sc.nb[1]];
+    let towards = Vec3::new(0.0, -3.0, 0.0);
+    let fast = [towards, sc.vel[1]];
+    let still = [Vec3::new(0.3, 0.1, 0.0), sc.vel[1]];
+    let ages = [0.8, 0.8];
+    let law = RobustLaw::new(Some(0.25));
+    let with = |vel: &[Vec3]| {
+        let mut inp = inputs(&sc.leaders, &seen, vel, &ages, sc.slot);
+        inp.homing = Some(Homing {
+            sigma: 1.0,
+            velocity: Vec3::new(0.3, 0.1, 0.0),
+        });
+        law.control(&sc.x, &sc.v, &inp)
+    };
+    let u = with(&fast);
+    assert_eq!(u, with(&still));
+    // And it does repel: away from the member, against the homing velocity's y.
+    assert!(u.y < 0.0, "{u:?}");
+}
