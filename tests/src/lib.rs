@@ -75,7 +75,8 @@ pub fn unique_name(prefix: &str) -> String {
 /// Every process of a test mentions its directory (the mission file, `--out`), so on drop
 /// each process still running whose command line mentions it is killed (SIGKILL) first: a
 /// test that fails half-way, or whose direct child was only a wrapper (`ip netns exec`,
-/// `sh -c`), leaves no `vbap run`, agent or bridge behind.
+/// `sh -c`), leaves no `vbap run`, agent or bridge behind; then the shared-memory files of
+/// its missions are removed (`remove_domains_of`), which killed processes leave.
 pub struct TempDir {
     /// The directory.
     pub path: PathBuf,
@@ -107,11 +108,48 @@ impl Drop for TempDir {
                 .args(["-KILL", &pid.to_string()])
                 .status();
         }
+        remove_domains_of(&self.path);
         // Kept after a failure, or always with `VBAP_TEST_KEEP=1` (to read a passing run).
         if std::thread::panicking() || std::env::var_os("VBAP_TEST_KEEP").is_some() {
             if let Some(dir) = self.dir.take() {
                 eprintln!("kept for inspection: {}", dir.keep().display());
             }
+        }
+    }
+}
+
+/// Removes the iceoryx2 files (`vbap_ipc::topics::Domain::remove_files`) of every mission
+/// named by a mission file in `dir` or one folder below it (a test's own mission files, and
+/// the `mission.toml` of each run directory) with a name of this test process
+/// ([`unique_name`]; a shipped mission's name may be another test's running domain): a
+/// process killed above, or by the test, leaves its domain's shared memory behind, and a
+/// test that fails half-way would leave it in /dev/shm for good (its mission name is
+/// unique, so no later run cleans it).
+fn remove_domains_of(dir: &Path) {
+    let mut files = Vec::new();
+    let mut folders = vec![(dir.to_path_buf(), 0)];
+    while let Some((folder, depth)) = folders.pop() {
+        let Ok(entries) = std::fs::read_dir(&folder) else {
+            continue;
+        };
+        for path in entries.flatten().map(|e| e.path()) {
+            if path.is_dir() && depth < 1 {
+                folders.push((path, depth + 1));
+            } else if path.extension().is_some_and(|e| e == "toml") {
+                files.push(path);
+            }
+        }
+    }
+    let names: std::collections::BTreeSet<String> = files
+        .iter()
+        .filter_map(|f| std::fs::read_to_string(f).ok())
+        .filter_map(|text| text.parse::<toml::Table>().ok())
+        .filter_map(|t| t.get("mission")?.get("name")?.as_str().map(str::to_string))
+        .filter(|name| name.contains(&format!("_{}_", std::process::id())))
+        .collect();
+    for name in names {
+        if let Ok(domain) = vbap_ipc::topics::Domain::new(&name) {
+            domain.remove_files();
         }
     }
 }
@@ -648,5 +686,40 @@ mod unit {
             assert_eq!(*j, c);
         }
         assert_eq!(csv[1].injected_ms(), Some(1550.0));
+    }
+}
+
+#[cfg(test)]
+mod harness_tests {
+    use super::*;
+
+    /// A test's temp dir removes, when dropped, the shared-memory files of the missions of
+    /// this test process named in it, and no other mission's.
+    #[test]
+    fn a_dropped_temp_dir_removes_its_missions_domain_files() {
+        let mine = unique_name("harness");
+        let other = format!("harness_{}_other", std::process::id() + 1);
+        let leftover = |name: &str| {
+            let domain = vbap_ipc::topics::Domain::new(name).expect("a domain");
+            let path = Path::new("/dev/shm").join(format!("{}leftover", domain.shm_prefix()));
+            std::fs::write(&path, b"x").expect("writing into /dev/shm");
+            path
+        };
+        let (mine_file, other_file) = (leftover(&mine), leftover(&other));
+        let dir = TempDir::new("harness");
+        write_mission(&dir, "m.toml", &format!("[mission]\nname = \"{mine}\"\n"));
+        std::fs::create_dir(dir.join("run")).unwrap();
+        write_mission(
+            &dir,
+            "run/mission.toml",
+            &format!("[mission]\nname = \"{other}\"\n"),
+        );
+        drop(dir);
+        assert!(!mine_file.exists(), "{} is left", mine_file.display());
+        assert!(
+            other_file.exists(),
+            "another process's mission is not touched"
+        );
+        std::fs::remove_file(other_file).unwrap();
     }
 }
