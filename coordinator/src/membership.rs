@@ -344,6 +344,65 @@ mod tests {
         );
     }
 
+    /// A process restarted onto a member is a near collision at the tick of its
+    /// admission, before it has a true report of its own: the next tick their repulsion
+    /// has already thrown them apart.
+    #[test]
+    fn a_restart_onto_a_member_is_a_near_collision_at_its_admission() {
+        let m = mission("[control]\nlaw = \"robust\"");
+        let ids = [0, 1, 2, 3];
+        let mut fleet = Fleet::new(&m, &ids);
+        let mut planner =
+            Planner::new(PlannerParams::from_mission(&m), m.start_vec(), &ids).unwrap();
+        let mut stats = crate::truth::TruthStats::new(&m);
+        let home: Vec<Vec3> = planner
+            .design()
+            .slots
+            .iter()
+            .map(|p| m.start_vec() + p)
+            .collect();
+        // Vehicle 2 dies next to vehicle 1's slot, 0.05 spacing from it.
+        let spacing = planner.design().neighbour_spacing();
+        let on_one = home[1] + Vec3::new(0.05 * spacing, 0.0, 0.0);
+        let mut step = |fleet: &mut Fleet, k: u64| {
+            let admitted: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
+            let truth: Vec<Report> = fleet
+                .alive()
+                .filter(|id| !admitted.contains(id))
+                .map(|id| Report {
+                    id,
+                    tick: k,
+                    position: if id == 2 { on_one } else { home[id as usize] },
+                    velocity: Vec3::zeros(),
+                    measurement: 1.0,
+                })
+                .collect();
+            fleet.receive(k, DT, &truth);
+            fleet.track_body(k, planner.body().r);
+            let (members, fresh) = fleet.deliver(k as f64 * DT, DT);
+            planner.see_hulls(&fleet.hulls());
+            let c = planner.step(k, &members, &fresh, &admitted, DT).unwrap();
+            let tick =
+                crate::truth::tick(&mut stats, &m, k, &truth, &c, planner.design(), fleet, None);
+            fleet.end_tick();
+            tick
+        };
+        for k in 0..3 {
+            step(&mut fleet, k);
+        }
+        lose(&mut fleet, 3, DT, 2, &Loss::scheduled_kill()).unwrap();
+        let before = step(&mut fleet, 3);
+        assert!(before.row.min_pair_ratio.unwrap() > 0.5);
+        rejoin(&mut fleet, 4, DT, 2).unwrap();
+        let back = step(&mut fleet, 4);
+        let ratio = back.row.min_pair_ratio.unwrap();
+        // 0.05 of the design's spacing, measured against the body's (scaled) spacing.
+        assert!(ratio > 0.04 && ratio < 0.06, "{ratio}");
+        assert!(back.events.iter().any(
+            |e| e.kind == "near_collision" && e.detail["vehicles"] == serde_json::json!([1, 2])
+        ));
+    }
+
     /// Losing a member redesigns the formation for the vehicles left at the planner's next
     /// step; admitting it back redesigns it again, with the vehicle rejoining.
     #[test]

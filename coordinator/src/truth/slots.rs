@@ -80,7 +80,33 @@ pub(super) fn vehicles(
         };
         rows.push(vehicle(stats, scene, id, own, &mut tally, events));
     }
+    restarted_pairs(scene, &positions, ratio, &mut tally);
     (rows, tally)
+}
+
+/// Counts into `tally`'s closest pair every vehicle admitted back at this tick (a process
+/// restarted where its vehicle was, `Fleet::admitted`, at its restore state: it has no true
+/// report of this tick yet) against every vehicle of the tick's truth (`positions`), its
+/// distance `ratio`-ed to the design spacing. A restart onto a member is a collision at
+/// this very tick; the next tick, their repulsion has already thrown them apart (stress
+/// seed 13, m0779: 13 L apart one tick later, at 134 L/s, and no near collision counted).
+fn restarted_pairs(
+    scene: &Scene,
+    positions: &[vbap_math::Vec3],
+    ratio: impl Fn(f64) -> f64,
+    tally: &mut Tally,
+) {
+    for back in scene.fleet.admitted() {
+        for (q, p) in scene.truth.iter().zip(positions) {
+            if q.id == back.id {
+                continue;
+            }
+            let r = ratio((back.position - p).norm());
+            if tally.min_pair.is_none_or(|(m, _, _)| r < m) {
+                tally.min_pair = Some((r, back.id.min(q.id), back.id.max(q.id)));
+            }
+        }
+    }
 }
 
 /// Vehicle `id`'s row, with its figures `own`, counted into `tally`.
