@@ -156,6 +156,35 @@ mod tests {
         )
     }
 
+    /// Tick `k` of `fleet` and `planner` with every live vehicle not admitted at this tick
+    /// at rest at `at(id)` (the true reports, as the simulator takes them): the reports and
+    /// the planner's command. The fleet's tick is not ended (`Fleet::end_tick`).
+    fn at_rest(
+        fleet: &mut Fleet,
+        planner: &mut Planner,
+        k: u64,
+        at: impl Fn(u32) -> Vec3,
+    ) -> (Vec<Report>, crate::planner::Command) {
+        let admitted: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
+        let truth: Vec<Report> = fleet
+            .alive()
+            .filter(|id| !admitted.contains(id))
+            .map(|id| Report {
+                id,
+                tick: k,
+                position: at(id),
+                velocity: Vec3::zeros(),
+                measurement: 1.0,
+            })
+            .collect();
+        fleet.receive(k, DT, &truth);
+        fleet.track_body(k, planner.body().r);
+        let (members, fresh) = fleet.deliver(k as f64 * DT, DT);
+        planner.see_hulls(&fleet.hulls());
+        let command = planner.step(k, &members, &fresh, &admitted, DT).unwrap();
+        (truth, command)
+    }
+
     #[test]
     fn loss_details_say_how_the_vehicle_was_found() {
         let kill = Loss::scheduled_kill();
@@ -307,22 +336,8 @@ mod tests {
         // Vehicle 1 was last heard of between the two slots, nearer vehicle 2's.
         let drifted = slot2 + 0.4 * (slot1 - slot2);
         let mut step = |fleet: &mut Fleet, k: u64| {
-            let truth: Vec<Report> = fleet
-                .alive()
-                .map(|id| Report {
-                    id,
-                    tick: k,
-                    position: if id == 1 { drifted } else { home[id as usize] },
-                    velocity: Vec3::zeros(),
-                    measurement: 1.0,
-                })
-                .collect();
-            fleet.receive(k, DT, &truth);
-            fleet.track_body(k, planner.body().r);
-            let joined: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
-            let (members, fresh) = fleet.deliver(k as f64 * DT, DT);
-            planner.see_hulls(&fleet.hulls());
-            let c = planner.step(k, &members, &fresh, &joined, DT).unwrap();
+            let at = |id: u32| if id == 1 { drifted } else { home[id as usize] };
+            let (_, c) = at_rest(fleet, &mut planner, k, at);
             fleet.end_tick();
             c
         };
@@ -365,23 +380,8 @@ mod tests {
         let spacing = planner.design().neighbour_spacing();
         let on_one = home[1] + Vec3::new(0.05 * spacing, 0.0, 0.0);
         let mut step = |fleet: &mut Fleet, k: u64| {
-            let admitted: Vec<u32> = fleet.admitted().iter().map(|r| r.id).collect();
-            let truth: Vec<Report> = fleet
-                .alive()
-                .filter(|id| !admitted.contains(id))
-                .map(|id| Report {
-                    id,
-                    tick: k,
-                    position: if id == 2 { on_one } else { home[id as usize] },
-                    velocity: Vec3::zeros(),
-                    measurement: 1.0,
-                })
-                .collect();
-            fleet.receive(k, DT, &truth);
-            fleet.track_body(k, planner.body().r);
-            let (members, fresh) = fleet.deliver(k as f64 * DT, DT);
-            planner.see_hulls(&fleet.hulls());
-            let c = planner.step(k, &members, &fresh, &admitted, DT).unwrap();
+            let at = |id: u32| if id == 2 { on_one } else { home[id as usize] };
+            let (truth, c) = at_rest(fleet, &mut planner, k, at);
             let tick =
                 crate::truth::tick(&mut stats, &m, k, &truth, &c, planner.design(), fleet, None);
             fleet.end_tick();
