@@ -569,6 +569,12 @@ pub fn wait_for_ticks(out: &Path, rows: usize) {
     );
 }
 
+/// Waits (at most 60 s) until the run writing `out` has recorded `more` ticks in
+/// `body.csv` beyond those it has now: the mission goes on.
+pub fn wait_for_more_ticks(out: &Path, more: usize) {
+    wait_for_ticks(out, line_count(&out.join("body.csv")) + more);
+}
+
 /// The rejoin missions of the end-to-end tests: six vehicles on a Gaussian hill 33 units
 /// away, dt 0.1 s, agents restarted on failure; `extra` is appended (links, faults).
 pub fn rejoin_mission(name: &str, duration: f64, extra: &str) -> String {

@@ -228,8 +228,7 @@ fn a_lockstep_tick_does_not_wait_for_a_stopped_member() {
         "the agent killed during the stop was never lost",
     );
     // Still stopped: the mission goes on commanding the others.
-    let ticks = line_count(&out.join("body.csv"));
-    wait_for_ticks(&out, ticks + 100);
+    wait_for_more_ticks(&out, 100);
     let rejoined_while_stopped = of(&out, "rejoin", 2).len();
     continue_and_await_rejoin(&out, 2);
     interrupt(run);
@@ -261,6 +260,17 @@ fn field_server(out: &Path) -> String {
     )
 }
 
+/// Waits (at most 60 s) for the `lost` event of the killed agent of vehicle `v`.
+fn await_lost(out: &Path, v: u64) {
+    await_event(
+        out,
+        "lost",
+        v,
+        Duration::from_secs(60),
+        "the killed agent was never lost",
+    );
+}
+
 /// An agent killed while the field server is stopped, in a paced run: the coordinator that
 /// was running goes on ticking without the field server's readings, loses the agent and
 /// keeps commanding the others, all while the field server stays stopped. Before: the
@@ -274,16 +284,9 @@ fn a_paced_run_loses_an_agent_killed_while_its_field_server_is_stopped() {
     // The field server answers nothing from here on.
     signal("-STOP", &field_server(&out));
     signal("-KILL", &agent(&out, 1));
-    await_event(
-        &out,
-        "lost",
-        1,
-        Duration::from_secs(60),
-        "the killed agent was never lost",
-    );
+    await_lost(&out, 1);
     // Still stopped: the mission goes on ticking and commanding its other vehicles.
-    let ticks = line_count(&out.join("body.csv"));
-    wait_for_ticks(&out, ticks + 100);
+    wait_for_more_ticks(&out, 100);
     let lost = of(&out, "lost", 1);
     let blind = log_count(&out, "coordinator", "the paced ticks go on without them");
     let resumed = log_count(&out, "coordinator", "resumed from the checkpoint");
@@ -320,15 +323,8 @@ fn a_lockstep_coordinator_decides_a_death_while_it_waits_for_a_stopped_field_ser
     );
     let resumed = log_count(&out, "coordinator", "resumed from the checkpoint");
     signal("-CONT", &field_server(&out));
-    await_event(
-        &out,
-        "lost",
-        1,
-        Duration::from_secs(60),
-        "the killed agent was never lost",
-    );
-    let ticks = line_count(&out.join("body.csv"));
-    wait_for_ticks(&out, ticks + 100);
+    await_lost(&out, 1);
+    wait_for_more_ticks(&out, 100);
     interrupt(run);
     let lost = of(&out, "lost", 1);
     eprintln!("killed while the field server was stopped, lockstep: {lost:?}");
