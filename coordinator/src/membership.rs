@@ -156,6 +156,16 @@ mod tests {
         )
     }
 
+    /// The fleet of vehicles 0–3 of `m` after `ticks` ticks of every one reporting.
+    fn ticked(m: &Mission, ticks: u64) -> Fleet {
+        let mut fleet = Fleet::new(m, &[0, 1, 2, 3]);
+        for k in 0..ticks {
+            tick(&mut fleet, k);
+            fleet.end_tick();
+        }
+        fleet
+    }
+
     /// Tick `k` of `fleet` and `planner` with every live vehicle not admitted at this tick
     /// at rest at `at(id)` (the true reports, as the simulator takes them): the reports and
     /// the planner's command. The fleet's tick is not ended (`Fleet::end_tick`).
@@ -259,12 +269,7 @@ mod tests {
     #[test]
     fn a_lost_vehicle_s_hull_is_where_it_was_last_heard_of() {
         use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
-        let m = mission("[links]\ndelay = 0.1");
-        let mut fleet = Fleet::new(&m, &[0, 1, 2, 3]);
-        for k in 0..6 {
-            tick(&mut fleet, k);
-            fleet.end_tick();
-        }
+        let mut fleet = ticked(&mission("[links]\ndelay = 0.1"), 6);
         let heard = *fleet.newest_report(2).unwrap();
         assert!(heard.tick < 5, "the links hold the newest reports");
         lose(&mut fleet, 6, DT, 2, &Loss::scheduled_kill()).unwrap();
@@ -288,12 +293,7 @@ mod tests {
     /// Reports a lost vehicle sent that the links still hold are dropped with it.
     #[test]
     fn a_lost_vehicle_s_reports_in_flight_are_dropped() {
-        let m = mission("[links]\ndelay = 0.5\n");
-        let mut fleet = Fleet::new(&m, &[0, 1, 2, 3]);
-        for k in 0..3 {
-            tick(&mut fleet, k);
-            fleet.end_tick();
-        }
+        let mut fleet = ticked(&mission("[links]\ndelay = 0.5\n"), 3);
         let held = |f: &Fleet, v: u32| f.held_reports().0.iter().filter(|e| e.2.id == v).count();
         assert!(held(&fleet, 1) > 0, "a 0.5 s delay holds reports");
         lose(
