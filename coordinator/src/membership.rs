@@ -166,6 +166,20 @@ mod tests {
         fleet
     }
 
+    /// The fleet of every vehicle of `m`, its planner, and where each vehicle's slot of the
+    /// initial formation is.
+    fn fleet_and_planner(m: &Mission) -> (Fleet, Planner, Vec<Vec3>) {
+        let ids: Vec<u32> = (0..m.vehicles.count as u32).collect();
+        let planner = Planner::new(PlannerParams::from_mission(m), m.start_vec(), &ids).unwrap();
+        let home = planner
+            .design()
+            .slots
+            .iter()
+            .map(|p| m.start_vec() + p)
+            .collect();
+        (Fleet::new(m, &ids), planner, home)
+    }
+
     /// Tick `k` of `fleet` and `planner` with every live vehicle not admitted at this tick
     /// at rest at `at(id)` (the true reports, as the simulator takes them): the reports and
     /// the planner's command. The fleet's tick is not ended (`Fleet::end_tick`).
@@ -322,16 +336,7 @@ mod tests {
             "<test>",
         )
         .unwrap();
-        let ids: Vec<u32> = (0..6).collect();
-        let mut fleet = Fleet::new(&m, &ids);
-        let mut planner =
-            Planner::new(PlannerParams::from_mission(&m), m.start_vec(), &ids).unwrap();
-        let home: Vec<Vec3> = planner
-            .design()
-            .slots
-            .iter()
-            .map(|p| m.start_vec() + p)
-            .collect();
+        let (mut fleet, mut planner, home) = fleet_and_planner(&m);
         let (slot1, slot2) = (home[1], home[2]);
         // Vehicle 1 was last heard of between the two slots, nearer vehicle 2's.
         let drifted = slot2 + 0.4 * (slot1 - slot2);
@@ -365,17 +370,8 @@ mod tests {
     #[test]
     fn a_restart_onto_a_member_is_a_near_collision_at_its_admission() {
         let m = mission("[control]\nlaw = \"robust\"");
-        let ids = [0, 1, 2, 3];
-        let mut fleet = Fleet::new(&m, &ids);
-        let mut planner =
-            Planner::new(PlannerParams::from_mission(&m), m.start_vec(), &ids).unwrap();
+        let (mut fleet, mut planner, home) = fleet_and_planner(&m);
         let mut stats = crate::truth::TruthStats::new(&m);
-        let home: Vec<Vec3> = planner
-            .design()
-            .slots
-            .iter()
-            .map(|p| m.start_vec() + p)
-            .collect();
         // Vehicle 2 dies next to vehicle 1's slot, 0.05 spacing from it.
         let spacing = planner.design().neighbour_spacing();
         let on_one = home[1] + Vec3::new(0.05 * spacing, 0.0, 0.0);
@@ -408,10 +404,7 @@ mod tests {
     #[test]
     fn membership_changes_redesign_the_formation() {
         let m = mission("");
-        let ids = [0, 1, 2, 3];
-        let mut fleet = Fleet::new(&m, &ids);
-        let mut planner =
-            Planner::new(PlannerParams::from_mission(&m), m.start_vec(), &ids).unwrap();
+        let (mut fleet, mut planner, _) = fleet_and_planner(&m);
         let mut step = |fleet: &mut Fleet, k: u64| {
             let truth: Vec<Report> = fleet.alive().map(|id| report(id, k)).collect();
             fleet.receive(k, DT, &truth);
