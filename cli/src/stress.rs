@@ -57,6 +57,10 @@ pub struct StressArgs {
     /// Do not print a line per flight.
     #[arg(long)]
     pub quiet: bool,
+    /// Fly only these mission indices (comma-separated or repeated, each below MISSIONS),
+    /// e.g. to fly a failure of a large campaign again: `--missions 1000 --only 779`.
+    #[arg(long, value_delimiter = ',', value_name = "I")]
+    pub only: Vec<u64>,
 }
 
 /// The flyer: `vbap sim` without its progress bar.
@@ -104,6 +108,12 @@ pub fn main(args: &StressArgs) -> Result<i32> {
         sets: args.sets.clone(),
         space,
         verbose: !args.quiet,
+        only: {
+            let mut only = args.only.clone();
+            only.sort_unstable();
+            only.dedup();
+            only
+        },
     };
     let outcome = vbap_stress::run(&config, &fly).map_err(|e| match e.downcast::<BadInput>() {
         Ok(bad) => anyhow::Error::new(InvalidInput(bad.0)),

@@ -77,6 +77,10 @@ pub struct Config {
     pub space: Space,
     /// Print a line per flight on stderr.
     pub verbose: bool,
+    /// Fly only these indices of 0..missions (sorted, distinct); empty: all of them.
+    /// Mission i is the same draw with or without it, so a failure of a large campaign
+    /// is flown again alone.
+    pub only: Vec<u64>,
 }
 
 impl Plan {
@@ -89,6 +93,7 @@ impl Plan {
             shrink: c.shrink,
             sets: c.sets.iter().map(|s| s.to_string()).collect(),
             space: c.space.to_string(),
+            only: c.only.clone(),
         }
     }
 }
@@ -329,6 +334,7 @@ pub fn run(config: &Config, flyer: Flyer<'_>) -> Result<Outcome> {
     // Every mission is sampled (and validated) before the plan is written: bad input (a
     // --set the missions refuse) leaves no campaign behind.
     let sampled: Vec<Sampled> = (0..config.missions)
+        .filter(|i| config.only.is_empty() || config.only.contains(i))
         .map(|i| {
             sample(
                 &config.space,
@@ -371,6 +377,13 @@ fn check_config(config: &Config) -> Result<()> {
     }
     if !(config.v_bound > 0.0 && config.v_bound.is_finite()) {
         return Err(BadInput(format!("--v-bound {}: must be > 0", config.v_bound)).into());
+    }
+    if let Some(i) = config.only.iter().find(|&&i| i >= config.missions) {
+        return Err(BadInput(format!(
+            "--only {i}: not a mission of this campaign (indices 0..{})",
+            config.missions
+        ))
+        .into());
     }
     Ok(())
 }

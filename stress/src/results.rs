@@ -18,6 +18,9 @@ pub struct Plan {
     pub sets: Vec<String>,
     /// The declared space, as `--space` prints it.
     pub space: String,
+    /// The only mission indices flown (`--only`); empty: every index below `missions`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub only: Vec<u64>,
 }
 
 /// The dimensions of a flight, for the table.

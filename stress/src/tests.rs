@@ -215,7 +215,43 @@ fn config(out: &Path, missions: u64) -> Config {
         sets: Vec::new(),
         space: Space::default(),
         verbose: false,
+        only: Vec::new(),
     }
+}
+
+/// `--only`: a campaign flies the chosen indices alone, each the same flight, with the same
+/// result, as in the whole campaign; an index beyond the campaign is bad input.
+#[test]
+fn only_some_indices_fly_the_same_flights_as_the_whole_campaign() {
+    let tmp = tempfile::tempdir().unwrap();
+    let whole = campaign::run(&config(&tmp.path().join("whole"), 12), &synthetic).unwrap();
+    let chosen = Config {
+        only: vec![3, 7, 11],
+        ..config(&tmp.path().join("chosen"), 12)
+    };
+    let part = campaign::run(&chosen, &synthetic).unwrap();
+    assert_eq!(part.flown, 6);
+    // The same flights, judged the same (the wall time aside).
+    let timeless = |r: &crate::results::FlightResult| crate::results::FlightResult {
+        wall_s: 0.0,
+        ..r.clone()
+    };
+    let expected: Vec<_> = whole
+        .results
+        .iter()
+        .filter(|r| chosen.only.contains(&r.mission))
+        .map(timeless)
+        .collect();
+    assert_eq!(
+        part.results.iter().map(timeless).collect::<Vec<_>>(),
+        expected
+    );
+    let beyond = Config {
+        only: vec![12],
+        ..config(&tmp.path().join("beyond"), 12)
+    };
+    let e = campaign::run(&beyond, &synthetic).unwrap_err();
+    assert!(e.to_string().contains("--only 12"), "{e:#}");
 }
 
 #[test]
