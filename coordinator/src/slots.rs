@@ -27,8 +27,8 @@ pub fn annotate(snapshot: &mut [SnapshotEntry], k: u64, dt: f64, members: &[Repo
 /// Every member's slot at the tick of `command` (inertial, length unit), by id: a
 /// rejoining member's is the slot it flies to (`command.rejoining`); the others' are the
 /// slots of `design`, moved by the command's body in the body's own orientation, assigned
-/// to the members' positions as the coordinator knows them (`vbap_math::fit::held_slots`:
-/// each vehicle to a distinct slot). The frame does not turn to fit those positions: they
+/// to the members' positions as the coordinator knows them, a rejoining member counting at
+/// its slot (`vbap_math::fit::held_slots`: each vehicle to a distinct slot). The frame does not turn to fit those positions: they
 /// are a round trip old, and a frame turned by them closes a delayed loop on the
 /// formation's rotation (s² + K s + κ_s (1 − e^{−sτ}) = 0, unstable once the round trip τ
 /// passes about π/√(2 κ_s); docs/ENVELOPE.md).
@@ -50,7 +50,21 @@ pub fn member_slots(
     if command.reconfigured {
         held.clear();
     }
-    let positions: Vec<Vec3> = members.iter().map(|r| r.position).collect();
+    // A rejoining member counts at the slot it flies to, so that no other member is
+    // assigned that slot: where it was admitted back (its hull) may be next to a member
+    // that the formation carried into its old hole, which then took the slot given to the
+    // rejoining vehicle, and the two met there once it was captured (stress seed 13,
+    // m0905: a near collision at 0.03 spacing).
+    let positions: Vec<Vec3> = members
+        .iter()
+        .map(|r| {
+            command
+                .rejoining
+                .iter()
+                .find(|(id, _)| *id == r.id)
+                .map_or(r.position, |(_, target)| *target)
+        })
+        .collect();
     // The body's own orientation: the frame `held_slots` assigns in (it never turns).
     let rotation = *body.rotation.matrix();
     let last: Vec<Option<usize>> = members.iter().map(|r| held.get(&r.id).copied()).collect();
@@ -196,6 +210,29 @@ mod tests {
             fresh
         );
         assert_eq!(held[&0], 1, "the fresh assignment is held from now on");
+    }
+
+    /// Vehicle 2 is admitted back at its old slot 2 (where it died), given slot 3 to fly
+    /// to; vehicle 3 sits in slot 2 (a fifth of the way to slot 3). Assigned by where the
+    /// vehicles are, 3 would take slot 3, the rejoining vehicle's: the two would meet
+    /// there. The rejoining vehicle counts at its slot, so 3 keeps slot 2.
+    #[test]
+    fn no_member_is_given_the_slot_a_rejoining_vehicle_flies_to() {
+        let design = design_regular(6, 2, 1.5, 1.0, 1.0).unwrap();
+        let body = body_off_origin();
+        let at = |j: usize| body.r + design.slots[j];
+        let mut positions: Vec<Vec3> = (0..6).map(at).collect();
+        positions[3] = at(2) + 0.2 * (at(3) - at(2));
+        let mut command = command(&design, body, true);
+        command.rejoining = vec![(2, at(3))];
+        let slots = member_slots(
+            &design,
+            &mut BTreeMap::new(),
+            &command,
+            &members_at(&positions),
+        );
+        assert_eq!(slots[2], (2, at(3)), "the rejoining vehicle's target");
+        assert_eq!(slots[3], (3, at(2)), "not the rejoining vehicle's slot");
     }
 
     #[test]
