@@ -39,9 +39,9 @@ pub struct Fleet {
     alive: BTreeSet<u32>,
     latest: BTreeMap<u32, Report>,
     last_truth: BTreeMap<u32, Report>,
-    /// The last report delivered from each lost vehicle (its `latest` when it was lost):
-    /// where its hull was last heard of, which the snapshot tells the others
-    /// ([`Fleet::snapshot`]). Until it is admitted back.
+    /// The last report delivered from each lost vehicle (its `latest` when it was lost),
+    /// dead-reckoned with the body to the loss: where its hull is, which the snapshot tells
+    /// the others ([`Fleet::snapshot`]). Until it is admitted back.
     #[serde(default)]
     hulls: BTreeMap<u32, Report>,
     lost: BTreeSet<u32>,
@@ -200,12 +200,29 @@ impl Fleet {
         }
         self.lost.insert(v);
         if let Some(last) = self.latest.remove(&v) {
-            self.hulls.insert(v, last);
+            self.hulls.insert(v, self.dead_reckoned(&last));
         }
         self.purged.push((v, self.inbox.next_seq()));
         self.inbox.retain(|r| r.id != v);
         self.admitted.retain(|r| r.id != v);
         true
+    }
+
+    /// Where the vehicle of `last` is now, as a member out of contact is dead-reckoned
+    /// ([`Fleet::deliver`]): its place relative to the body kept, moved by the body's
+    /// motion since the report, `r(now) − r(j)`. A lost vehicle's hull is where it was
+    /// when it was lost (a restarted process comes back there), not where it last
+    /// reported: over a 1 s link a moving formation is a tenth of a spacing further on.
+    fn dead_reckoned(&self, last: &Report) -> Report {
+        let now = self.body_track.last_key_value();
+        match (now, self.body_track.get(&last.tick)) {
+            (Some((&k, r_now)), Some(r_then)) => Report {
+                tick: k,
+                position: last.position + (r_now - r_then),
+                ..*last
+            },
+            _ => *last,
+        }
     }
 
     /// Admits lost vehicle `v` back at this tick, at its last true state; returns that

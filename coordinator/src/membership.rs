@@ -283,7 +283,19 @@ mod tests {
     #[test]
     fn a_lost_vehicle_s_hull_is_where_it_was_last_heard_of() {
         use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
-        let mut fleet = ticked(&mission("[links]\ndelay = 0.1"), 6);
+        // The body moves 0.2 along x per tick: the hull is the last report moved with it
+        // from the report's tick to the loss's (where a member out of contact is seen).
+        let body = |k: u64| Vec3::new(0.2 * k as f64, 0.0, 0.0);
+        let mut fleet = Fleet::new(&mission("[links]\ndelay = 0.1"), &[0, 1, 2, 3]);
+        for k in 0..=6 {
+            let truth: Vec<Report> = fleet.alive().map(|id| report(id, k)).collect();
+            fleet.receive(k, DT, &truth);
+            fleet.track_body(k, body(k));
+            if k < 6 {
+                fleet.deliver(k as f64 * DT, DT);
+                fleet.end_tick();
+            }
+        }
         let heard = *fleet.newest_report(2).unwrap();
         assert!(heard.tick < 5, "the links hold the newest reports");
         lose(&mut fleet, 6, DT, 2, &Loss::scheduled_kill()).unwrap();
@@ -291,11 +303,13 @@ mod tests {
         let snapshot = fleet.snapshot(&members, &[]);
         let hull = snapshot.iter().find(|e| e.id == 2).unwrap();
         assert_eq!(hull.alive, SnapshotEntry::LOST);
-        assert_eq!(vbap_ipc::msg::to_vec3(&hull.position), heard.position);
-        assert_ne!(heard.position, report(2, 5).position, "not the truth");
+        let reckoned = heard.position + body(6) - body(heard.tick);
+        assert_eq!(vbap_ipc::msg::to_vec3(&hull.position), reckoned);
+        assert_eq!(fleet.hulls(), vec![reckoned]);
+        assert_ne!(reckoned, report(2, 6).position, "not the truth");
         fleet.end_tick();
         let (restore, _) = rejoin(&mut fleet, 7, DT, 2).unwrap();
-        assert_eq!(restore, report(2, 5), "restarted at its last true state");
+        assert_eq!(restore, report(2, 6), "restarted at its last true state");
         let (members, _) = fleet.deliver(7.0 * DT, DT);
         let snapshot = fleet.snapshot(&members, &[]);
         assert!(snapshot

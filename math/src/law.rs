@@ -51,6 +51,10 @@ pub struct ControlInputs<'a> {
     /// or when not estimated): its velocity over the ground is the velocity the law is
     /// given (through the water) plus this.
     pub current: Vec3,
+    /// Where the hulls of lost vehicles are (length unit; they stay where they were last
+    /// known, not moved with the body; empty: none). The robust law keeps clear of them
+    /// ([`super::hull`]); the paper's law does not know of them.
+    pub hulls: &'a [Vec3],
 }
 
 impl<'a> ControlInputs<'a> {
@@ -81,6 +85,7 @@ impl<'a> ControlInputs<'a> {
             body_growth: 0.0,
             body_centre: Vec3::zeros(),
             current: Vec3::zeros(),
+            hulls: &[],
         }
     }
 

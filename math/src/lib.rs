@@ -28,6 +28,7 @@
 pub mod adapt;
 pub mod ascent;
 pub mod assign;
+pub mod barrier;
 pub mod body;
 pub mod bumpless;
 pub mod control;
@@ -39,6 +40,7 @@ pub mod estimate;
 pub mod fit;
 pub mod formation;
 pub mod gridmath;
+pub mod hull;
 pub mod kalman;
 pub mod law;
 pub mod lyapunov;

@@ -42,6 +42,7 @@
 //! breaks Theorem 4.1's bound (the proof needs only `0 ≤ ṡ ≤` the bracket), and the
 //! vehicle closes on its slot at the homing speed whatever the absence lasted.
 
+use super::barrier::Barrier;
 use super::body::{BodyRates, VirtualBody};
 use super::formation::FormationDesign;
 use super::lyapunov::LyapunovTerms;
@@ -59,13 +60,14 @@ use super::Vec3;
 pub const CAPTURE: f64 = 0.1;
 
 /// How far the repulsion kept between real vehicles while some rejoin reaches, as a
-/// fraction of `d0` ([`add_repulsion`]): the repulsive part of `V_I` scaled by it (the
-/// same force law, `d0` and `d1` times `REPULSION_REACH`). At `d0` itself it would wall a
-/// hole off: a vehicle coming into its slot from inside a ring passes about 6 % inside
-/// `d0` of both of the slot's neighbours, and was held there, its pull home balanced by
-/// their repulsion, while the body waited for it (seen in random missions). Half a
-/// spacing still stops a vehicle flying home at its homing speed well short of a near
-/// collision (the energy from `d0/2` to `d0/10` is `(4 − ln 5) α ≈ 2.4 α`).
+/// fraction of `d0` ([`add_repulsion`], a soft barrier of this reach). At `d0` itself it
+/// would wall a hole off: a vehicle coming into its slot from inside a ring passes about
+/// 6 % inside `d0` of both of the slot's neighbours, and was held there, its pull home
+/// balanced by their repulsion, while the body waited for it (seen in random missions).
+/// Half a spacing still stops a vehicle flying home at its homing speed well short of a
+/// near collision (the barrier's energy from `d0/2` to `d0/10` is
+/// `½ · 4 α/d0² · (0.4 d0)² = 0.32 α`, against `½ |v_ref|²` of a homing vehicle,
+/// `|v_ref| ≤ v0 + w`).
 pub const REPULSION_REACH: f64 = 0.5;
 
 /// A slot is free for a rejoining vehicle when no member or slot already given to another
@@ -304,9 +306,9 @@ fn add_force(u: &mut Vec3, x: &Vec3, p: &Vec3, pot: &PairPotential, w: f64) {
     }
 }
 
-/// Adds the repulsive part only of `− w f(|x − p|) (x − p)/|x − p|` to `u`, `f` the force
-/// of `pot` scaled by [`REPULSION_REACH`]: nothing where `f ≥ 0` (at or beyond
-/// `REPULSION_REACH · d0`), for `w ≤ 0` or at distance 0.
+/// Adds the repulsion `w` times the soft barrier of reach [`REPULSION_REACH`] · `d0`
+/// round `p` ([`Barrier`], for the scaled inter-vehicle potential `pot`) to `u`: nothing at or
+/// beyond the reach, for `w ≤ 0` or at distance 0.
 ///
 /// Collision avoidance while vehicles rejoin (beyond the paper): the blend weighs the
 /// pair term of a rejoining vehicle and a true neighbour by `(1 − σ_i)(1 − σ_j) < 1`,
@@ -316,28 +318,20 @@ fn add_force(u: &mut Vec3, x: &Vec3, p: &Vec3, pot: &PairPotential, w: f64) {
 /// whatever their homing; with nobody rejoining `w = 0` and nothing is added. It is the
 /// gradient of the term [`blended_lyapunov_terms`] adds to `V_w` (that repulsion's
 /// energy, weighted by `w`), so the speed law (IV.4) sees it.
+///
+/// A spring, not the repulsive part of `V_I` (a `1/x` wall, as before): a vehicle is
+/// admitted back where it died, possibly a quarter of a spacing from a member, and the
+/// wall threw both apart at 10–12 spacings per second in one step (`super::barrier`).
 pub(crate) fn add_repulsion(u: &mut Vec3, x: &Vec3, p: &Vec3, pot: &PairPotential, w: f64) {
-    if w.is_nan() || w <= 0.0 {
-        return;
-    }
-    let pot = pot.scaled(REPULSION_REACH);
-    let d = x - p;
-    let dist = d.norm();
-    if dist <= 0.0 || dist >= pot.d0 {
-        return;
-    }
-    let f = pot.force(dist);
-    if f < 0.0 {
-        *u -= (w * f / dist) * d;
-    }
+    Barrier::of(pot, REPULSION_REACH).push(u, x, p, w);
 }
 
 /// The energy of the repulsion the blend gives back ([`add_repulsion`]), energy per unit
-/// mass, and its `∂/∂k` at fixed positions: `Σ_{i<j} c_ij V_r(d_ij)` over the pairs of true
-/// positions closer than `d_r = REPULSION_REACH · d0`, `V_r` the potential `V_I` scaled by
-/// [`REPULSION_REACH`], `c_ij = 1 − (1 − σ_i)(1 − σ_j)` (`V_r(d_r) = 0`, so the term and
+/// mass, and its `∂/∂k` at fixed positions: `Σ_{i<j} c_ij V_b(d_ij)` over the pairs of true
+/// positions closer than `d_r = REPULSION_REACH · d0`, `V_b` the soft barrier of that
+/// reach ([`Barrier`]), `c_ij = 1 − (1 − σ_i)(1 − σ_j)` (`V_b(d_r) = 0`, so the term and
 /// its force vanish at `d_r`: `V_w` plus this term is the potential whose gradient the
-/// blended law follows, and the power of [`blended_lyapunov_terms`] stays exact; `V_r`
+/// blended law follows, and the power of [`blended_lyapunov_terms`] stays exact; `V_b`
 /// scales with `k` as `V_I` does). Zero when nobody rejoins.
 fn repulsion_energy(
     positions: &[Vec3],
@@ -345,15 +339,15 @@ fn repulsion_energy(
     inter: &PairPotential,
 ) -> (f64, f64) {
     let sigma = |h: &Option<(Homing, Vec3)>| h.as_ref().map_or(0.0, |(h, _)| h.sigma);
-    let inter = &inter.scaled(REPULSION_REACH);
+    let barrier = Barrier::of(inter, REPULSION_REACH);
     let (mut energy, mut d_scale) = (0.0, 0.0);
     for (i, (xi, hi)) in positions.iter().zip(homings).enumerate() {
         for (xj, hj) in positions[i + 1..].iter().zip(&homings[i + 1..]) {
             let c = 1.0 - (1.0 - sigma(hi)) * (1.0 - sigma(hj));
             let dist = (xi - xj).norm();
-            if c > 0.0 && dist > 0.0 && dist < inter.d0 {
-                energy += c * inter.value(dist);
-                d_scale += c * inter.d_value_d_scale(dist);
+            if c > 0.0 && dist < barrier.reach {
+                energy += c * barrier.value(dist);
+                d_scale += c * barrier.d_value_d_scale(dist);
             }
         }
     }
@@ -699,7 +693,7 @@ mod tests {
             2.0 * (Vec3::new(0.5, 0.0, 0.0) - Vec3::new(0.0, 1.0, 0.0))
         );
         // A neighbour closer than REPULSION_REACH·d0 still repels it at full strength (no
-        // collision), with the force of V_I scaled by the reach.
+        // collision), with the soft barrier of that reach.
         let close = |at: f64| {
             blended_control_law(
                 &Vec3::zeros(),
@@ -712,13 +706,14 @@ mod tests {
                 2.0,
             )
         };
-        let repulsion = inter.scaled(REPULSION_REACH);
+        let barrier = Barrier::of(&inter, REPULSION_REACH);
+        let push = barrier.kappa * (barrier.reach - 0.3);
+        assert!(push > 0.0);
         assert_relative_eq!(
             close(0.3),
-            2.0 * Vec3::new(0.5, 0.0, 0.0) + Vec3::new(repulsion.force(0.3), 0.0, 0.0),
+            2.0 * Vec3::new(0.5, 0.0, 0.0) - Vec3::new(push, 0.0, 0.0),
             max_relative = 1e-12
         );
-        assert!(repulsion.force(0.3) < 0.0);
         // Between the reach and d0 it feels nothing from it: a hole's neighbours at d0 from
         // the slot do not wall it off.
         assert_eq!(close(0.6), 2.0 * Vec3::new(0.5, 0.0, 0.0));

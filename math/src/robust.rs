@@ -54,6 +54,7 @@
 //! of its slots exactly as a cruising one trails its body, by (T.1) with `v = |ĉ|`
 //! (a 16-glider ring on 0.25 L/s of current: 0.4–0.55 L, two gliders squeezed out).
 
+use super::hull::add_hull_barriers;
 use super::law::{ControlInputs, ControlLaw, PaperLaw};
 use super::potential::PairPotential;
 use super::rejoin::add_repulsion;
@@ -154,22 +155,26 @@ impl RobustLaw {
 
 impl ControlLaw for RobustLaw {
     fn control(&self, position: &Vec3, velocity: &Vec3, inputs: &ControlInputs<'_>) -> Vec3 {
-        if inputs
+        let mut u = if inputs
             .neighbour_ages
             .iter()
             .all(|a| a.is_nan() || *a <= 0.0)
         {
             let u = PaperLaw.control(position, velocity, inputs);
-            if !self.follow_body {
-                return u;
+            if self.follow_body {
+                let own = 1.0 - inputs.homing.map_or(0.0, |h| h.sigma);
+                u + own * inputs.damping * inputs.follow_velocity()
+            } else {
+                u
             }
-            let own = 1.0 - inputs.homing.map_or(0.0, |h| h.sigma);
-            return u + own * inputs.damping * inputs.follow_velocity();
-        }
-        let memory = self
-            .memory
-            .unwrap_or_else(|| derived_memory(&inputs.inter, inputs.damping));
-        robust_control_law(position, velocity, inputs, memory, self.follow_body)
+        } else {
+            let memory = self
+                .memory
+                .unwrap_or_else(|| derived_memory(&inputs.inter, inputs.damping));
+            robust_control_law(position, velocity, inputs, memory, self.follow_body)
+        };
+        add_hull_barriers(&mut u, position, inputs.hulls, &inputs.inter);
+        u
     }
 }
 

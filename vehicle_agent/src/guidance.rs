@@ -53,6 +53,10 @@ pub struct Guidance {
     /// `vbap_math::schedule`): out of contact the vehicle predicts the body from it
     /// instead of dead-reckoning at `velocity` (None: the paper's dead reckoning).
     pub plan: Option<BodyPlan>,
+    /// Where the hulls of the lost vehicles are, as the coordinator last knew them (length
+    /// unit; they do not move with the body): the robust law keeps clear of them
+    /// (`vbap_math::hull`). Empty while nobody is lost.
+    pub hulls: Vec<Vec3>,
 }
 
 impl Guidance {
@@ -85,6 +89,7 @@ impl Guidance {
             neighbour_ages: Vec::new(),
             slot: None,
             plan: None,
+            hulls: Vec::new(),
         }
     }
 
@@ -138,6 +143,7 @@ impl Guidance {
             neighbour_ages: Vec::new(),
             slot: None,
             plan: None,
+            hulls: Vec::new(),
         }
     }
 }

@@ -263,7 +263,61 @@ fn full_neighbours(
         .find(|e| e.id == id && e.alive != SnapshotEntry::LOST);
     g.target = own.filter(|e| e.rejoining != 0).map(|e| to_vec3(&e.target));
     g.slot = own.filter(|e| e.has_slot != 0).map(|e| to_vec3(&e.slot));
+    g.hulls = snapshot
+        .iter()
+        .filter(|e| e.id != id && e.alive == SnapshotEntry::LOST)
+        .map(|e| to_vec3(&e.position))
+        .collect();
     g
+}
+
+/// A lost vehicle of the snapshot is a hull: the robust law pushes a vehicle a tenth of a
+/// spacing from it away from it (`vbap_math::hull`); the paper's law does not
+/// know of it; the vehicle's own lost entry is no hull.
+#[test]
+fn the_robust_law_keeps_clear_of_the_hulls_of_lost_vehicles() {
+    use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+    use vbap_mission::config::LawKind;
+    let mission = paper_mission(None);
+    let design = initial_design(&mission).unwrap();
+    let base = Guidance::initial(&mission, &design);
+    let spacing = base.inter.d0;
+    let x = Vec3::new(0.3, -0.2, 0.0);
+    let hull = x - Vec3::new(0.1 * spacing, 0.0, 0.0);
+    let entry = |id, alive, p: Vec3| SnapshotEntry {
+        id,
+        alive,
+        position: [p.x, p.y, p.z],
+        ..SnapshotEntry::default()
+    };
+    let snapshot = [
+        entry(0, SnapshotEntry::LOST, x),
+        entry(1, SnapshotEntry::LOST, hull),
+        entry(2, SnapshotEntry::MEMBER, x + Vec3::new(0.0, 50.0, 0.0)),
+    ];
+    let g = base.with_neighbours(0, &snapshot);
+    assert_eq!(g.hulls, vec![hull]);
+    let pushed = |law: LawKind, g: &Guidance| {
+        let mut m = mission.clone();
+        m.control.law = law;
+        let agent = Agent {
+            id: 0,
+            dim: 2,
+            position: x,
+            velocity: Vec3::zeros(),
+        };
+        let mut v = Vehicle::new(agent, g.clone(), 0).with_law(crate::mission_law(&m));
+        v.step(0, 0.05);
+        v.agent.velocity
+    };
+    let without = Guidance {
+        hulls: vec![],
+        ..g.clone()
+    };
+    let away = pushed(LawKind::Robust, &g) - pushed(LawKind::Robust, &without);
+    // Away along +x (the vehicle's own motion model bends the sum a little).
+    assert!(away.x > 0.0 && away.y.abs() < 0.25 * away.x, "{away:?}");
+    assert_eq!(pushed(LawKind::Paper, &g), pushed(LawKind::Paper, &without));
 }
 
 #[test]

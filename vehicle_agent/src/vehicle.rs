@@ -284,6 +284,7 @@ impl Vehicle {
                 body_velocity,
                 body_growth,
                 body_centre,
+                hulls: &g.hulls,
                 ..AgentInputs::paper(&leaders, &neighbours, inter, leader, g.damping)
             };
             fly(
@@ -305,6 +306,7 @@ impl Vehicle {
                 body_velocity: g.velocity,
                 body_growth,
                 body_centre,
+                hulls: &g.hulls,
                 ..AgentInputs::paper(&g.leaders, &g.neighbours, g.inter, g.leader, g.damping)
             };
             fly(

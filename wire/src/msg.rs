@@ -227,8 +227,10 @@ pub mod coordinator_to_agent {
     }
 
     impl SnapshotEntry {
-        /// A lost vehicle: the last state the coordinator received from it (where its hull
-        /// was last heard of; a restarted agent resumes from its ADMITTED entry instead).
+        /// A lost vehicle: where its hull is, as the coordinator knows it (the last state
+        /// received from it, dead-reckoned with the body to the loss; it does not move
+        /// after). Vehicles under the robust law keep clear of it (`vbap_math::hull`); a
+        /// restarted agent resumes from its ADMITTED entry instead.
         pub const LOST: u32 = 0;
         /// A member of the formation: its last state the coordinator received.
         pub const MEMBER: u32 = 1;

@@ -9,7 +9,7 @@ impl Guidance {
     /// This guidance for vehicle `id` of a body command: as neighbours every member or
     /// admitted vehicle of the command's snapshot but itself, each with its homing weight
     /// σ_j (from its position and slot, for the spacing `inter.d0`); its own slot when it
-    /// rejoins.
+    /// rejoins; as hulls the positions of the lost vehicles but itself.
     ///
     /// The per-neighbour vectors a law may receive empty
     /// ([`ControlInputs`](crate::ControlInputs)) stay empty when they would hold nothing
@@ -47,6 +47,7 @@ impl Guidance {
         self.neighbour_sigmas = Vec::new();
         self.neighbour_slots = Vec::new();
         self.neighbour_ages = Vec::new();
+        self.hulls = Vec::new();
         let mut own_any: Option<&SnapshotEntry> = None;
         let mut own_alive: Option<&SnapshotEntry> = None;
         // Whether `neighbour_sigmas`/`neighbour_slots` and `neighbour_ages` are kept.
@@ -61,6 +62,7 @@ impl Guidance {
                 continue;
             }
             if e.alive == SnapshotEntry::LOST {
+                self.hulls.push(to_vec3(&e.position));
                 continue;
             }
             let position = to_vec3(&e.position);
