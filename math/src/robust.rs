@@ -31,7 +31,8 @@
 //! `w(a) κ_I a` is largest at `a = τ`, where it is `κ_I τ/e = K/e`, below the damping by
 //! a factor `e` whatever the ages. Fresh information (`a_j = 0`, ideal links) gives
 //! `w_j = 1`, no slot term and no prediction: the law is then [`super::law::PaperLaw`],
-//! bit for bit (unless it follows the body, below).
+//! bit for bit (unless it follows the body, below,
+//! or a lost vehicle's hull is within reach: every vehicle keeps clear of those, `super::hull`).
 //!
 //! **Following the body.** (II.1) damps each vehicle relative to the water, `−K ẋ_i`, so a
 //! formation whose body moves at `ṙ` trails it in steady state by `K |ṙ| / κ_T`, `κ_T` the
