@@ -214,14 +214,26 @@ impl Fleet {
     /// when it was lost (a restarted process comes back there), not where it last
     /// reported: over a 1 s link a moving formation is a tenth of a spacing further on.
     fn dead_reckoned(&self, last: &Report) -> Report {
-        let now = self.body_track.last_key_value();
-        match (now, self.body_track.get(&last.tick)) {
-            (Some((&k, r_now)), Some(r_then)) => Report {
-                tick: k,
-                position: last.position + (r_now - r_then),
-                ..*last
-            },
-            _ => *last,
+        Report {
+            tick: self
+                .body_track
+                .last_key_value()
+                .map_or(last.tick, |(&k, _)| k),
+            position: last.position + self.body_shift(last.tick),
+            ..*last
+        }
+    }
+
+    /// How far the virtual body moved since tick `j`, `r(now) − r(j)` (length unit; `now`
+    /// the last tick tracked): what a vehicle that keeps its place in the body moved by.
+    /// Zero when either is not tracked.
+    fn body_shift(&self, j: u64) -> Vec3 {
+        match (
+            self.body_track.values().next_back(),
+            self.body_track.get(&j),
+        ) {
+            (Some(now), Some(then)) => now - then,
+            _ => Vec3::zeros(),
         }
     }
 
@@ -333,21 +345,14 @@ impl Fleet {
             }
         }
         // Members out of contact are dead-reckoned: they keep their place relative to
-        // the virtual body, so a report of tick j is moved by r(now) − r(j).
-        let r_now = self.body_track.values().next_back().copied();
+        // the virtual body (`Fleet::body_shift`).
         let members = self
             .alive
             .iter()
             .filter_map(|v| self.latest.get(v))
-            .map(|r| {
-                let shift = match (r_now, self.body_track.get(&r.tick)) {
-                    (Some(now), Some(then)) => now - then,
-                    _ => Vec3::zeros(),
-                };
-                Report {
-                    position: r.position + shift,
-                    ..*r
-                }
+            .map(|r| Report {
+                position: r.position + self.body_shift(r.tick),
+                ..*r
             })
             .collect();
         (members, fresh)

@@ -44,6 +44,16 @@ pub(super) struct Tally {
     pub stale_member: bool,
 }
 
+impl Tally {
+    /// Keeps the pair of vehicles `a` and `b` at distance `r` (÷ spacing) when it is the
+    /// closest so far.
+    fn offer_pair(&mut self, r: f64, a: u32, b: u32) {
+        if self.min_pair.is_none_or(|(m, _, _)| r < m) {
+            self.min_pair = Some((r, a.min(b), a.max(b)));
+        }
+    }
+}
+
 /// One vehicle's true figures: slot error and nearest neighbour (index into the true
 /// reports, distance), both ÷ the design spacing.
 struct Fit {
@@ -101,10 +111,7 @@ fn restarted_pairs(
             if q.id == back.id {
                 continue;
             }
-            let r = ratio((back.position - p).norm());
-            if tally.min_pair.is_none_or(|(m, _, _)| r < m) {
-                tally.min_pair = Some((r, back.id.min(q.id), back.id.max(q.id)));
-            }
+            tally.offer_pair(ratio((back.position - p).norm()), back.id, q.id);
         }
     }
 }
@@ -146,8 +153,8 @@ fn vehicle(
     }
     if let Some((j, r)) = own.nearest {
         let other = scene.truth[j].id;
-        if id < other && tally.min_pair.is_none_or(|(m, _, _)| r < m) {
-            tally.min_pair = Some((r, id, other));
+        if id < other {
+            tally.offer_pair(r, id, other);
         }
     }
     let silence_after = stats.silence_after;
