@@ -16,7 +16,9 @@ pub enum LawKind {
     /// The paper's law and planner, unchanged.
     Paper,
     /// Age-aware control over the links the fleet really has (beyond the paper); the
-    /// paper's law, byte for byte, on ideal links until a redesign (which is bumpless).
+    /// paper's formation law on ideal links until a redesign (which is bumpless), its
+    /// gradient filter carried along the body's move by a known curvature (Lemma 5.4's
+    /// random walk lags a moving body; none carried without `formation.hessian_guess`).
     #[default]
     Robust,
 }

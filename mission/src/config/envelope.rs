@@ -89,7 +89,7 @@ impl Mission {
     }
 
     /// True when the planner is held to the envelope: the robust law over links that are
-    /// not ideal (on ideal links the robust law is the paper's, bit for bit, and the
+    /// not ideal (on ideal links the robust law flies the paper's formation law, and the
     /// paper's law is flown as written).
     pub fn envelope_holds(&self) -> bool {
         self.control.law == LawKind::Robust && self.links_impaired()
