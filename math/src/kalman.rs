@@ -280,39 +280,6 @@ pub fn measurement_matrix(dim: usize, rel_positions: &[Vec3]) -> DMatrix<f64> {
     })
 }
 
-/// The covariance of the weighted least-squares estimate `(∇T, T)` (Lemma 5.1) from
-/// readings at `rel_positions` (length unit) with variances `meas_var` (field unit²):
-/// `(Cᵀ W C)⁻¹`, `W = diag(1 / meas_var)`, in the filter's state order. None when the
-/// readings do not determine the state (fewer than dim + 1 in general position, a zero or
-/// non-finite variance).
-///
-/// What a filter started at that estimate should believe of it: readings taken while the
-/// vehicles are still bunched at their start (0.2 L apart, σ_M = 70) give a gradient off
-/// by hundreds, and a prior `p0 · I` of 1 holds it for minutes (stress seed 23: 7 of 22
-/// failures).
-pub fn least_squares_covariance(
-    dim: usize,
-    rel_positions: &[Vec3],
-    meas_var: &[f64],
-) -> Option<DMatrix<f64>> {
-    if rel_positions.len() != meas_var.len() || !meas_var.iter().all(|v| v.is_finite() && *v > 0.0)
-    {
-        return None;
-    }
-    let c = measurement_matrix(dim, rel_positions);
-    let w = DMatrix::from_diagonal(&DVector::from_iterator(
-        meas_var.len(),
-        meas_var.iter().map(|v| 1.0 / v),
-    ));
-    let info = c.transpose() * w * &c;
-    let mut cov = info.cholesky()?.inverse();
-    if !cov.iter().all(|v| v.is_finite()) {
-        return None;
-    }
-    symmetrize(&mut cov);
-    Some(cov)
-}
-
 /// DDᵀ of Lemma 5.4, N×N diagonal: `(½ p_iᵀ H p_i σ_H)² + σ_M²` (field unit²), with
 /// `D = [diag(½ p_iᵀ H p_i σ_H), σ_M I_N]`; σ's are standard deviations. In 2-D pass
 /// positions with z = 0 (then only the top-left 2×2 of H matters).
@@ -384,40 +351,6 @@ pub fn steady_state_covariance(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The covariance of least squares is σ² (CᵀC)⁻¹: for four readings at (±a, 0),
-    /// (0, ±a), var(∂T/∂x) = σ² / (2a²) and var(T) = σ² / 4; bunched readings are as
-    /// uncertain as they are close, and too few determine nothing.
-    #[test]
-    fn least_squares_covariance_is_sigma_squared_over_c_transpose_c() {
-        let a = 0.5;
-        let sigma2 = 9.0;
-        let rel = [
-            Vec3::new(a, 0.0, 0.0),
-            Vec3::new(-a, 0.0, 0.0),
-            Vec3::new(0.0, a, 0.0),
-            Vec3::new(0.0, -a, 0.0),
-        ];
-        let cov = least_squares_covariance(2, &rel, &[sigma2; 4]).unwrap();
-        assert!(
-            (cov[(0, 0)] - sigma2 / (2.0 * a * a)).abs() < 1e-12,
-            "{cov}"
-        );
-        assert!(
-            (cov[(1, 1)] - sigma2 / (2.0 * a * a)).abs() < 1e-12,
-            "{cov}"
-        );
-        assert!((cov[(2, 2)] - sigma2 / 4.0).abs() < 1e-12, "{cov}");
-        assert!(
-            cov[(0, 1)].abs() < 1e-12 && cov[(0, 2)].abs() < 1e-12,
-            "{cov}"
-        );
-        let bunched: Vec<Vec3> = rel.iter().map(|d| d * 0.01).collect();
-        let wide = least_squares_covariance(2, &bunched, &[sigma2; 4]).unwrap();
-        assert!((wide[(0, 0)] / cov[(0, 0)] - 1e4).abs() < 1e-6);
-        assert!(least_squares_covariance(2, &rel[..2], &[sigma2; 2]).is_none());
-        assert!(least_squares_covariance(2, &rel, &[sigma2, 0.0, 1.0, 1.0]).is_none());
-    }
     use crate::estimate::least_squares;
     use crate::rng::{keyed, Stream};
     use approx::assert_relative_eq;

@@ -14,10 +14,9 @@
 //! pentagon or a hexagon on H = diag(2, 0.5) and by 32 % on diag(4, 0.25) (σ_M = σ_H = 1),
 //! and not at all at the top of a round hill.
 
-use nalgebra::{DMatrix, DVector};
 use vbap_math::curvature::CurvatureEstimator;
-use vbap_math::estimate::{least_squares, LsEstimate};
-use vbap_math::kalman::{least_squares_covariance, GradientFilter};
+use vbap_math::estimate::least_squares;
+use vbap_math::kalman::GradientFilter;
 use vbap_math::{Mat3, Vec3};
 use vbap_mission::config::{CurvatureSource, LawKind};
 
@@ -77,20 +76,20 @@ impl Planner {
         if let Some(c) = self.curvature.as_mut() {
             c.update(&rel, &raw, &vec![sigma_m * sigma_m; raw.len()]);
         }
-        let var: Vec<f64> = fresh
-            .iter()
-            .zip(&rel)
-            .map(|(q, d)| {
-                let age = k.saturating_sub(q.tick) as f64 * dt;
-                reading_variance(p, &hessian, d, age, sigma_m)
-            })
-            .collect();
         if self.filter.is_none() {
             match &ls {
-                Some(ls) => self.filter = Some(start_filter(p, ls, &rel, &var)),
+                Some(ls) => self.filter = Some(GradientFilter::new(dim, ls, p.initial_variance)),
                 None => estimate_failed = true,
             }
         } else if !fresh.is_empty() {
+            let var: Vec<f64> = fresh
+                .iter()
+                .zip(&rel)
+                .map(|(q, d)| {
+                    let age = k.saturating_sub(q.tick) as f64 * dt;
+                    reading_variance(p, &hessian, d, age, sigma_m)
+                })
+                .collect();
             if let Some(f) = self.filter.as_mut() {
                 if f.update(&rel, &y, &var).is_err() {
                     estimate_failed = true;
@@ -138,30 +137,6 @@ impl Planner {
             None => p.hessian_guess,
         }
     }
-}
-
-/// The filter started at the first least-squares estimate `ls` of the readings at `rel`
-/// (variances `var`). The paper's prior is `p0 · I` (`estimator.initial_variance`); under
-/// the robust law, when the estimate is less certain than that (readings taken while the
-/// vehicles are still bunched at their start), the prior is the estimate's own covariance
-/// `(Cᵀ W C)⁻¹` plus `p0 · I`, so the readings of the spread formation outweigh it at
-/// once instead of over minutes (`vbap_math::kalman::least_squares_covariance`).
-fn start_filter(p: &PlannerParams, ls: &LsEstimate, rel: &[Vec3], var: &[f64]) -> GradientFilter {
-    let dim = p.dim;
-    let own = (p.law == LawKind::Robust)
-        .then(|| least_squares_covariance(dim, rel, var))
-        .flatten()
-        .filter(|cov| cov.diagonal().max() > p.initial_variance);
-    let started = own.and_then(|cov| {
-        let mut state = DVector::zeros(dim + 1);
-        for j in 0..dim {
-            state[j] = ls.grad[j];
-        }
-        state[dim] = ls.value;
-        let prior = cov + DMatrix::identity(dim + 1, dim + 1) * p.initial_variance;
-        GradientFilter::from_parts(dim, state, prior).ok()
-    });
-    started.unwrap_or_else(|| GradientFilter::new(dim, ls, p.initial_variance))
 }
 
 /// The variance of one reading in the filter's update, field unit²: the sensor noise σ_M²,
@@ -223,53 +198,6 @@ mod tests {
         // ½ dᵀ(2I)d · 0.5 = 1; squared: 1.
         let v = reading_variance(&p, &p.hessian_guess, &d, 0.0, 0.0);
         assert!((v - 1.0).abs() < 1e-12, "{v}");
-    }
-
-    /// Readings of vehicles bunched 0.1 apart with σ_M = 3: under the robust law the
-    /// filter starts as uncertain as its first estimate is (σ² / (2 a²) = 450 on each
-    /// gradient component, + p0); under the paper's law, and from a spread formation whose
-    /// estimate is surer than p0 in every component (σ_M = 0.5), with the paper's p0 · I.
-    #[test]
-    fn a_filter_started_on_bunched_readings_believes_them_as_little_as_they_deserve() {
-        let ring = |a: f64| {
-            [
-                Vec3::new(a, 0.0, 0.0),
-                Vec3::new(-a, 0.0, 0.0),
-                Vec3::new(0.0, a, 0.0),
-                Vec3::new(0.0, -a, 0.0),
-            ]
-        };
-        let ls = LsEstimate {
-            grad: Vec3::new(300.0, -200.0, 0.0),
-            value: 5.0,
-            residual_ss: 0.0,
-            dof: 1,
-        };
-        let var = [9.0; 4];
-        let mut p = params();
-        assert_eq!(p.law, LawKind::Robust);
-        let f = start_filter(&p, &ls, &ring(0.1), &var);
-        let g = f.grad_covariance();
-        assert!(
-            (g[(0, 0)] - (450.0 + p.initial_variance)).abs() < 1e-9,
-            "{g}"
-        );
-        assert!(
-            (g[(1, 1)] - (450.0 + p.initial_variance)).abs() < 1e-9,
-            "{g}"
-        );
-        assert_eq!(f.grad(), ls.grad);
-        let spread = start_filter(&p, &ls, &ring(10.0), &[0.25; 4]);
-        assert_eq!(
-            spread.covariance(),
-            DMatrix::identity(3, 3) * p.initial_variance
-        );
-        p.law = LawKind::Paper;
-        let paper = start_filter(&p, &ls, &ring(0.1), &var);
-        assert_eq!(
-            paper.covariance(),
-            DMatrix::identity(3, 3) * p.initial_variance
-        );
     }
 }
 
