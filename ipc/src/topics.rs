@@ -131,6 +131,27 @@ pub struct NodeListing {
     pub complete: bool,
 }
 
+/// True when the process that owns the dead-listed node `view` still runs (not a zombie):
+/// the node is being dropped, not left behind by a death.
+fn owner_lives(view: &iceoryx2::node::DeadNodeView<ipc::Service>) -> bool {
+    use iceoryx2::node::NodeView;
+    view.id()
+        .pid::<ipc::Service>()
+        .is_ok_and(|pid| process_runs(pid.value()))
+}
+
+/// True when process `pid` exists and is not a zombie (`/proc/<pid>/stat`).
+fn process_runs(pid: i32) -> bool {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat"));
+    // `pid (comm) S ...`: the state follows the last ')'.
+    stat.ok()
+        .and_then(|s| {
+            s.rfind(')')
+                .map(|i| s[i + 1..].trim_start().starts_with(['Z', 'X']))
+        })
+        .is_some_and(|defunct| !defunct)
+}
+
 /// The iceoryx2 domain of one mission.
 #[derive(Clone, Debug)]
 pub struct Domain {
@@ -369,6 +390,10 @@ impl Domain {
         let listed = Node::<ipc::Service>::list(&self.config, |state| {
             let (details, alive) = match &state {
                 NodeState::Alive(view) => (view.details(), true),
+                // A node its live owner is dropping reads as dead for an instant (the bridge
+                // removing a remote vehicle's proxy as its host goes out of reach): left
+                // out, it is "gone", a death only when gone at two scans.
+                NodeState::Dead(view) if owner_lives(view) => return CallbackProgression::Continue,
                 NodeState::Dead(view) => (view.details(), false),
                 NodeState::Inaccessible(_) | NodeState::Undefined(_) => (&None, false),
             };
@@ -665,6 +690,33 @@ mod prefix_tests {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod owner_tests {
+    use super::process_runs;
+
+    /// This process runs; a child that exited and is not yet reaped (a zombie) does not, nor
+    /// does it once reaped.
+    #[test]
+    fn a_zombie_or_reaped_process_does_not_run() {
+        assert!(process_runs(std::process::id() as i32));
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let pid = child.id() as i32;
+        let stat = format!("/proc/{pid}/stat");
+        let zombie = || {
+            std::fs::read_to_string(&stat).is_ok_and(|s| {
+                s.rfind(')')
+                    .is_some_and(|i| s[i + 1..].trim_start().starts_with('Z'))
+            })
+        };
+        while !zombie() {
+            std::thread::yield_now();
+        }
+        assert!(!process_runs(pid));
+        child.wait().unwrap();
+        assert!(!process_runs(pid));
     }
 }
 
