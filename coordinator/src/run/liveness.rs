@@ -84,6 +84,10 @@ pub(super) struct Liveness {
     pub since: Instant,
     /// The same, wall clock, ns since the Unix epoch.
     pub since_ns: u64,
+    /// A resumed coordinator: the instant its peers' last receipts were restored from the
+    /// checkpoint at (each `now − silence`, so never later). Only a receipt after it was
+    /// heard by this process.
+    pub inherited_until: Option<Instant>,
     /// When this coordinator published its first command: before it, agents that have
     /// reported wait for it in silence however long the set takes to start (seconds at
     /// N = 1024 on a busy machine), and silence counts from it at the earliest.
@@ -117,6 +121,7 @@ impl Liveness {
             last_scan: Instant::now(),
             scan_cost: Duration::ZERO,
             since: Instant::now(),
+            inherited_until: None,
             since_ns: wall_ns(),
             commanded: None,
             resumed: false,
@@ -338,10 +343,13 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             let Some(peer) = self.inbox.peers.get(e.vehicle as usize) else {
                 continue;
             };
-            // Heard by this process (a resumed coordinator's silences are inherited).
+            // Heard by this process (a resumed coordinator's silences are inherited: a stop
+            // recorded while no coordinator ran, its last receipt restored after it, was
+            // taken for a continue and the member lost as `silent` 10 s later).
+            let inherited = self.live.inherited_until;
             let heard_ns = peer
                 .last_recv
-                .filter(|t| *t >= self.live.since)
+                .filter(|t| *t >= self.live.since && inherited.is_none_or(|u| *t > u))
                 .map(|t| now.saturating_sub(t.elapsed().as_nanos() as u64));
             let heard_since =
                 heard_ns.is_some_and(|h| h > e.died_ns + STOP_HEARD_SLACK.as_nanos() as u64);

@@ -188,6 +188,7 @@ fn resume<P>(
         // Silence goes on counting from what the dead coordinator had counted.
         peer.last_recv = mark.silent_ns.map(|ns| heard_before(ns, now));
     }
+    live.inherited_until = Some(now);
     inbox.counts = cp.counts;
     info!(
         tick = cp.next_tick,
