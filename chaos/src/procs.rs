@@ -66,16 +66,7 @@ pub(super) fn cmdline(pid: u32) -> Option<Vec<String>> {
     )
 }
 
-/// True when `pid` exists and is not a zombie.
-pub(super) fn alive(pid: u32) -> bool {
-    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
-        Ok(stat) => stat
-            .rsplit_once(')')
-            .and_then(|(_, rest)| rest.split_whitespace().next())
-            .is_some_and(|state| state != "Z" && state != "X"),
-        Err(_) => false,
-    }
-}
+pub(super) use vbap_ipc::process::process_alive as alive;
 
 /// The children of `pid` (of every thread of it).
 pub(super) fn children(pid: u32) -> Vec<u32> {

@@ -284,6 +284,18 @@ pub fn leave_domain() {
     // `member` goes here: its exclusive lock is released after the files are gone.
 }
 
+/// The state letter of process `pid` (`R`, `S`, `T`, `Z`, ...: `/proc/<pid>/stat`, the
+/// field after the last ')'), None when there is no such process.
+pub fn process_state(pid: u32) -> Option<char> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    let (_, rest) = stat.rsplit_once(')')?;
+    rest.trim_start().chars().next()
+}
+
+/// True when process `pid` exists and is not a zombie (exited, not yet reaped).
+pub fn process_alive(pid: u32) -> bool {
+    process_state(pid).is_some_and(|state| state != 'Z' && state != 'X')
+}
 /// Sends SIGKILL to process `pid`; false when it does not exist (any more).
 pub fn sigkill(pid: u32) -> bool {
     match i32::try_from(pid) {
@@ -360,4 +372,24 @@ pub fn message_log(log_file: Option<&std::path::Path>) -> crate::msglog::MsgLog 
         tracing::warn!(error = %e, "cannot open the message-record file: records are off");
         crate::msglog::MsgLog::disabled()
     })
+}
+
+#[cfg(test)]
+mod alive_tests {
+    use super::{process_alive, process_state};
+
+    /// This process runs; a child that exited and is not yet reaped (a zombie) does not, nor
+    /// does it once reaped.
+    #[test]
+    fn a_zombie_or_reaped_process_does_not_run() {
+        assert!(process_alive(std::process::id()));
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let pid = child.id();
+        while process_state(pid) != Some('Z') {
+            std::thread::yield_now();
+        }
+        assert!(!process_alive(pid));
+        child.wait().unwrap();
+        assert!(!process_alive(pid));
+    }
 }

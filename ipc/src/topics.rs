@@ -137,19 +137,7 @@ fn owner_lives(view: &iceoryx2::node::DeadNodeView<ipc::Service>) -> bool {
     use iceoryx2::node::NodeView;
     view.id()
         .pid::<ipc::Service>()
-        .is_ok_and(|pid| process_runs(pid.value()))
-}
-
-/// True when process `pid` exists and is not a zombie (`/proc/<pid>/stat`).
-fn process_runs(pid: i32) -> bool {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat"));
-    // `pid (comm) S ...`: the state follows the last ')'.
-    stat.ok()
-        .and_then(|s| {
-            s.rfind(')')
-                .map(|i| s[i + 1..].trim_start().starts_with(['Z', 'X']))
-        })
-        .is_some_and(|defunct| !defunct)
+        .is_ok_and(|pid| u32::try_from(pid.value()).is_ok_and(crate::process::process_alive))
 }
 
 /// The iceoryx2 domain of one mission.
@@ -690,33 +678,6 @@ mod prefix_tests {
                 }
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod owner_tests {
-    use super::process_runs;
-
-    /// This process runs; a child that exited and is not yet reaped (a zombie) does not, nor
-    /// does it once reaped.
-    #[test]
-    fn a_zombie_or_reaped_process_does_not_run() {
-        assert!(process_runs(std::process::id() as i32));
-        let mut child = std::process::Command::new("true").spawn().unwrap();
-        let pid = child.id() as i32;
-        let stat = format!("/proc/{pid}/stat");
-        let zombie = || {
-            std::fs::read_to_string(&stat).is_ok_and(|s| {
-                s.rfind(')')
-                    .is_some_and(|i| s[i + 1..].trim_start().starts_with('Z'))
-            })
-        };
-        while !zombie() {
-            std::thread::yield_now();
-        }
-        assert!(!process_runs(pid));
-        child.wait().unwrap();
-        assert!(!process_runs(pid));
     }
 }
 
