@@ -202,13 +202,18 @@ impl Moving {
             current: self.estimate,
             ..*inputs
         };
+        // A glider steers for where it would stop, so that it brakes in time for its slot
+        // (`VehicleModel::braking_point`): relative to its slot over the ground.
+        let ahead = kin
+            .model
+            .braking_point(&self.belief, &(self.water - inputs.follow_velocity()));
         let mut u = if kin.dive.is_some() {
             // A diving glider flies a horizontal formation (`Mission::formation_dim`): the
             // law sees it in the formation's plane, where the leaders and the neighbours are.
             let flat = |v: &Vec3| Vec3::new(v.x, v.y, 0.0);
-            law.control(&flat(&self.belief), &flat(&self.water), inputs)
+            law.control(&flat(&ahead), &flat(&self.water), inputs)
         } else {
-            law.control(&self.belief, &self.water, inputs)
+            law.control(&ahead, &self.water, inputs)
         };
         if let Some(l) = land {
             u += repulsion(l.clearance(&self.belief), &kin.avoidance);

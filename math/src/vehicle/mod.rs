@@ -124,6 +124,32 @@ impl VehicleModel {
     }
 }
 
+impl VehicleModel {
+    /// Where the control law is evaluated for a vehicle at `position` (length unit) moving
+    /// at `relative` (length unit/s) relative to where it is held (its slot, over the
+    /// ground): the ideal vehicle at `position`; a glider at its braking point
+    /// `position + v|v|/(2 a)`, where it would come to rest if it braked now at its largest
+    /// acceleration `a = max_accel` (beyond the paper).
+    ///
+    /// Why: a glider's acceleration is clipped ([`VehicleModel::water_velocity`]). Near a
+    /// stiff slot (formation modes of √μ rad/s, stiffness μ = α/h0² of (II.1)) the law
+    /// asks for `μ e`, far beyond `a`, all the way to the slot: the glider arrives at
+    /// speed, cannot stop within a tick and swings through to the other side, for ever
+    /// (seen in random missions: gliders 0.07 spacing about their slots at 1.1 L/s, V at
+    /// 8 V_U, two of them 0.085 spacing apart; `docs/ENVELOPE.md`). Anticipating the stop
+    /// brakes in time, the way a pilot brakes for the point it aims at. The shift is
+    /// quadratic in the speed, so the law's linearisation about its equilibrium, and the
+    /// envelope computed from it, are unchanged.
+    pub fn braking_point(&self, position: &Vec3, relative: &Vec3) -> Vec3 {
+        match self {
+            VehicleModel::Ideal => *position,
+            VehicleModel::Glider(l) => {
+                position + relative * (relative.norm() / (2.0 * l.max_accel))
+            }
+        }
+    }
+}
+
 /// `v` scaled down to a norm of at most `max` (length unit/s); returned as is when slower.
 pub fn cap_speed(v: &Vec3, max: f64) -> Vec3 {
     let n = v.norm();

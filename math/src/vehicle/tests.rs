@@ -175,3 +175,103 @@ fn the_body_turns_and_speeds_up_no_faster_than_gliders_follow() {
     };
     assert_eq!(BodyLimits::for_gliders(&bad, 0.5), None);
 }
+
+/// The fastest speed over the ground (L/s) over the last 10 s of 30 of ten gliders of a
+/// 3-D formation (α = 44 L²/s², radius 1.17 L, damping 2.5/s: m0964 of the stress
+/// campaign's seed 11) in a 0.135 L/s current, under the robust law with neighbours 3 s
+/// old (its slot spring then adds to the leaders: formation modes near 20 rad/s) and
+/// 6.1 L/s² of acceleration, stepped at 0.05 s; two of them start 0.06 L off their
+/// slots. `brake`: the law is evaluated at the braking point.
+fn fastest_glider_after_20_s(brake: bool) -> f64 {
+    use crate::formation::design_regular;
+    use crate::law::{ControlInputs, ControlLaw};
+    use crate::robust::RobustLaw;
+    let alpha = 44.45;
+    let design = design_regular(10, 3, 1.173, alpha, alpha).unwrap();
+    let model = VehicleModel::Glider(GliderLimits {
+        max_speed: 2.44,
+        max_accel: 6.12,
+        max_turn_rate: 1.86,
+    });
+    let current = Vec3::new(-0.116, 0.063, 0.030);
+    let (damping, dt) = (2.51, 0.05);
+    let law = RobustLaw::new(None).following(true);
+    let mut fleet: Vec<Motion> = design
+        .slots
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let off = if i < 2 {
+                Vec3::new(0.05, -0.03, 0.02)
+            } else {
+                Vec3::zeros()
+            };
+            Motion {
+                position: p + off,
+                belief: p + off,
+                water: -current,
+                ground: Vec3::zeros(),
+            }
+        })
+        .collect();
+    let (ages, velocities) = (vec![3.0; 9], vec![Vec3::zeros(); 9]);
+    let mut fastest = 0.0_f64;
+    for tick in 0..600 {
+        let seen: Vec<Vec3> = fleet.iter().map(|m| m.position).collect();
+        fleet = (0..fleet.len())
+            .map(|i| {
+                let neighbours: Vec<Vec3> = (0..seen.len())
+                    .filter(|j| *j != i)
+                    .map(|j| seen[j])
+                    .collect();
+                let inputs = ControlInputs {
+                    current,
+                    neighbour_ages: &ages,
+                    neighbour_velocities: &velocities,
+                    slot: Some(design.slots[i]),
+                    ..ControlInputs::paper(
+                        &design.leaders,
+                        &neighbours,
+                        design.inter,
+                        design.leader,
+                        damping,
+                    )
+                };
+                let m = &fleet[i];
+                let at = if brake {
+                    model.braking_point(&m.position, &(m.water + current))
+                } else {
+                    m.position
+                };
+                let u = law.control(&at, &m.water, &inputs);
+                advance(&model, m, &u, &current, dt, 3, |_, to| *to)
+            })
+            .collect();
+        if tick >= 400 {
+            fastest = fleet.iter().fold(fastest, |a, m| a.max(m.ground.norm()));
+        }
+    }
+    fastest
+}
+
+#[test]
+fn gliders_that_brake_for_their_braking_point_settle_where_gliders_that_do_not_swing() {
+    let swinging = fastest_glider_after_20_s(false);
+    assert!(swinging > 0.1, "without braking: {swinging} L/s");
+    let settled = fastest_glider_after_20_s(true);
+    assert!(settled < 0.001, "braking: {settled} L/s");
+}
+
+#[test]
+fn the_braking_point_of_the_ideal_vehicle_is_where_it_is() {
+    let p = Vec3::new(1.0, 2.0, 3.0);
+    let v = Vec3::new(4.0, 0.0, 0.0);
+    assert_eq!(VehicleModel::Ideal.braking_point(&p, &v), p);
+    let g = VehicleModel::Glider(GliderLimits {
+        max_speed: 5.0,
+        max_accel: 2.0,
+        max_turn_rate: 1.0,
+    });
+    // 4 L/s braked at 2 L/s² stops 4 L on.
+    assert_eq!(g.braking_point(&p, &v), Vec3::new(5.0, 2.0, 3.0));
+}
