@@ -203,10 +203,14 @@ impl Moving {
             ..*inputs
         };
         // A glider steers for where it would stop, so that it brakes in time for its slot
-        // (`VehicleModel::braking_point`): relative to its slot over the ground.
-        let ahead = kin
-            .model
-            .braking_point(&self.belief, &(self.water - inputs.follow_velocity()));
+        // (`VehicleModel::braking_point`): relative to its slot over the ground, never
+        // past half the distance to its nearest leader or neighbour at equilibrium.
+        let reach = 0.5 * inputs.leader.d0.min(inputs.inter.d0);
+        let ahead = kin.model.braking_point(
+            &self.belief,
+            &(self.water - inputs.follow_velocity()),
+            reach,
+        );
         let mut u = if kin.dive.is_some() {
             // A diving glider flies a horizontal formation (`Mission::formation_dim`): the
             // law sees it in the formation's plane, where the leaders and the neighbours are.

@@ -239,7 +239,7 @@ fn fastest_glider_after_20_s(brake: bool) -> f64 {
                 };
                 let m = &fleet[i];
                 let at = if brake {
-                    model.braking_point(&m.position, &(m.water + current))
+                    model.braking_point(&m.position, &(m.water + current), 0.25)
                 } else {
                     m.position
                 };
@@ -266,12 +266,14 @@ fn gliders_that_brake_for_their_braking_point_settle_where_gliders_that_do_not_s
 fn the_braking_point_of_the_ideal_vehicle_is_where_it_is() {
     let p = Vec3::new(1.0, 2.0, 3.0);
     let v = Vec3::new(4.0, 0.0, 0.0);
-    assert_eq!(VehicleModel::Ideal.braking_point(&p, &v), p);
+    assert_eq!(VehicleModel::Ideal.braking_point(&p, &v, 1.0), p);
     let g = VehicleModel::Glider(GliderLimits {
         max_speed: 5.0,
         max_accel: 2.0,
         max_turn_rate: 1.0,
     });
-    // 4 L/s braked at 2 L/s² stops 4 L on.
-    assert_eq!(g.braking_point(&p, &v), Vec3::new(5.0, 2.0, 3.0));
+    // 4 L/s braked at 2 L/s² stops 4 L on; at most `reach` on.
+    assert_eq!(g.braking_point(&p, &v, 10.0), Vec3::new(5.0, 2.0, 3.0));
+    assert_eq!(g.braking_point(&p, &v, 0.5), Vec3::new(1.5, 2.0, 3.0));
+    assert_eq!(g.braking_point(&p, &Vec3::zeros(), 0.5), p);
 }
