@@ -319,22 +319,10 @@ pub fn loop_gain(lin: &Linearised, inputs: &EnvelopeInputs<'_>, k: f64) -> f64 {
     worst
 }
 
-/// `√μ_max · dt` at scale `k`: the stiffest mode over the neighbours' ages. Under the
-/// robust law a stale neighbour's spring gives way to the slot spring `κ_s`, often the
-/// stiffer (per-slot leaders: `κ_s = α/h0²` with `h0` a quarter to a half of a spacing), so
-/// the stiffest mode is that of the oldest information; `M` is linear in the fade `w`, so
-/// its largest eigenvalue (convex in `w`) is largest at an end of the range of ages. Fresh
-/// information (age 0: a vehicle just back in contact, a redesign) counts too, so a range
-/// of ages never makes the step test looser than fresh neighbours do.
+/// `√μ_max · dt` at scale `k` (the stiffest mode with fresh neighbours).
 pub fn step_at(lin: &Linearised, inputs: &EnvelopeInputs<'_>, k: f64) -> f64 {
-    let ages = match inputs.ages {
-        Some((a_min, a_max)) => [0.0, a_min.max(0.0), a_max.max(0.0)],
-        None => [0.0; 3],
-    };
-    let top = ages.iter().fold(0.0_f64, |top, age| {
-        let (mu, _, _) = law_at(lin, inputs, k, *age);
-        mu.iter().fold(top, |a, v| a.max(*v))
-    });
+    let (mu, _, _) = law_at(lin, inputs, k, 0.0);
+    let top = mu.iter().fold(0.0_f64, |a, v| a.max(*v));
     top.max(0.0).sqrt() * inputs.dt
 }
 
