@@ -346,10 +346,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             // Heard by this process (a resumed coordinator's silences are inherited: a stop
             // recorded while no coordinator ran, its last receipt restored after it, was
             // taken for a continue and the member lost as `silent` 10 s later).
-            let inherited = self.live.inherited_until;
-            let heard_ns = peer
-                .last_recv
-                .filter(|t| *t >= self.live.since && inherited.is_none_or(|u| *t > u))
+            let heard_ns = heard_here(peer.last_recv, self.live.since, self.live.inherited_until)
                 .map(|t| now.saturating_sub(t.elapsed().as_nanos() as u64));
             let heard_since =
                 heard_ns.is_some_and(|h| h > e.died_ns + STOP_HEARD_SLACK.as_nanos() as u64);
@@ -444,5 +441,38 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             self.ports.domain.cleanup_dead_nodes();
         }
         Ok(lost || any_dead)
+    }
+}
+
+/// A peer's last receipt `last_recv` if this coordinator process heard it: at or after the
+/// process started (`since`) and, for a resumed coordinator, after the receipts it
+/// restored from the checkpoint (`inherited_until`); None otherwise.
+fn heard_here(
+    last_recv: Option<Instant>,
+    since: Instant,
+    inherited_until: Option<Instant>,
+) -> Option<Instant> {
+    last_recv.filter(|t| *t >= since && inherited_until.is_none_or(|u| *t > u))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_receipt_restored_from_the_checkpoint_was_not_heard_by_this_process() {
+        let since = Instant::now();
+        let at = |ms: u64| Some(since + Duration::from_millis(ms));
+        // A fresh coordinator: every receipt since it started was heard here.
+        assert_eq!(heard_here(at(500), since, None), at(500));
+        assert_eq!(heard_here(None, since, None), None);
+        // Resumed: the receipts restored at 1 s (each `now − silence`) were not.
+        let restored = since + Duration::from_secs(1);
+        assert_eq!(heard_here(at(500), since, Some(restored)), None);
+        assert_eq!(heard_here(at(1000), since, Some(restored)), None);
+        assert_eq!(heard_here(at(1001), since, Some(restored)), at(1001));
+        // Nothing before the process started counts.
+        let later = since + Duration::from_secs(2);
+        assert_eq!(heard_here(at(1500), later, None), None);
     }
 }
