@@ -171,14 +171,15 @@ fn fit_slots_turning(
     let mut rotation = own;
     if turn && !q.x.is_empty() {
         let mut best = (robust_cost(&q, &rotate(&own, &base), trim), own);
-        for r in candidates(&q.x, &base, dim) {
+        let anchors = anchors(&q.x, &base);
+        for r in candidates(&q.x, &base, dim, &anchors) {
             let c = robust_cost(&q, &rotate(&r, &base), trim);
             if c < best.0 {
                 best = (c, r);
             }
         }
         if best.0 >= trim * trim && base.len() <= EVERY_SLOT_LIMIT {
-            for r in every_slot_candidates(&q.x, &base, dim) {
+            for r in every_slot_candidates(&q.x, &base, dim, &anchors) {
                 let c = robust_cost(&q, &rotate(&r, &base), trim);
                 if c < best.0 {
                     best = (c, r);
@@ -498,13 +499,13 @@ fn anchors(q: &[Vec3], base: &[Vec3]) -> Vec<usize> {
     order
 }
 
-/// Candidate orientations from anchor vehicles (see the module docs): each of the first
-/// two anchors on slot 0.
-fn candidates(q: &[Vec3], base: &[Vec3], dim: usize) -> Vec<Mat3> {
-    anchors(q, base)
-        .into_iter()
+/// Candidate orientations from anchor vehicles (see the module docs; `anchors` in the
+/// order of [`anchors`]): each of the first two anchors on slot 0.
+fn candidates(q: &[Vec3], base: &[Vec3], dim: usize, anchors: &[usize]) -> Vec<Mat3> {
+    anchors
+        .iter()
         .take(2)
-        .filter_map(|a| anchored(q, base, dim, a, 0))
+        .filter_map(|&a| anchored(q, base, dim, a, 0))
         .collect()
 }
 
@@ -514,8 +515,8 @@ fn candidates(q: &[Vec3], base: &[Vec3], dim: usize) -> Vec<Mat3> {
 /// vehicles' gap on the slots' gap is rarely the anchor's on slot 0 (stress seed 23, m0993:
 /// 14 vehicles in their slots of a 15-gon, one judged 4.8 spacings off, the gaps a
 /// slot apart).
-fn every_slot_candidates(q: &[Vec3], base: &[Vec3], dim: usize) -> Vec<Mat3> {
-    let Some(&a) = anchors(q, base).first() else {
+fn every_slot_candidates(q: &[Vec3], base: &[Vec3], dim: usize, anchors: &[usize]) -> Vec<Mat3> {
+    let Some(&a) = anchors.first() else {
         return Vec::new();
     };
     (1..base.len())
