@@ -28,6 +28,27 @@ fn mission(law: &str) -> Mission {
     Mission::from_toml_str(&text, "<test>").unwrap()
 }
 
+/// Tick `k`'s reports of vehicles `ids` at rest exactly on their slots, each reading the
+/// noiseless `field` there.
+fn on_their_slots(
+    planner: &Planner,
+    ids: &[u32],
+    k: u64,
+    field: impl Fn(&Vec3) -> f64,
+) -> Vec<Report> {
+    let slots = planner.body().slot_positions(planner.design());
+    ids.iter()
+        .zip(&slots)
+        .map(|(&id, p)| Report {
+            id,
+            tick: k,
+            position: *p,
+            velocity: Vec3::zeros(),
+            measurement: field(p),
+        })
+        .collect()
+}
+
 /// Flies the formation exactly on its slots (noiseless readings) for `ticks` ticks; returns
 /// the last gradient estimate and the body centre.
 fn settle(law: &str, ticks: u64) -> (Vec3, Vec3) {
@@ -37,18 +58,7 @@ fn settle(law: &str, ticks: u64) -> (Vec3, Vec3) {
     let mut planner = Planner::new(PlannerParams::from_mission(&m), m.start_vec(), &ids).unwrap();
     let mut grad = Vec3::zeros();
     for k in 0..ticks {
-        let slots = planner.body().slot_positions(planner.design());
-        let reports: Vec<Report> = ids
-            .iter()
-            .zip(&slots)
-            .map(|(&id, p)| Report {
-                id,
-                tick: k,
-                position: *p,
-                velocity: Vec3::zeros(),
-                measurement: 0.5 * p.dot(&(h * p)),
-            })
-            .collect();
+        let reports = on_their_slots(&planner, &ids, k, |p| 0.5 * p.dot(&(h * p)));
         let c = planner.step(k, &reports, &reports, &[], 0.05).unwrap();
         grad = c.grad_est;
     }
@@ -103,18 +113,7 @@ fn lag_on_the_way_down(law: &str, guess: bool) -> f64 {
     let mut planner = Planner::new(PlannerParams::from_mission(&m), m.start_vec(), &ids).unwrap();
     let (mut sum, mut n) = (0.0, 0);
     for k in 0..400 {
-        let slots = planner.body().slot_positions(planner.design());
-        let reports: Vec<Report> = ids
-            .iter()
-            .zip(&slots)
-            .map(|(&id, p)| Report {
-                id,
-                tick: k,
-                position: *p,
-                velocity: Vec3::zeros(),
-                measurement: 0.5 * p.norm_squared(),
-            })
-            .collect();
+        let reports = on_their_slots(&planner, &ids, k, |p| 0.5 * p.norm_squared());
         let c = planner.step(k, &reports, &reports, &[], 0.05).unwrap();
         if k >= 100 {
             sum += (c.grad_est - planner.body().r).norm();
