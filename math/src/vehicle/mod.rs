@@ -122,9 +122,7 @@ impl VehicleModel {
             }
         }
     }
-}
 
-impl VehicleModel {
     /// Where the control law is evaluated for a vehicle at `position` (length unit) moving
     /// at `relative` (length unit/s) relative to where it is held (its slot, over the
     /// ground): the ideal vehicle at `position`; a glider at its braking point
