@@ -296,6 +296,7 @@ pub fn process_state(pid: u32) -> Option<char> {
 pub fn process_alive(pid: u32) -> bool {
     process_state(pid).is_some_and(|state| state != 'Z' && state != 'X')
 }
+
 /// Sends SIGKILL to process `pid`; false when it does not exist (any more).
 pub fn sigkill(pid: u32) -> bool {
     match i32::try_from(pid) {
