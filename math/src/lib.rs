@@ -5,7 +5,7 @@
 //!
 //! Formation dynamics (Sections II–IV): [`potential`], [`formation`], [`body`], [`control`] (and
 //! [`law`], the control law as an extension point),
-//! [`lyapunov`], [`speed`]; [`fit`] measures the true formation against its design;
+//! [`lyapunov`], [`speed`]; who each vehicle needs to hear of, [`neighbourhood`]; [`fit`] measures the true formation against its design;
 //! bringing a vehicle back from anywhere: [`rejoin`]. Beyond the paper, for links that are
 //! not continuous: control with stale neighbour information ([`robust`]), the body's path
 //! committed ahead for vehicles out of contact ([`schedule`]), and a redesign without a
@@ -44,6 +44,7 @@ pub mod hull;
 pub mod kalman;
 pub mod law;
 pub mod lyapunov;
+pub mod neighbourhood;
 pub mod optimal;
 pub mod potential;
 pub mod procrustes;
