@@ -3,6 +3,7 @@
 //!
 //! - [`msg`]: the zero-copy payloads (one `#[repr(C)]` type per service), their conversions.
 //! - [`versioned`]: the versioned type name of a payload and its raw twin for the bridge.
+//! - [`compact`]: the compact link encoding of one vehicle's command and report, sizes known before sending.
 //! - [`exit`]: the exit codes of the processes.
 //! - [`msglog`]: the per-message records, `logs/<process>.msgs.csv` (writer and parser).
 //! - [`rundir`]: the run directory's files (CSV, JSON lines, summary): written by the
@@ -14,6 +15,7 @@
 
 #[macro_use]
 pub mod versioned;
+pub mod compact;
 pub mod csv_line;
 pub mod exit;
 pub mod msg;

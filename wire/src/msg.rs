@@ -15,6 +15,9 @@ use vbap_math::Vec3;
 pub const MAX_VEHICLES: usize = 1024;
 /// Largest number of virtual leaders a formation design may have.
 pub const MAX_LEADERS: usize = 256;
+/// Capacity of a body command's neighbour lists: [`vbap_math::neighbourhood::MAX_NEAR`]
+/// for each of [`MAX_VEHICLES`] snapshot entries.
+pub const MAX_NEAR_ENTRIES: usize = MAX_VEHICLES * vbap_math::neighbourhood::MAX_NEAR;
 
 /// Wall-clock time now, in nanoseconds since the Unix epoch (for latency analysis only;
 /// the control law never sees it).
@@ -226,6 +229,16 @@ pub mod coordinator_to_agent {
         pub _pad2: u32,
     }
 
+    /// The index in `entries` (ordered by id) of vehicle `id`'s entry: its first that is
+    /// not [`SnapshotEntry::LOST`], else its first. O(log N).
+    pub fn own_index(entries: &[SnapshotEntry], id: u32) -> Option<usize> {
+        let from = entries.partition_point(|e| e.id < id);
+        let to = from + entries[from..].partition_point(|e| e.id == id);
+        (from..to)
+            .find(|&i| entries[i].alive != SnapshotEntry::LOST)
+            .or((from < to).then_some(from))
+    }
+
     impl SnapshotEntry {
         /// A lost vehicle: where its hull is, as the coordinator knows it (the last state
         /// received from it, dead-reckoned with the body to the loss; it does not move
@@ -236,13 +249,27 @@ pub mod coordinator_to_agent {
         pub const MEMBER: u32 = 1;
         /// Admitted back at this tick: the agent restores this state and steps from it.
         pub const ADMITTED: u32 = 2;
+
+        /// How far this entry's vehicle may move relative to the body (velocity
+        /// `body_velocity`, length/s) before it hears again, length: its speed relative to
+        /// the body over the entry's age and the command horizon `horizon` (s;
+        /// `vbap_math::neighbourhood::drift_margin`). A lost vehicle's hull does not move.
+        /// The reach of the neighbour lists (coordinator) and of the leaders (agents).
+        pub fn drift_margin(&self, body_velocity: &Vec3, horizon: f64) -> f64 {
+            if self.alive == Self::LOST {
+                return 0.0;
+            }
+            let relative = (to_vec3(&self.velocity) - body_velocity).norm();
+            vbap_math::neighbourhood::drift_margin(relative, self.age, horizon)
+        }
     }
 
     versioned! {
-    "vbap.BodyCommand.v6", RawBodyCommand;
+    "vbap.BodyCommand.v7", RawBodyCommand;
     /// The virtual body for the step from tick `header.tick` to the next, with the swarm
-    /// snapshot every agent needs for the inter-vehicle potential (service `<mission>/body`).
-    /// Agents read it in place (zero copy).
+    /// snapshot and, for each entry, the entries within its reach (service
+    /// `<mission>/body`). Agents read it in place (zero copy): each its own entry and the
+    /// entries of its list, never the whole snapshot (v7: the lists).
     #[derive(Debug, Clone, Copy, ZeroCopySend)]
     #[repr(C)]
     pub struct BodyCommand {
@@ -284,6 +311,14 @@ pub mod coordinator_to_agent {
         /// Segments of the committed path: velocity dr/dt (length unit/s, 3 numbers),
         /// scale rate dk/dt (1/s), ṡ (1/s).
         pub plan: [[f64; 5]; MAX_PLAN],
+        /// Number of valid entries in `near` (= `near_start[n_vehicles]`). Since v7.
+        pub n_near: u32,
+        /// Snapshot entry `i`'s neighbour list is `near[near_start[i]..near_start[i + 1]]`
+        /// (`i < n_vehicles`). Since v7.
+        pub near_start: [u32; MAX_VEHICLES + 1],
+        /// The neighbour lists: snapshot indices, ascending within a list
+        /// (`vbap_coordinator::near`). Since v7.
+        pub near: [u16; MAX_NEAR_ENTRIES],
     }
     }
 
@@ -314,7 +349,32 @@ pub mod coordinator_to_agent {
                 n_plan: 0,
                 _plan_pad: 0,
                 plan: [[0.0; 5]; MAX_PLAN],
+                n_near: 0,
+                near_start: [0; MAX_VEHICLES + 1],
+                near: [0; MAX_NEAR_ENTRIES],
             }
+        }
+
+        /// Snapshot entry `i`'s neighbour list (snapshot indices; empty when `i` is out of
+        /// range or the lists are not valid, see [`BodyCommand::is_valid`]).
+        pub fn near_of(&self, i: usize) -> &[u16] {
+            let n_v = (self.n_vehicles as usize).min(MAX_VEHICLES);
+            if i >= n_v {
+                return &[];
+            }
+            let (a, b) = (self.near_start[i] as usize, self.near_start[i + 1] as usize);
+            if a <= b && b <= (self.n_near as usize).min(MAX_NEAR_ENTRIES) {
+                &self.near[a..b]
+            } else {
+                &[]
+            }
+        }
+
+        /// The index in the snapshot of vehicle `id`'s entry (its first entry that is not
+        /// [`SnapshotEntry::LOST`], else its first): O(log N), the snapshot being ordered
+        /// by id.
+        pub fn own_index(&self, id: u32) -> Option<usize> {
+            own_index(self.snapshot_entries(), id)
         }
 
         /// The committed body path, if the command carries one.
@@ -363,6 +423,7 @@ pub mod coordinator_to_agent {
                     .iter()
                     .flatten()
                     .all(|v| v.is_finite())
+                && self.near_is_valid()
                 && self.snapshot[..n_v].iter().all(|e| {
                     e.position
                         .iter()
@@ -372,6 +433,20 @@ pub mod coordinator_to_agent {
                         .all(|v| v.is_finite())
                         && e.age.is_finite()
                 })
+        }
+
+        /// True when the neighbour lists are in range: `n_near` within capacity and equal
+        /// to the end of the last list, every list's start within the one after it, every
+        /// index a snapshot entry.
+        fn near_is_valid(&self) -> bool {
+            let n_v = self.n_vehicles as usize;
+            let n_near = self.n_near as usize;
+            n_v <= MAX_VEHICLES
+                && n_near <= MAX_NEAR_ENTRIES
+                && self.near_start[0] == 0
+                && self.near_start[n_v] as usize == n_near
+                && self.near_start[..=n_v].windows(2).all(|w| w[0] <= w[1])
+                && self.near[..n_near].iter().all(|&j| (j as usize) < n_v)
         }
     }
 }

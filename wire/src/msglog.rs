@@ -11,10 +11,10 @@
 //! CSV, one record per line, the header [`MSG_HEADER`] first:
 //!
 //! ```text
-//! event,hop,sender,receiver,tick,seq,sent_ns,recv_ns,injected_ns,reason
-//! recv,state,3,4294967294,120,121,1795437897283832923,1795437897283851120,,
-//! held,state,3,4294967294,120,,,,2050000000,
-//! drop,body,4294967294,3,121,,,,,loss
+//! event,hop,sender,receiver,tick,seq,sent_ns,recv_ns,injected_ns,reason,bytes
+//! recv,state,3,4294967294,120,121,1795437897283832923,1795437897283851120,,,68
+//! held,state,3,4294967294,120,,,,2050000000,,
+//! drop,body,4294967294,3,121,,,,,loss,
 //! ```
 //!
 //! | column | unit | meaning |
@@ -28,8 +28,11 @@
 //! | `recv_ns` | ns since the Unix epoch | receiver's wall clock once it holds the message (`recv`) |
 //! | `injected_ns` | ns of mission time | the delay the link model adds (`held`) |
 //! | `reason` | | why it was dropped (`drop`): `loss`, `burst`, `link_down`, `overflow`, … |
+//! | `bytes` | bytes | the message's size in the compact link encoding (`recv` of a vehicle's command or report; `crate::compact`) |
 //!
 //! A cell that does not apply to the event is empty. All numbers are unsigned integers.
+//! Files of earlier versions have no `bytes` column ([`MSG_HEADER_BEFORE_BYTES`]); their
+//! lines parse with no size.
 //! `hop` and `reason` are identifiers: a comma or line break in them is written as `_`.
 //! The file is appended to (a restarted process continues it, the header is not repeated)
 //! and buffered (64 KiB); a vehicle agent flushes it before every wait, i.e. at least once
@@ -81,7 +84,18 @@ pub fn records_on() -> bool {
 
 /// Header line of every message-record file.
 pub const MSG_HEADER: &str =
+    "event,hop,sender,receiver,tick,seq,sent_ns,recv_ns,injected_ns,reason,bytes";
+
+/// Header line of the files of earlier versions, without the `bytes` column (their
+/// records parse too, with no size).
+pub const MSG_HEADER_BEFORE_BYTES: &str =
     "event,hop,sender,receiver,tick,seq,sent_ns,recv_ns,injected_ns,reason";
+
+/// True for a header line of either version.
+pub fn is_header(line: &str) -> bool {
+    let line = line.trim_end();
+    line == MSG_HEADER || line == MSG_HEADER_BEFORE_BYTES
+}
 
 /// File name suffix: `<process>.msgs.csv` (named with the other run-directory files).
 pub use crate::rundir::MSG_SUFFIX;
@@ -134,6 +148,9 @@ pub struct MsgRecord<'a> {
     pub injected_ns: Option<u64>,
     /// Drop: `"loss"`, `"burst"`, `"link_down"`, `"overflow"`, …
     pub reason: Option<&'a str>,
+    /// Recv: the message's size in the compact link encoding (`crate::compact`), bytes,
+    /// where the receiver knows it (the vehicles' commands and reports).
+    pub bytes: Option<u64>,
 }
 
 /// Parses one line (the header and malformed lines give None). A trailing `\n` or `\r\n`
@@ -158,6 +175,11 @@ pub fn parse(line: &str) -> Option<MsgRecord<'_>> {
     let recv_ns = optional(next()?)?;
     let injected_ns = optional(next()?)?;
     let reason = Some(next()?).filter(|r| !r.is_empty());
+    // Absent in the files of earlier versions.
+    let bytes = match next() {
+        Some(cell) => optional(cell)?,
+        None => None,
+    };
     if next().is_some() {
         return None; // more cells than columns: not one of our lines
     }
@@ -172,6 +194,7 @@ pub fn parse(line: &str) -> Option<MsgRecord<'_>> {
         recv_ns,
         injected_ns,
         reason,
+        bytes,
     })
 }
 
@@ -225,11 +248,14 @@ impl Sink {
         self.cell_u64(tick);
     }
 
-    /// Ends the record (the last cell wrote a separator too many) and writes it.
-    fn end(&mut self) {
-        if let Some(last) = self.line.last_mut() {
-            *last = b'\n';
+    /// Ends the record with its `bytes` cell (the last cell wrote its separator) and
+    /// writes it.
+    fn end(&mut self, bytes: Option<u64>) {
+        if let Some(b) = bytes {
+            self.line
+                .extend_from_slice(itoa::Buffer::new().format(b).as_bytes());
         }
+        self.line.push(b'\n');
         if let Err(e) = self.out.write_all(&self.line) {
             self.fail(&e);
         }
@@ -315,13 +341,37 @@ impl MsgLog {
         sent_ns: u64,
         recv_ns: u64,
     ) {
+        self.recv_sized(hop, sender, receiver, tick, (seq, sent_ns, recv_ns), None);
+    }
+
+    /// [`MsgLog::recv`] of a message of `bytes` bytes (None: unknown); `stamps` are its
+    /// seq, sent_ns and recv_ns.
+    pub fn recv_sized(
+        &mut self,
+        hop: &str,
+        sender: u32,
+        receiver: u32,
+        tick: u64,
+        (seq, sent_ns, recv_ns): (u64, u64, u64),
+        bytes: Option<u64>,
+    ) {
         let Some(s) = self.live() else { return };
         s.begin(MsgEvent::Recv, hop, sender, receiver, tick);
         s.cell_u64(seq);
         s.cell_u64(sent_ns);
         s.cell_u64(recv_ns);
         s.line.extend_from_slice(b",,");
-        s.end();
+        s.end(bytes);
+    }
+
+    /// [`MsgLog::recv_now`] of a message of `bytes` bytes in the compact link encoding
+    /// (`crate::compact`).
+    pub fn recv_now_sized(&mut self, hop: &str, h: &crate::msg::Header, receiver: u32, bytes: u64) {
+        if self.sink.is_some() {
+            let now = crate::msg::wall_ns();
+            let stamps = (h.seq, h.sent_ns, now);
+            self.recv_sized(hop, h.sender, receiver, h.tick, stamps, Some(bytes));
+        }
     }
 
     /// A message with header `h` taken off IPC by `receiver` now ([`MsgLog::recv`] with the
@@ -348,7 +398,7 @@ impl MsgLog {
             s.line.push(b',');
         }
         s.line.push(b',');
-        s.end();
+        s.end(None);
     }
 
     /// A message lost, for `reason` (`"loss"`, `"burst"`, `"link_down"`, `"overflow"`, …).
@@ -357,7 +407,7 @@ impl MsgLog {
         s.begin(MsgEvent::Drop, hop, sender, receiver, tick);
         s.line.extend_from_slice(b",,,,");
         s.cell_str(reason);
-        s.end();
+        s.end(None);
     }
 
     /// Writes the buffered records to the file.
@@ -413,9 +463,16 @@ mod tests {
         log.held("state", 3, u32::MAX - 1, 120, 2.05);
         log.drop("body", u32::MAX - 1, 3, u64::MAX, "loss");
         log.held("body", 0, 1, 7, f64::NAN);
+        let h = crate::msg::Header::new(u32::MAX - 1, 9, 0.45, 10);
+        log.recv_now_sized("body", &h, 3, 1234);
         drop(log);
         let l = lines(&path);
-        assert_eq!(l.len(), 5, "{l:?}");
+        assert_eq!(l.len(), 6, "{l:?}");
+        let sized = parse(&l[5]).unwrap();
+        assert_eq!(
+            (sized.hop, sized.tick, sized.seq, sized.bytes),
+            ("body", 9, Some(10), Some(1234))
+        );
         assert_eq!(l[0], MSG_HEADER);
         assert_eq!(parse(&l[0]), None, "the header is not a record");
         assert_eq!(
@@ -431,6 +488,7 @@ mod tests {
                 recv_ns: Some(recv),
                 injected_ns: None,
                 reason: None,
+                bytes: None,
             })
         );
         assert_eq!(
@@ -446,6 +504,7 @@ mod tests {
                 recv_ns: None,
                 injected_ns: Some(2_050_000_000),
                 reason: None,
+                bytes: None,
             })
         );
         assert_eq!(
@@ -461,25 +520,34 @@ mod tests {
                 recv_ns: None,
                 injected_ns: None,
                 reason: Some("loss"),
+                bytes: None,
             })
         );
         let nan = parse(&l[4]).unwrap();
         assert_eq!((nan.event, nan.injected_ns), (MsgEvent::Held, None));
         // The documented example lines parse.
-        assert_eq!(l[3], "drop,body,4294967294,3,18446744073709551615,,,,,loss");
+        assert_eq!(
+            l[3],
+            "drop,body,4294967294,3,18446744073709551615,,,,,loss,"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
     fn malformed_lines_give_none() {
-        let good = "recv,state,3,4294967294,120,121,10,20,,";
-        assert!(parse(good).is_some());
+        let good = "recv,state,3,4294967294,120,121,10,20,,,80";
+        assert_eq!(parse(good).and_then(|r| r.bytes), Some(80));
         assert!(parse(&format!("{good}\r\n")).is_some());
+        // A line of an earlier version (no `bytes` column).
+        let before = "recv,state,3,4294967294,120,121,10,20,,";
+        assert_eq!(parse(before).map(|r| (r.tick, r.bytes)), Some((120, None)));
+        assert!(is_header(MSG_HEADER_BEFORE_BYTES) && is_header(MSG_HEADER));
         for bad in [
             "",
             MSG_HEADER,
             "recv,state,3,4294967294,120,121,10,20,", // a cell short
-            "recv,state,3,4294967294,120,121,10,20,,,", // a cell too many
+            "recv,state,3,4294967294,120,121,10,20,,,,", // a cell too many
+            "recv,state,3,4294967294,120,121,10,20,,,8.5", // a size not an integer
             "sent,state,3,4294967294,120,121,10,20,,", // unknown event
             "recv,,3,4294967294,120,121,10,20,,",     // no hop
             "recv,state,,4294967294,120,121,10,20,,", // no sender

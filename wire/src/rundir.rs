@@ -502,6 +502,22 @@ pub struct MessageCounts {
     pub rejected: u64,
 }
 
+/// The `link_bytes` object of `summary.json`: the bytes of the vehicles' own messages, each
+/// as the compact link encoding writes it (`crate::compact`, exact precision).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LinkBytes {
+    /// Commands to vehicles (one per vehicle a tick), their mean and largest size, bytes.
+    pub commands: u64,
+    pub command_mean_b: f64,
+    pub command_max_b: u64,
+    /// Reports the link model delivered to the coordinator, and the size of one, bytes.
+    pub reports: u64,
+    pub report_b: u64,
+    /// Bytes per vehicle and day of mission time: commands down, reports up.
+    pub down_b_per_vehicle_day: f64,
+    pub up_b_per_vehicle_day: f64,
+}
+
 /// `summary.json` (docs/ARCHITECTURE.md §10). Fields may be added, never removed.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
@@ -558,6 +574,10 @@ pub struct Summary {
     /// The true formation over the run (from `formation.csv` / `truth.csv` figures).
     #[serde(default)]
     pub formation: Option<FormationSummary>,
+    /// What the vehicles' own links carried, in the compact link encoding
+    /// (`crate::compact`). Since the neighbour lists (absent before).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub link_bytes: Option<LinkBytes>,
 }
 
 /// The `formation` object of `summary.json`: the formation judged from the vehicles' true
