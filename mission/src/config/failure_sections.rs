@@ -40,6 +40,12 @@ pub struct LinksSection {
     pub burst_loss: f64,
     /// Apply the model to coordinator → vehicle messages too (false: uplink only).
     pub downlink: bool,
+    /// Resolution of the positions and velocities a vehicle is told (length unit; length
+    /// unit/s for velocities): 0 = exact (`f64`); > 0 = the multiples of it nearest to
+    /// each value, relative to the body centre for positions, as the compact link encoding
+    /// writes them (`vbap_wire::compact`, 12 bytes a vector instead of 24). The vehicles fly
+    /// on the values so written.
+    pub position_quantum: f64,
 }
 
 impl Default for LinksSection {
@@ -55,6 +61,7 @@ impl Default for LinksSection {
             burst_exit: 0.5,
             burst_loss: 0.5,
             downlink: true,
+            position_quantum: 0.0,
         }
     }
 }

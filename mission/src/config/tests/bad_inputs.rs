@@ -113,6 +113,8 @@ const BAD: &[(&str, &str)] = &[
     ("[links]\nsurfacing_period = 10", "links.surfacing_window"),
     ("[links]\nburst_enter = 1.5", "links.burst_enter"),
     ("[links]\nburst_enter = 0.1\nburst_exit = 0.0", "links.burst_exit"),
+    ("[links]\nposition_quantum = -0.01", "links.position_quantum"),
+    ("[links]\nposition_quantum = 0.5", "links.position_quantum"),
     ("[restart]\nbackoff = 0", "restart.backoff"),
     ("[restart]\nmax_backoff = -1", "restart.max_backoff"),
     ("[control]\nneighbour_memory = 0", "control.neighbour_memory"),

@@ -74,6 +74,20 @@ pub(super) fn design_fits(c: &Check, m: &Mission) -> Checked {
     let Ok(design) = m.formation_design() else {
         return Ok(());
     };
+    // What a vehicle is told may be rounded, never by a tenth of the smallest spacing.
+    let spacing = design.inter.d0 * m.formation.min_scale;
+    let q = m.links.position_quantum;
+    c.ensure(
+        q <= 0.1 * spacing,
+        "links.position_quantum",
+        num(q),
+        &format!(
+            "must be at most a tenth of the smallest neighbour spacing (d0 × formation.min_scale \
+             = {}): rounded positions would move the vehicles' neighbours by a visible part \
+             of a spacing",
+            num(spacing)
+        ),
+    )?;
     let n_l = design.leaders.len();
     c.ensure(
         n_l <= MAX_LEADERS,

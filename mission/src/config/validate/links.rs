@@ -21,6 +21,7 @@ pub(super) fn links(c: &Check, l: &LinksSection) -> Checked {
         num(l.loss),
         "must be in [0, 1)",
     )?;
+    c.non_negative("links.position_quantum", l.position_quantum)?;
     c.non_negative("links.surfacing_period", l.surfacing_period)?;
     c.non_negative("links.surfacing_window", l.surfacing_window)?;
     c.ensure(
