@@ -6,8 +6,9 @@
 //! payload), then one or more entries, each a native-endian `u32` length and the payload's
 //! bytes in use ([`Raw::wire_bytes`]): a state or a process exit whole, exactly as in shared
 //! memory; a body command without the entries it does not use (its fixed part, then its
-//! leaders, snapshot entries and path segments in use: 2.6 KB for 16 vehicles instead of
-//! the whole 140 KB sized for `MAX_VEHICLES`; the rest is zeros on arrival). A glider
+//! leaders, snapshot entries, path segments and neighbour lists in use: 2.8 KB for 16
+//! vehicles instead of the whole 205 KB sized for `MAX_VEHICLES`; the rest is zeros on
+//! arrival). A glider
 //! host's states of one pass go in one frame (one Zenoh put per host per tick, [`Batch`]);
 //! a body command or a process exit is a frame of one entry. Wire versions 1 (one payload
 //! per frame, no lengths) and 2 (body commands whole) are refused. Each entry is checked
@@ -113,12 +114,16 @@ impl Raw for RawBody {
             (u32_at(b, N_VEHICLES) as usize).min(MAX_VEHICLES),
         );
         let n_p = (u32_at(b, N_PLAN) as usize).min(MAX_PLAN);
-        let mut out = Vec::with_capacity(body_wire_len(n_l, n_v, n_p));
+        let mut out = Vec::with_capacity(body_wire_len(n_l, n_v, n_p, MAX_NEAR_ENTRIES));
         out.extend_from_slice(&b[..LEADERS]);
         out.extend_from_slice(&b[LEADERS..LEADERS + n_l * LEADER]);
         out.extend_from_slice(&b[SNAPSHOT..SNAPSHOT + n_v * ENTRY]);
         out.extend_from_slice(&b[PLAN_START..PLAN]);
         out.extend_from_slice(&b[PLAN..PLAN + n_p * SEGMENT]);
+        let n_near = (u32_at(b, N_NEAR) as usize).min(MAX_NEAR_ENTRIES);
+        out.extend_from_slice(&b[N_NEAR..NEAR_START]);
+        out.extend_from_slice(&b[NEAR_START..NEAR_START + (n_v + 1) * START]);
+        out.extend_from_slice(&b[NEAR..NEAR + n_near * INDEX]);
         Cow::Owned(out)
     }
 
@@ -136,15 +141,24 @@ impl Raw for RawBody {
                 n_l.min(MAX_LEADERS),
                 n_v.min(MAX_VEHICLES),
                 0,
+                0,
             )));
         }
         let tail = LEADERS + n_l * LEADER + n_v * ENTRY;
         if w.len() < tail + (PLAN - PLAN_START) {
-            return Err(refused(body_wire_len(n_l, n_v, 0)));
+            return Err(refused(body_wire_len(n_l, n_v, 0, 0)));
         }
         let n_p = u32_at(w, tail + (N_PLAN - PLAN_START)) as usize;
-        let want = body_wire_len(n_l, n_v, n_p.min(MAX_PLAN));
-        if n_p > MAX_PLAN || w.len() != want {
+        if n_p > MAX_PLAN {
+            return Err(refused(body_wire_len(n_l, n_v, MAX_PLAN, 0)));
+        }
+        let lists = tail + (PLAN - PLAN_START) + n_p * SEGMENT;
+        if w.len() < lists + (NEAR_START - N_NEAR) {
+            return Err(refused(body_wire_len(n_l, n_v, n_p, 0)));
+        }
+        let n_near = u32_at(w, lists) as usize;
+        let want = body_wire_len(n_l, n_v, n_p, n_near.min(MAX_NEAR_ENTRIES));
+        if n_near > MAX_NEAR_ENTRIES || w.len() != want {
             return Err(refused(want));
         }
         let mut full = vec![0u8; size_of::<BodyCommand>()];
@@ -156,6 +170,8 @@ impl Raw for RawBody {
         copy(0, LEADERS + n_l * LEADER);
         copy(SNAPSHOT, n_v * ENTRY);
         copy(PLAN_START, PLAN - PLAN_START + n_p * SEGMENT);
+        copy(N_NEAR, NEAR_START - N_NEAR + (n_v + 1) * START);
+        copy(NEAR, n_near * INDEX);
         Ok(Self::from_bytes(&full))
     }
 }
@@ -165,7 +181,7 @@ use vbap_wire::msg::agent_to_coordinator::VehicleState;
 use vbap_wire::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
 use vbap_wire::msg::supervisor_to_coordinator::ProcessExit;
 use vbap_wire::msg::Header;
-use vbap_wire::msg::{MAX_LEADERS, MAX_VEHICLES};
+use vbap_wire::msg::{MAX_LEADERS, MAX_NEAR_ENTRIES, MAX_VEHICLES};
 
 /// Offsets and sizes within a [`BodyCommand`], bytes.
 const LEADERS: usize = offset_of!(BodyCommand, leaders);
@@ -175,16 +191,32 @@ const SNAPSHOT: usize = offset_of!(BodyCommand, snapshot);
 const PLAN_START: usize = offset_of!(BodyCommand, plan_start);
 const N_PLAN: usize = offset_of!(BodyCommand, n_plan);
 const PLAN: usize = offset_of!(BodyCommand, plan);
+const N_NEAR: usize = offset_of!(BodyCommand, n_near);
+const NEAR_START: usize = offset_of!(BodyCommand, near_start);
+const NEAR: usize = offset_of!(BodyCommand, near);
 const LEADER: usize = size_of::<[f64; 3]>();
 const ENTRY: usize = size_of::<SnapshotEntry>();
 const SEGMENT: usize = size_of::<[f64; 5]>();
+const START: usize = size_of::<u32>();
+const INDEX: usize = size_of::<u16>();
 const _: () = assert!(LEADERS + MAX_LEADERS * LEADER == SNAPSHOT);
 const _: () = assert!(SNAPSHOT + MAX_VEHICLES * ENTRY == PLAN_START);
-const _: () = assert!(PLAN + MAX_PLAN * SEGMENT == size_of::<BodyCommand>());
+const _: () = assert!(PLAN + MAX_PLAN * SEGMENT == N_NEAR);
+const _: () = assert!(N_NEAR + START == NEAR_START);
+const _: () = assert!(NEAR_START + (MAX_VEHICLES + 1) * START == NEAR);
+const _: () = assert!(NEAR + MAX_NEAR_ENTRIES * INDEX == size_of::<BodyCommand>());
 
-/// Wire bytes of a body command with `n_l` leaders, `n_v` vehicles and `n_p` segments.
-fn body_wire_len(n_l: usize, n_v: usize, n_p: usize) -> usize {
-    LEADERS + n_l * LEADER + n_v * ENTRY + (PLAN - PLAN_START) + n_p * SEGMENT
+/// Wire bytes of a body command with `n_l` leaders, `n_v` vehicles, `n_p` segments and
+/// `n_near` entries in its neighbour lists.
+fn body_wire_len(n_l: usize, n_v: usize, n_p: usize, n_near: usize) -> usize {
+    LEADERS
+        + n_l * LEADER
+        + n_v * ENTRY
+        + (PLAN - PLAN_START)
+        + n_p * SEGMENT
+        + (NEAR_START - N_NEAR)
+        + (n_v + 1) * START
+        + n_near * INDEX
 }
 
 /// A frame being filled with payloads of type `T` (the states of one glider host's pass).
@@ -420,6 +452,17 @@ mod tests {
         sent.plan_ticks = 20;
         sent.n_plan = 2;
         sent.plan[1] = [0.1, 0.2, 0.3, 0.4, 0.5];
+        // Each hears of the one before and the one after it.
+        let mut near = Vec::new();
+        for i in 0..n {
+            sent.near_start[i] = near.len() as u32;
+            near.extend((i.saturating_sub(1)..(i + 2).min(n)).filter(|&j| j != i));
+        }
+        sent.near_start[n] = near.len() as u32;
+        sent.n_near = near.len() as u32;
+        for (d, &j) in sent.near.iter_mut().zip(&near) {
+            *d = j as u16;
+        }
         // Through shared memory as the coordinator writes it (entries in use only), read as
         // the bridge reads it (raw), over the wire, published raw as the far bridge does,
         // read as an agent reads it.
@@ -457,6 +500,10 @@ mod tests {
         assert_eq!(got.leader_positions(), sent.leader_positions());
         assert_eq!(got.snapshot_entries(), sent.snapshot_entries());
         assert_eq!(got.schedule(), sent.schedule());
+        for i in 0..n {
+            assert_eq!(got.near_of(i), sent.near_of(i), "list {i}");
+        }
+        assert_eq!(got.near_of(5), &[4, 6]);
         assert!(got.is_valid());
         // The tail arrives as zeros, whatever shared memory held beyond the counts.
         assert!(arrived.bytes()[SNAPSHOT + n * ENTRY..PLAN_START]

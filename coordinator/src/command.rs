@@ -2,12 +2,18 @@
 //! [`BodyRecord`] (what the coordinator checkpoints, to publish it again after a restart),
 //! which fills the zero-copy payload [`BodyCommand`] the agents read. The agents turn that
 //! payload into their guidance with [`BodyCommand::leader_positions`] and
-//! [`BodyCommand::potentials`] (`vbap_ipc::msg`).
+//! [`BodyCommand::potentials`] (`vbap_ipc::msg`), each reading only its own neighbour list
+//! ([`crate::near`]), which the payload carries beside the snapshot.
 
 use vbap_ipc::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
-use vbap_ipc::msg::{from_potential, from_vec3, Header, MAX_LEADERS, MAX_VEHICLES};
+use vbap_ipc::msg::{
+    from_potential, from_vec3, to_potential, to_vec3, Header, MAX_LEADERS, MAX_NEAR_ENTRIES,
+    MAX_VEHICLES,
+};
+use vbap_math::neighbourhood::Neighbourhoods;
 use vbap_math::schedule::MAX_PLAN;
 
+use crate::near::neighbour_lists;
 use crate::planner::Command;
 
 /// The content of one body command (kept in the checkpoint for a re-send).
@@ -51,6 +57,13 @@ pub struct BodyRecord {
     /// Segments of the committed path (velocity x, y, z, length unit/s; dk/dt, 1/s; ṡ, 1/s).
     #[serde(default)]
     pub plan: Vec<[f64; 5]>,
+    /// Each snapshot entry's neighbour list ([`crate::near`]): entry `i`'s is
+    /// `near[near_start[i]..near_start[i + 1]]` (empty in a checkpoint of an earlier
+    /// version: [`BodyRecord::fill`] then computes them).
+    #[serde(default)]
+    pub near_start: Vec<u32>,
+    #[serde(default)]
+    pub near: Vec<u32>,
 }
 
 impl BodyRecord {
@@ -77,6 +90,18 @@ impl BodyRecord {
             plan: command.schedule.as_ref().map_or_else(Vec::new, |s| {
                 s.segments.iter().map(|g| g.to_array()).collect()
             }),
+            near_start: Vec::new(),
+            near: Vec::new(),
+        }
+    }
+
+    /// This record with the neighbour lists `lists` of its snapshot (the tick's, from
+    /// [`crate::tick::plan_tick`]).
+    pub fn with_near(self, lists: Neighbourhoods) -> Self {
+        Self {
+            near_start: lists.starts,
+            near: lists.near,
+            ..self
         }
     }
 
@@ -109,6 +134,33 @@ impl BodyRecord {
         body.plan_ticks = self.plan_ticks;
         body.n_plan = n_p as u32;
         body.plan[..n_p].copy_from_slice(&self.plan[..n_p]);
+        if self.near_start.len() == n_v + 1 {
+            fill_lists(body, &self.near_start, &self.near);
+        } else {
+            // A checkpoint of an earlier version: the lists of the positions and ages alone
+            // (the command horizon is the fleet's, not the record's).
+            let lists = neighbour_lists(
+                &self.snapshot[..n_v],
+                &to_potential(&self.inter),
+                &to_vec3(&self.velocity),
+                0.0,
+            );
+            fill_lists(body, &lists.starts, &lists.near);
+        }
+    }
+}
+
+/// Writes the neighbour lists `starts`, `near` (of the command's snapshot entries, see
+/// [`BodyRecord::near_start`]) into `body`.
+fn fill_lists(body: &mut BodyCommand, starts: &[u32], near: &[u32]) {
+    let n_near = near.len().min(MAX_NEAR_ENTRIES);
+    body.n_near = n_near as u32;
+    let starts = &starts[..starts.len().min(MAX_VEHICLES + 1)];
+    for (d, &s) in body.near_start.iter_mut().zip(starts) {
+        *d = s.min(n_near as u32);
+    }
+    for (d, &j) in body.near[..n_near].iter_mut().zip(near) {
+        *d = j as u16;
     }
 }
 
@@ -120,6 +172,8 @@ pub fn fill_finished(body: &mut BodyCommand, k: u64, dt: f64) {
     body.n_leaders = 0;
     body.n_vehicles = 0;
     body.n_plan = 0;
+    body.n_near = 0;
+    body.near_start[0] = 0;
 }
 
 #[cfg(test)]
@@ -174,6 +228,7 @@ mod tests {
         assert_eq!(to_vec3(&body.velocity), command.velocity);
         assert_eq!(to_vec3(&body.r), command.body.r);
         assert_eq!(body.snapshot_entries(), &snapshot[..]);
+        assert_eq!((body.n_near, body.near_of(0)), (0, &[][..]));
         fill_finished(&mut body, 9, 0.05);
         assert_eq!(body.header.flags, BodyCommand::FINISHED);
         assert!(body.leader_positions().is_empty() && body.snapshot_entries().is_empty());

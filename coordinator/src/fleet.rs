@@ -58,6 +58,15 @@ pub struct Fleet {
     /// A horizontal formation of diving gliders (`Mission::diving`): what the coordinator
     /// hears is seen in the formation's plane (z and ż dropped).
     horizontal: bool,
+    /// The longest a vehicle may fly on one command, s
+    /// (`vbap_mission::horizon::plan_horizon` of the links, whatever the law): how far each
+    /// vehicle is told of its neighbours reaches that far ([`crate::near`]).
+    #[serde(default)]
+    command_horizon: f64,
+    /// `links.position_quantum`: the precision of what each vehicle is told, length unit
+    /// (0: exact).
+    #[serde(default)]
+    position_quantum: f64,
 }
 
 impl Fleet {
@@ -105,7 +114,22 @@ impl Fleet {
             body_track: BTreeMap::new(),
             counts: UplinkCounts::default(),
             horizontal: mission.diving(),
+            command_horizon: vbap_mission::horizon::plan_horizon(
+                &mission.links,
+                mission.mission.dt,
+            ),
+            position_quantum: mission.links.position_quantum,
         }
+    }
+
+    /// The longest a vehicle may fly on one command, s (see the field).
+    pub fn command_horizon(&self) -> f64 {
+        self.command_horizon
+    }
+
+    /// The precision of what each vehicle is told (`links.position_quantum`).
+    pub fn precision(&self) -> vbap_ipc::compact::Precision {
+        vbap_ipc::compact::Precision::of_quantum(self.position_quantum)
     }
 
     /// `q` as the coordinator sees it: in the formation's plane for diving gliders.

@@ -17,6 +17,7 @@ pub mod exits;
 pub mod fleet;
 pub mod handover;
 pub mod membership;
+pub mod near;
 pub mod plan;
 pub mod planner;
 pub mod record;

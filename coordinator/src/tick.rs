@@ -4,10 +4,12 @@
 //! byte-identical. The planner is any [`Plan`] (the binaries ship [`crate::planner::Planner`]).
 
 use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+use vbap_math::neighbourhood::Neighbourhoods;
 use vbap_mission::config::LawKind;
 use vbap_mission::link::Fate;
 
 use crate::fleet::Fleet;
+use crate::near::{command_sizes, neighbour_lists};
 use crate::plan::Plan;
 use crate::planner::{Command, PlannerError, Report, Told};
 use crate::record::Recorder;
@@ -20,6 +22,8 @@ pub struct TickOutcome {
     pub command: Command,
     /// The swarm snapshot published with it.
     pub snapshot: Vec<SnapshotEntry>,
+    /// Each snapshot entry's neighbour list, published with it ([`crate::near`]).
+    pub near: Neighbourhoods,
 }
 
 /// Errors of a tick.
@@ -35,7 +39,8 @@ pub enum TickError {
 
 /// Tick `k` (length `dt`, s) with the true reports `truth` (ordered by id) and what the
 /// vehicles say of themselves, `told` (their beliefs: what the link carries to the
-/// planner; empty = the truth): link model, body track, planner step, run-directory rows.
+/// planner; empty = the truth): link model, body track, planner step, run-directory rows,
+/// each vehicle's neighbour list and the bytes of its command.
 #[allow(clippy::too_many_arguments)]
 pub fn plan_tick(
     k: u64,
@@ -63,9 +68,26 @@ pub fn plan_tick(
         let slots = planner.member_slots(&command, &members);
         crate::slots::give_slots(&mut snapshot, &slots);
     }
+    let horizon = fleet.command_horizon();
+    let near = neighbour_lists(&snapshot, &command.inter, &command.velocity, horizon);
+    let delivered = fates
+        .iter()
+        .filter(|(_, f)| matches!(f, Fate::Deliver { .. }))
+        .count() as u64;
+    let in_contact = |v: u32| fleet.model().contact(v, t).can_talk();
+    let sizes = command_sizes(
+        &command,
+        &snapshot,
+        &near,
+        horizon,
+        fleet.precision(),
+        in_contact,
+    );
+    recorder.links(&sizes, delivered);
     Ok(TickOutcome {
         fates,
         command,
         snapshot,
+        near,
     })
 }

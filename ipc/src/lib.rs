@@ -1,6 +1,7 @@
 //! `vbap-ipc`: how the vbap processes exchange what `vbap-wire` defines.
 //!
-//! - [`msg`], [`versioned`], [`msglog`]: the payloads, their versioned names and the
+//! - [`msg`], [`versioned`], [`msglog`], [`compact`]: the payloads, their versioned names, the
+//!   compact link encoding and the
 //!   message records, re-exported from `vbap-wire` (where they live, free of iceoryx2's
 //!   runtime, for the readers of run directories).
 //! - [`topics`]: every iceoryx2 service name and limit; [`domain`]: is a mission's domain
@@ -12,7 +13,7 @@
 //! - [`process`]: a process's life: start-up, ending with the supervisor, exit codes, a
 //!   `vbap run` child.
 
-pub use vbap_wire::{msg, msglog, versioned};
+pub use vbap_wire::{compact, msg, msglog, versioned};
 pub mod domain;
 pub mod ports;
 pub mod prefix;

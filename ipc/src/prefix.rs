@@ -28,7 +28,7 @@ use iceoryx2::prelude::{ipc, ZeroCopySend};
 use crate::msg::coordinator_to_agent::BodyCommand;
 use crate::msg::coordinator_to_field::SampleBatch;
 use crate::msg::field_to_coordinator::ReadingBatch;
-use crate::msg::{MAX_LEADERS, MAX_VEHICLES};
+use crate::msg::{MAX_LEADERS, MAX_NEAR_ENTRIES, MAX_VEHICLES};
 use crate::topics::TopicError;
 use vbap_math::schedule::MAX_PLAN;
 
@@ -115,6 +115,7 @@ impl WritePrefix for BodyCommand {
         let n_l = (self.n_leaders as usize).min(MAX_LEADERS);
         let n_v = (self.n_vehicles as usize).min(MAX_VEHICLES);
         let n_p = (self.n_plan as usize).min(MAX_PLAN);
+        let n_near = (self.n_near as usize).min(MAX_NEAR_ENTRIES);
         // SAFETY: `d` is valid for writes of a whole `BodyCommand` (a `MaybeUninit` of it);
         // only fields are written, through raw pointers (no reference to the uninitialised
         // value is formed), and each array prefix is within its capacity.
@@ -137,6 +138,9 @@ impl WritePrefix for BodyCommand {
             addr_of_mut!((*d).n_plan).write(n_p as u32);
             addr_of_mut!((*d)._plan_pad).write(0);
             copy_prefix(addr_of_mut!((*d).plan), &self.plan, n_p);
+            addr_of_mut!((*d).n_near).write(n_near as u32);
+            copy_prefix(addr_of_mut!((*d).near_start), &self.near_start, n_v + 1);
+            copy_prefix(addr_of_mut!((*d).near), &self.near, n_near);
         }
     }
 }
@@ -189,6 +193,9 @@ mod tests {
             e.id = 1000 + i as u32;
             e.position = [9.0; 3];
         }
+        old.n_near = 50;
+        old.near[..50].fill(7);
+        old.near_start[..41].fill(50);
         let mut new = Box::new(BodyCommand::empty());
         new.header = Header::new(Header::COORDINATOR, 7, 0.35, 8);
         new.s = 1.5;
@@ -204,6 +211,9 @@ mod tests {
                 ..SnapshotEntry::default()
             };
         }
+        new.n_near = 4;
+        new.near[..4].copy_from_slice(&[1, 2, 0, 0]);
+        new.near_start[..4].copy_from_slice(&[0, 2, 3, 4]);
         let mut chunk: Box<MaybeUninit<BodyCommand>> = Box::new(MaybeUninit::new(*old));
         new.write_prefix(&mut chunk);
         // SAFETY: the chunk held a whole command before the prefix write.
@@ -214,6 +224,10 @@ mod tests {
         assert_eq!(got.leader_positions(), new.leader_positions());
         assert_eq!(got.snapshot_entries(), new.snapshot_entries());
         assert_eq!(got.schedule().is_none(), new.schedule().is_none());
+        for i in 0..4 {
+            assert_eq!(got.near_of(i), new.near_of(i), "list {i}");
+        }
+        assert_eq!(got.near_of(0), &[1, 2]);
         // The tail keeps the old bytes: only the counts make it invisible.
         assert_eq!(got.snapshot[3].id, 1003);
     }

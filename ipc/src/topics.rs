@@ -99,8 +99,9 @@ impl Limits {
     /// [`Limits::BODY_SEGMENT_BUDGET`] for this fleet, between [`Limits::BODY_BUFFER_MIN`]
     /// and [`Limits::BODY_BUFFER_MAX`]. In lockstep a submerged glider that runs ahead is
     /// woken once every `body_buffer() − 2` commands (coordinator `Inbox::needs_wake`),
-    /// so a deeper buffer means fewer wake-ups (32 up to N = 6: one every 30 ticks; 24 at
-    /// N = 16; 4 from N ≈ 100 on, where the command, 135 KiB, is read in place by many).
+    /// so a deeper buffer means fewer wake-ups (32 up to N = 11: one every 30 ticks; 24 at
+    /// N = 16; 4 from N ≈ 93 on, where the command, 203 KiB with its neighbour lists, is
+    /// read in place by many).
     pub fn body_buffer(&self) -> usize {
         let per_command = (self.fleet_ports() * std::mem::size_of::<BodyCommand>()).max(1);
         (Self::BODY_SEGMENT_BUDGET / per_command)
@@ -108,8 +109,9 @@ impl Limits {
     }
     /// Shared memory the body service's subscriber buffers may reserve, bytes (virtual:
     /// iceoryx2 sizes the publisher's segment for every subscriber holding a full buffer
-    /// of distinct commands): 64 MiB.
-    pub const BODY_SEGMENT_BUDGET: usize = 64 << 20;
+    /// of distinct commands): 96 MiB (64 MiB until the command grew its neighbour lists,
+    /// 135 → 203 KiB: the budget grew with it, to keep 24 commands at N = 16).
+    pub const BODY_SEGMENT_BUDGET: usize = 96 << 20;
     /// Smallest body buffer (lockstep flow control needs room for 2 unread commands).
     pub const BODY_BUFFER_MIN: usize = 4;
     /// Largest body buffer.

@@ -7,12 +7,13 @@
 use std::io;
 use std::sync::Arc;
 
+use vbap_ipc::compact::StateReport;
 use vbap_math::formation::FormationDesign;
 use vbap_math::Vec3;
 use vbap_mission::config::Mission;
 use vbap_mission::field::ScalarField;
 use vbap_mission::rundir::{
-    BodyRow, Event, EventLog, InputRow, RunDir, TrackWriter, TruthWriter, VehicleRow,
+    BodyRow, Event, EventLog, InputRow, LinkBytes, RunDir, TrackWriter, TruthWriter, VehicleRow,
 };
 
 mod summary;
@@ -68,6 +69,38 @@ pub struct RecorderStats {
     pub first_optimum: Option<Vec3>,
     #[serde(default)]
     pub optimum_moved: bool,
+    /// The bytes of the vehicles' own messages so far.
+    #[serde(default)]
+    pub links: LinkTotals,
+}
+
+/// The running totals of the vehicles' own messages, in the compact link encoding.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LinkTotals {
+    /// Commands sent (one per vehicle a tick), their bytes summed and the largest.
+    pub commands: u64,
+    pub command_bytes: u64,
+    pub command_max: u64,
+    /// Reports the link model delivered.
+    pub reports: u64,
+}
+
+impl LinkTotals {
+    /// The `link_bytes` object of the summary, for `vehicles` vehicles over `duration` s of
+    /// mission time.
+    pub fn summary(&self, vehicles: usize, duration: f64) -> LinkBytes {
+        let report_b = StateReport::LEN as u64;
+        let vehicle_days = vehicles.max(1) as f64 * duration.max(f64::MIN_POSITIVE) / 86_400.0;
+        LinkBytes {
+            commands: self.commands,
+            command_mean_b: self.command_bytes as f64 / self.commands.max(1) as f64,
+            command_max_b: self.command_max,
+            reports: self.reports,
+            report_b,
+            down_b_per_vehicle_day: self.command_bytes as f64 / vehicle_days,
+            up_b_per_vehicle_day: (self.reports * report_b) as f64 / vehicle_days,
+        }
+    }
 }
 
 /// The body's distance from the optimum over the last quarter of a run, length unit.
@@ -126,6 +159,7 @@ impl Recorder {
             tail: TailStats::default(),
             first_optimum: None,
             optimum_moved: false,
+            links: LinkTotals::default(),
         };
         Self::resume_with(mission, dir, stats, field)
     }
@@ -270,6 +304,16 @@ impl Recorder {
             row("joined", q)?;
         }
         Ok(())
+    }
+
+    /// Counts one tick's messages on the vehicles' own links: the commands of `sizes` and
+    /// `reports` reports delivered.
+    pub fn links(&mut self, sizes: &crate::near::CommandSizes, reports: u64) {
+        let l = &mut self.stats.links;
+        l.commands += sizes.count;
+        l.command_bytes += sizes.bytes;
+        l.command_max = l.command_max.max(sizes.max);
+        l.reports += reports;
     }
 
     /// Records tick `k`: `truth` holds every vehicle's true state and reading (ordered by

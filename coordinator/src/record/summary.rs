@@ -106,6 +106,11 @@ impl Recorder {
             verdict,
             reasons,
             formation: Some(truth::summary(&self.stats.truth)),
+            link_bytes: Some(
+                self.stats
+                    .links
+                    .summary(self.stats.vehicles_started, t + dt),
+            ),
             ..Summary::default()
         }
     }

@@ -149,7 +149,10 @@ impl Inbox {
         } else {
             "state"
         };
-        self.msgs.recv_now(hop, &h, Header::COORDINATOR);
+        // Its size as the vehicle's own link would carry it (`vbap_ipc::compact`).
+        let bytes = vbap_ipc::compact::StateReport::LEN as u64;
+        self.msgs
+            .recv_now_sized(hop, &h, Header::COORDINATOR, bytes);
         let peer = &mut self.peers[id as usize];
         let joining = h.flags & VehicleState::JOINING != 0;
         let (new_process, older) = identify(peer, &s, joining || fleet.is_lost(id));

@@ -26,6 +26,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
             fates,
             command,
             mut snapshot,
+            near,
         } = plan_tick(
             k,
             self.dt,
@@ -51,7 +52,7 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
         for e in &mut snapshot {
             e.incarnation = self.inbox.incarnation(e.id);
         }
-        Ok(BodyRecord::from_command(k, self.dt, &command, snapshot))
+        Ok(BodyRecord::from_command(k, self.dt, &command, snapshot).with_near(near))
     }
 
     /// Publishes the command `record` (zero copy into the subscribers' shared memory) and
