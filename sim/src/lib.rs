@@ -24,8 +24,9 @@ use std::collections::BTreeMap;
 use vbap_mission::config::Mission;
 use vbap_mission::faults::FaultPlan;
 use vbap_mission::rundir::{RunDir, Summary};
+use vbap_wire::msg::coordinator_to_agent::own_index;
 use vehicle_agent::motion::Kinematics;
-use vehicle_agent::{initial_agent, initial_design, Agent, Guidance, Vehicle};
+use vehicle_agent::{initial_agent, initial_design, Agent, Guidance, Telling, Vehicle};
 
 /// Set (by the command line's SIGINT/SIGTERM handler) to stop a simulation early: it
 /// ends after the tick in progress and writes its files and summary (verdict
@@ -279,7 +280,10 @@ fn step_vehicles(
     v0: f64,
 ) {
     let (command, snapshot) = (&outcome.command, &outcome.snapshot);
+    // What each vehicle is told of, as the coordinator publishes it (`BodyRecord::fill`).
+    let lists = &outcome.near;
     for (&id, veh) in vehicles.iter_mut() {
+        let own = own_index(snapshot, id);
         let guidance = Guidance::of_command(
             k,
             command.leaders.clone(),
@@ -289,7 +293,20 @@ fn step_vehicles(
             command.velocity,
             v0,
         )
-        .with_neighbours(id, snapshot)
+        .with_near(
+            id,
+            snapshot,
+            own,
+            own.map_or(&[][..], |i| lists.of_point(i))
+                .iter()
+                .map(|&j| j as usize),
+            &Telling {
+                horizon: fleet.command_horizon(),
+                precision: fleet.precision(),
+                origin: command.body.r,
+            },
+        )
+        .0
         .with_plan(command.schedule.clone(), command.body.r, command.body.scale);
         veh.on_command(fleet.model(), guidance, k, dt);
     }

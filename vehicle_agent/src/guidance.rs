@@ -4,6 +4,8 @@
 
 mod snapshot;
 
+pub use snapshot::Telling;
+
 use vbap_math::body::VirtualBody;
 use vbap_math::formation::FormationDesign;
 use vbap_math::potential::PairPotential;

@@ -227,7 +227,12 @@ impl<'m> Pilot<'m> {
             k: 0,
             newest_command: None,
             reported_read: 0,
-            filter: CommandFilter::new(id, mission.body.v0),
+            filter: CommandFilter::new(
+                id,
+                mission.body.v0,
+                vbap_mission::horizon::plan_horizon(&mission.links, mission.mission.dt),
+                vbap_ipc::compact::Precision::of_quantum(mission.links.position_quantum),
+            ),
             out,
             msgs,
         })

@@ -11,7 +11,7 @@ use vbap_math::Vec3;
 use vbap_mission::config::Mission;
 use vbap_mission::link::LinkModel;
 
-use crate::{initial_design, Agent, AgentInputs, Guidance, Vehicle};
+use crate::{initial_design, Agent, AgentInputs, Guidance, Telling, Vehicle};
 
 /// The paper's mission (Table I) shipped with the repository, with `links` in place of its
 /// ideal `[links]` table.
@@ -549,4 +549,59 @@ fn a_step_deep_inside_a_repulsion_is_split_and_gains_no_energy() {
     // One Euler step of the same force: the energy the split removes.
     let euler_v = u * dt;
     assert!(0.5 * euler_v.norm_squared() > 10.0 * kinetic.max(released));
+}
+
+/// Told by its own entry and a list holding every other entry, exactly, a vehicle has the
+/// guidance of the whole snapshot (leaders near it); told a shorter list, only those
+/// neighbours; told at a quantum, the positions it reads are within half of it.
+#[test]
+fn a_vehicle_told_its_list_reads_what_the_whole_snapshot_says_of_those() {
+    use vbap_ipc::compact::Precision;
+    use vbap_ipc::msg::coordinator_to_agent::{own_index, SnapshotEntry};
+    let mission = paper_mission(None);
+    let design = initial_design(&mission).unwrap();
+    let base = Guidance::initial(&mission, &design);
+    let centre = base.leaders[0];
+    let at = |dx: f64, dy: f64| centre + Vec3::new(dx, dy, 0.0);
+    let entry = |id, alive, p: Vec3, age: f64| SnapshotEntry {
+        id,
+        alive,
+        position: [p.x, p.y, p.z],
+        velocity: [0.01 * id as f64, 0.0, 0.0],
+        age,
+        ..SnapshotEntry::default()
+    };
+    let mut snapshot = vec![
+        entry(0, SnapshotEntry::MEMBER, at(0.0, 0.0), 0.0),
+        entry(1, SnapshotEntry::MEMBER, at(0.7, 0.1), 0.5),
+        entry(2, SnapshotEntry::LOST, at(-0.6, 0.2), 0.0),
+        entry(3, SnapshotEntry::MEMBER, at(0.1, -0.8), 1.0),
+        entry(4, SnapshotEntry::MEMBER, at(0.3, 0.4), 0.0),
+    ];
+    snapshot[3].rejoining = 1;
+    snapshot[3].target = [centre.x + 0.2, centre.y - 0.6, 0.0];
+    let exact = Telling {
+        horizon: 0.0,
+        precision: Precision::Exact,
+        origin: centre,
+    };
+    let own = own_index(&snapshot, 0);
+    let (whole, own_whole) = base.clone().with_neighbours_and_own(0, &snapshot);
+    let (told, own_told) = base.clone().with_near(0, &snapshot, own, 1..5, &exact);
+    assert_eq!(told, whole);
+    assert_eq!(own_told, own_whole);
+    let (short, _) = base.clone().with_near(0, &snapshot, own, [1, 4], &exact);
+    assert_eq!(short.neighbours, vec![at(0.7, 0.1), at(0.3, 0.4)]);
+    assert!(short.hulls.is_empty());
+    let q = 0.01;
+    let quantised = Telling {
+        precision: Precision::Quantised(q),
+        ..exact
+    };
+    let (rounded, _) = base.with_near(0, &snapshot, own, 1..5, &quantised);
+    assert_eq!(rounded.neighbours.len(), whole.neighbours.len());
+    for (a, b) in rounded.neighbours.iter().zip(&whole.neighbours) {
+        assert!((a - b).amax() <= 0.5 * q + 1e-12, "{a} read as {b}");
+    }
+    assert_ne!(rounded.neighbours, whole.neighbours);
 }

@@ -1,9 +1,60 @@
 //! The neighbours of a [`Guidance`] read from the swarm snapshot of a body command's
 //! payload (`vbap_ipc::msg::coordinator_to_agent::SnapshotEntry`).
 
+use vbap_ipc::compact::Precision;
+use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
+use vbap_ipc::msg::{from_vec3, to_vec3};
+use vbap_math::neighbourhood::{reach, within};
 use vbap_math::rejoin::homing_weight;
+use vbap_math::Vec3;
 
 use crate::Guidance;
+
+/// How what a vehicle is told crosses its link: the longest it flies on one command, and
+/// the precision of the positions and velocities (`links.position_quantum`) relative to
+/// the body centre `origin` of the command.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Telling {
+    /// The longest the vehicle may fly on one command, s
+    /// (`vbap_mission::horizon::plan_horizon`).
+    pub horizon: f64,
+    /// Exact, or quantised (`vbap_wire::compact`).
+    pub precision: Precision,
+    /// The command's body centre r, length unit.
+    pub origin: Vec3,
+}
+
+impl Telling {
+    /// `v` as the link carries it (relative to `origin`; exact when the quantum cannot hold
+    /// it: such a value could not be sent, and is kept as it is).
+    fn round_trip(&self, v: &[f64; 3], origin: &[f64; 3]) -> [f64; 3] {
+        self.precision.round_trip(v, origin).unwrap_or(*v)
+    }
+
+    /// Entry `e` as the link carries it: positions relative to the body centre, velocities
+    /// absolute (`own`: the vehicle's own entry, whose slot is carried too).
+    fn as_read(&self, e: &SnapshotEntry, own: bool) -> SnapshotEntry {
+        if self.precision == Precision::Exact {
+            return *e;
+        }
+        let origin = from_vec3(&self.origin);
+        SnapshotEntry {
+            position: self.round_trip(&e.position, &origin),
+            velocity: self.round_trip(&e.velocity, &[0.0; 3]),
+            target: if e.rejoining != 0 {
+                self.round_trip(&e.target, &origin)
+            } else {
+                e.target
+            },
+            slot: if own && e.has_slot != 0 {
+                self.round_trip(&e.slot, &origin)
+            } else {
+                e.slot
+            },
+            ..*e
+        }
+    }
+}
 
 impl Guidance {
     /// This guidance for vehicle `id` of a body command: as neighbours every member or
@@ -19,12 +70,57 @@ impl Guidance {
     /// `compact_guidance_flies_as_the_full_one`); the vehicle copies two vectors per command
     /// instead of five (each agent reads the whole snapshot every tick: this copy was its
     /// largest cost at N = 1024).
-    pub fn with_neighbours(
-        self,
-        id: u32,
-        snapshot: &[vbap_ipc::msg::coordinator_to_agent::SnapshotEntry],
-    ) -> Self {
+    pub fn with_neighbours(self, id: u32, snapshot: &[SnapshotEntry]) -> Self {
         self.with_neighbours_and_own(id, snapshot).0
+    }
+
+    /// This guidance for vehicle `id` of a body command whose snapshot is `snapshot`, as the
+    /// command tells it: from its own entry `own` (an index of `snapshot`, see
+    /// `BodyCommand::own_index`; None: the snapshot has none) and the entries of its
+    /// neighbour list `near` (indices of `snapshot`, ascending: `vbap_coordinator::near`)
+    /// only, never the whole snapshot. Those entries are read as
+    /// [`Guidance::with_neighbours_and_own`] reads a snapshot; the leaders kept are those
+    /// within reach of the vehicle's entry (`vbap_math::neighbourhood::reach` of the
+    /// scaled `h1`, `h0`: the paper's ball of radius `h1` and a margin, and how far the
+    /// vehicle may move relative to the body flying on commands for up to `horizon` s,
+    /// `SnapshotEntry::drift_margin`), all of them when it has no entry. Positions
+    /// and velocities are read at the precision of the vehicle's link (`link`,
+    /// `links.position_quantum`): as its compact encoding would carry them.
+    pub fn with_near(
+        mut self,
+        id: u32,
+        snapshot: &[SnapshotEntry],
+        own: Option<usize>,
+        near: impl IntoIterator<Item = usize>,
+        link: &Telling,
+    ) -> (Self, Option<SnapshotEntry>) {
+        let own = own
+            .and_then(|i| snapshot.get(i))
+            .map(|e| link.as_read(e, true));
+        let mut told: Vec<SnapshotEntry> = near
+            .into_iter()
+            .filter_map(|j| snapshot.get(j))
+            .filter(|e| e.id != id)
+            .map(|e| link.as_read(e, false))
+            .collect();
+        if link.precision != Precision::Exact {
+            let origin = from_vec3(&link.origin);
+            for b in &mut self.leaders {
+                *b = to_vec3(&link.round_trip(&from_vec3(b), &origin));
+            }
+        }
+        if let Some(own) = own {
+            let at = told.partition_point(|e| e.id < own.id);
+            told.insert(at, own);
+            let x = to_vec3(&own.position);
+            let margin = own.drift_margin(&self.velocity, link.horizon);
+            let r = reach(self.leader.d1, self.leader.d0) + margin;
+            let kept = within(&self.leaders, &x, r);
+            if kept.len() < self.leaders.len() {
+                self.leaders = kept.iter().map(|&l| self.leaders[l as usize]).collect();
+            }
+        }
+        self.with_neighbours_and_own(id, &told)
     }
 
     /// [`Guidance::with_neighbours`], and the first entry of the snapshot with this
@@ -33,13 +129,8 @@ impl Guidance {
     pub fn with_neighbours_and_own(
         mut self,
         id: u32,
-        snapshot: &[vbap_ipc::msg::coordinator_to_agent::SnapshotEntry],
-    ) -> (
-        Self,
-        Option<vbap_ipc::msg::coordinator_to_agent::SnapshotEntry>,
-    ) {
-        use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
-        use vbap_ipc::msg::to_vec3;
+        snapshot: &[SnapshotEntry],
+    ) -> (Self, Option<SnapshotEntry>) {
         let spacing = self.inter.d0;
         let n = snapshot.len();
         self.neighbours = Vec::with_capacity(n);

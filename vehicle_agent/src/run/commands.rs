@@ -2,13 +2,14 @@
 
 use anyhow::Result;
 use tracing::warn;
+use vbap_ipc::compact::{command_len, Precision};
 use vbap_ipc::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
-use vbap_ipc::msg::{to_vec3, Header};
+use vbap_ipc::msg::{to_vec3, wall_ns, Header};
 use vbap_ipc::msglog::MsgLog;
 use vbap_ipc::ports::Receiver;
 use vbap_math::potential::PairPotential;
 
-use crate::Guidance;
+use crate::{Guidance, Telling};
 
 /// One new command: its tick, the guidance it carries for this vehicle, and this
 /// vehicle's own entry of its snapshot (how a rejoining vehicle learns it is admitted).
@@ -31,6 +32,11 @@ pub(super) struct CommandFilter {
     id: u32,
     /// Nominal body speed v0 (length unit/s): the approach speed of the homing law.
     v0: f64,
+    /// The longest this vehicle may fly on one command, s
+    /// (`vbap_mission::horizon::plan_horizon` of the links): the reach of its leaders.
+    horizon: f64,
+    /// The precision of what it is told (`links.position_quantum`).
+    precision: Precision,
     /// Sequence number of the last accepted command.
     pub last_seq: Option<u64>,
     /// Commands refused so far.
@@ -38,10 +44,12 @@ pub(super) struct CommandFilter {
 }
 
 impl CommandFilter {
-    pub(super) fn new(id: u32, v0: f64) -> Self {
+    pub(super) fn new(id: u32, v0: f64, horizon: f64, precision: Precision) -> Self {
         Self {
             id,
             v0,
+            horizon,
+            precision,
             last_seq: None,
             rejected: 0,
         }
@@ -60,8 +68,13 @@ impl CommandFilter {
         {
             let command: &BodyCommand = &sample;
             let h = command.header;
-            msgs.recv_now("body", &h, self.id);
+            // Recorded once its size is known (the command this vehicle is told).
+            let (stamps, id) = ((h.seq, h.sent_ns, wall_ns()), self.id);
+            let record = |msgs: &mut MsgLog, bytes: Option<u64>| {
+                msgs.recv_sized("body", h.sender, id, h.tick, stamps, bytes)
+            };
             if h.sender == Header::COORDINATOR && self.last_seq == Some(h.seq) {
+                record(msgs, None);
                 // A duplicate: a restarted coordinator re-sends its last command. Send it
                 // our states since again (a new subscriber's history arrives only with
                 // the publisher's next sample).
@@ -69,14 +82,18 @@ impl CommandFilter {
                 continue;
             }
             if !self.accept(command) {
+                record(msgs, None);
                 continue;
             }
             self.last_seq = Some(h.seq);
             if h.flags & BodyCommand::FINISHED != 0 {
+                record(msgs, None);
                 out.finished = true;
                 break;
             }
-            out.commands.push(self.guidance(command));
+            let (new, bytes) = self.guidance(command);
+            record(msgs, Some(bytes));
+            out.commands.push(new);
         }
         Ok(out)
     }
@@ -102,16 +119,20 @@ impl CommandFilter {
         false
     }
 
-    /// The guidance of `command` for this vehicle, and its own snapshot entry.
-    fn guidance(&self, command: &BodyCommand) -> NewCommand {
+    /// The guidance of `command` for this vehicle, and its own snapshot entry: read from its
+    /// own entry and its neighbour list only (O(its neighbours), whatever the fleet); and
+    /// the size of what it was told in the compact link encoding (`vbap_ipc::compact`), bytes.
+    fn guidance(&self, command: &BodyCommand) -> (NewCommand, u64) {
         let tick = command.header.tick;
-        let snapshot = &command.snapshot[..command.n_vehicles as usize];
+        let snapshot = command.snapshot_entries();
+        let own = command.own_index(self.id);
+        let near = own.map_or(&[][..], |i| command.near_of(i));
         let pot = |p: &[f64; 3]| PairPotential {
             alpha: p[0],
             d0: p[1],
             d1: p[2],
         };
-        let (guidance, own) = Guidance::of_command(
+        let (guidance, own_entry) = Guidance::of_command(
             tick,
             command.leaders[..command.n_leaders as usize]
                 .iter()
@@ -123,8 +144,31 @@ impl CommandFilter {
             to_vec3(&command.velocity),
             self.v0,
         )
-        .with_neighbours_and_own(self.id, snapshot);
-        let guidance = guidance.with_plan(command.schedule(), to_vec3(&command.r), command.scale);
-        (tick, guidance, own)
+        .with_near(
+            self.id,
+            snapshot,
+            own,
+            near.iter().map(|&j| j as usize),
+            &Telling {
+                horizon: self.horizon,
+                precision: self.precision,
+                origin: to_vec3(&command.r),
+            },
+        );
+        let told: Vec<SnapshotEntry> = near
+            .iter()
+            .map(|&j| snapshot[j as usize])
+            .filter(|e| e.id != self.id)
+            .collect();
+        let schedule = command.schedule();
+        let bytes = command_len(
+            schedule.as_ref().map(|s| s.segments.len()),
+            guidance.leaders.len(),
+            own_entry.as_ref(),
+            &told,
+            self.precision,
+        );
+        let guidance = guidance.with_plan(schedule, to_vec3(&command.r), command.scale);
+        ((tick, guidance, own_entry), bytes as u64)
     }
 }
