@@ -29,7 +29,7 @@ use anyhow::{anyhow, Context, Result};
 use nix::time::{clock_gettime, ClockId};
 use serde::Serialize;
 use vbap_ipc::msg::coordinator_to_agent::BodyCommand;
-use vbap_ipc::msg::{wall_ns, Header, MAX_VEHICLES};
+use vbap_ipc::msg::{wall_ns, Header, MAX_NEAR_ENTRIES, MAX_VEHICLES};
 use vbap_ipc::ports;
 use vbap_ipc::topics::{Domain, Limits};
 use vbap_ipc::wait::{Event, Wake};
@@ -39,11 +39,14 @@ use super::peer::{in_private_domain, say_ready, wait_events, Helper};
 use super::stop::StopFlag;
 
 /// Bytes of a command of `n` vehicles as the coordinator writes it (the snapshot's entries
-/// in use; the other arrays whole), and as UDP sends it.
+/// and the list starts in use, no neighbour list entries: the fan-out's command has empty
+/// lists; the leaders and the path whole), and as UDP sends it.
 pub fn command_bytes(n: usize) -> usize {
+    let unused = MAX_VEHICLES - n.min(MAX_VEHICLES);
     std::mem::size_of::<BodyCommand>()
-        - (MAX_VEHICLES - n.min(MAX_VEHICLES))
-            * std::mem::size_of::<vbap_ipc::msg::coordinator_to_agent::SnapshotEntry>()
+        - unused * std::mem::size_of::<vbap_ipc::msg::coordinator_to_agent::SnapshotEntry>()
+        - unused * std::mem::size_of::<u32>()
+        - MAX_NEAR_ENTRIES * std::mem::size_of::<u16>()
 }
 /// Flag of the last message: the receiver reports and exits.
 const STOP: u32 = 1 << 31;

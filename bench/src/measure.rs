@@ -175,9 +175,19 @@ fn lockstep_scaling(
             floor_us_per_tick_vehicle: per(floor),
             error: run.error.clone(),
             note: run.note.clone(),
+            command_mean_b: sim.link_bytes.map(|b| b.command_mean_b),
+            command_max_b: sim.link_bytes.map(|b| b.command_max_b),
+            shared_snapshot_b: shared_snapshot_bytes(n),
         });
     }
     Ok((lockstep, hop_system))
+}
+
+/// The bytes of the shared command's fixed part and `n` snapshot entries: what every vehicle
+/// read of each command before the neighbour lists.
+fn shared_snapshot_bytes(n: usize) -> u64 {
+    use vbap_ipc::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
+    (std::mem::offset_of!(BodyCommand, leaders) + n * std::mem::size_of::<SnapshotEntry>()) as u64
 }
 
 /// 3. Real-time capacity at dt = 0.1 s: N up to the first that does not hold pace.

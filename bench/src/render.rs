@@ -163,6 +163,21 @@ fn lockstep(r: &Report, s: &mut String) {
             remark(&l.error, &l.note)
         );
     }
+    let _ = writeln!(
+        s,
+        "   what one vehicle is told per tick, bytes: {:>4} {:>16} {:>12} {:>11}",
+        "N", "shared snapshot", "compact mean", "compact max"
+    );
+    for l in &r.lockstep {
+        let _ = writeln!(
+            s,
+            "   {:>46} {:>16} {:>12} {:>11}",
+            l.vehicles,
+            l.shared_snapshot_b,
+            opt(l.command_mean_b, 0),
+            l.command_max_b.map_or("—".to_string(), |b| b.to_string())
+        );
+    }
 }
 
 /// 3. The real-time capacity sweep.

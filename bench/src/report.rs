@@ -123,6 +123,13 @@ pub(super) struct LockstepRow {
     pub(super) error: Option<String>,
     /// What makes the figures suspect (rejected states, lost vehicles), if anything.
     pub(super) note: Option<String>,
+    /// Mean and largest command one vehicle is told, in the compact link encoding, bytes
+    /// (`summary.json` `link_bytes`).
+    pub(super) command_mean_b: Option<f64>,
+    pub(super) command_max_b: Option<u64>,
+    /// The shared command's swarm snapshot in use, bytes: what every vehicle read before
+    /// the neighbour lists (the fixed part and N snapshot entries).
+    pub(super) shared_snapshot_b: u64,
 }
 
 /// One row of the real-time sweep.
@@ -240,6 +247,24 @@ pub(super) fn goals(r: &Report) -> Vec<Goal> {
             "≤ 1.2",
             v.map(|v| v <= 1.2),
         );
+    }
+    // Issue 31: what a vehicle is told does not grow with N.
+    let bytes = |n: usize| {
+        r.lockstep
+            .iter()
+            .find(|l| l.vehicles == n)
+            .and_then(|l| l.command_mean_b)
+    };
+    for n in [256, 1024] {
+        if listed(n) {
+            let v = bytes(n).zip(bytes(16)).map(|(a, b)| a / b);
+            goal(
+                format!("command bytes per vehicle, N = {n} / N = 16"),
+                v,
+                "≤ 2",
+                v.map(|v| v <= 2.0),
+            );
+        }
     }
     // 4: scale.
     let largest = r.realtime.largest_vehicles.unwrap_or(0);

@@ -53,6 +53,8 @@ pub struct SimResult {
     pub wall_s: f64,
     /// The loop's time by the process that does each part in `vbap run`.
     pub parts: vbap_sim::TickParts,
+    /// What the vehicles' own links carried (`summary.json`), as `vbap run` in lockstep.
+    pub link_bytes: Option<vbap_mission::rundir::LinkBytes>,
 }
 
 /// Runs `mission` in process (the reference simulator) in `work/<name>-sim`.
@@ -79,10 +81,12 @@ pub fn simulate(mission: &Mission, work: &Path) -> Result<SimResult> {
         }
         _ => ticks as f64 / wall_s,
     };
+    let link_bytes = Summary::read(&dir).ok().and_then(|s| s.link_bytes);
     Ok(SimResult {
         tick_rate,
         wall_s,
         parts,
+        link_bytes,
     })
 }
 

@@ -139,6 +139,9 @@ fn hop_reports(hops: BTreeMap<String, HopAcc>, report: &mut Report, dists: &mut 
                 dropped_injected: acc.dropped_injected,
                 dropped_overflow: acc.dropped_overflow,
                 received,
+                bytes_mean: (acc.sized > 0).then(|| acc.bytes as f64 / acc.sized as f64),
+                bytes_max: (acc.sized > 0).then_some(acc.bytes_max),
+                bytes_total: (acc.sized > 0).then_some(acc.bytes),
             },
         );
         dists.transport_us.insert(hop.clone(), acc.transport_us);

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use serde::Deserialize;
 use vbap_wire::msglog::MSG_TARGET;
-use vbap_wire::msglog::{self, MsgEvent, MSG_HEADER, MSG_SUFFIX};
+use vbap_wire::msglog::{self, MsgEvent, MSG_SUFFIX};
 
 /// One log line of the message target, borrowed from the line.
 #[derive(Deserialize)]
@@ -89,6 +89,10 @@ pub(super) struct HopAcc {
     pub(super) held_ms: Vec<f64>,
     pub(super) dropped_injected: u64,
     pub(super) dropped_overflow: u64,
+    /// Received messages whose size is recorded, their bytes summed and the largest.
+    pub(super) sized: u64,
+    pub(super) bytes: u64,
+    pub(super) bytes_max: u64,
 }
 
 impl HopAcc {
@@ -98,6 +102,9 @@ impl HopAcc {
         self.held_ms.extend(other.held_ms);
         self.dropped_injected += other.dropped_injected;
         self.dropped_overflow += other.dropped_overflow;
+        self.sized += other.sized;
+        self.bytes += other.bytes;
+        self.bytes_max = self.bytes_max.max(other.bytes_max);
     }
 }
 
@@ -113,6 +120,8 @@ struct Rec<'a> {
     /// that carry it).
     injected_ms: Option<f64>,
     reason: Option<&'a str>,
+    /// The message's size in the compact link encoding, bytes (records that carry it).
+    bytes: Option<u64>,
 }
 
 impl Partial {
@@ -144,6 +153,11 @@ impl Partial {
                     self.unparsed += 1;
                     return;
                 };
+                if let Some(b) = r.bytes {
+                    acc.sized += 1;
+                    acc.bytes += b;
+                    acc.bytes_max = acc.bytes_max.max(b);
+                }
                 let injected_ms = r.injected_ms.filter(|v| v.is_finite()).unwrap_or(0.0);
                 // Integer difference first: the timestamps (~1.8e18 ns) do not fit f64's
                 // 53-bit mantissa.
@@ -228,7 +242,7 @@ fn read_log(
 fn read_csv_line(text: &str, part: &mut Partial, is_agent: bool) {
     let Some(r) = msglog::parse(text) else {
         let line = text.trim_end();
-        if !line.is_empty() && line != MSG_HEADER {
+        if !line.is_empty() && !msglog::is_header(line) {
             part.unparsed += 1;
         }
         return;
@@ -245,6 +259,7 @@ fn read_csv_line(text: &str, part: &mut Partial, is_agent: bool) {
             recv_ns: r.recv_ns,
             injected_ms: r.injected_ns.map(|ns| ns as f64 / 1e6),
             reason: r.reason,
+            bytes: r.bytes,
         },
         is_agent,
     );
@@ -284,6 +299,7 @@ fn read_json_line(text: &str, part: &mut Partial, is_agent: bool) {
             recv_ns: f.recv_ns,
             injected_ms: f.injected_ms,
             reason: f.reason.as_deref(),
+            bytes: None,
         },
         is_agent,
     );

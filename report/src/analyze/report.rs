@@ -22,6 +22,15 @@ pub struct HopReport {
     pub dropped_overflow: u64,
     /// Messages received over IPC (the link model may drop some of them after).
     pub received: u64,
+    /// Mean and largest size of the received messages whose records carry one, in the
+    /// compact link encoding (`vbap_wire::compact`), bytes (none: no sizes recorded).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bytes_mean: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bytes_max: Option<u64>,
+    /// Their bytes, summed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bytes_total: Option<u64>,
 }
 
 /// Loop timing of one process.

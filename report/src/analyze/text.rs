@@ -71,6 +71,29 @@ fn hop_table(out: &mut String, r: &Report) {
         out,
         "(transport latency = receive − send − injected link delay; dropped = by the link model)"
     );
+    let sized: Vec<_> = r
+        .hops
+        .iter()
+        .filter_map(|(hop, h)| Some((hop, h.bytes_mean?, h.bytes_max?, h.bytes_total?)))
+        .collect();
+    if !sized.is_empty() {
+        let _ = writeln!(
+            out,
+            "\n{:<14} {:>11} {:>11} {:>13}",
+            "hop", "mean bytes", "max bytes", "total kB"
+        );
+        for (hop, mean, max, total) in sized {
+            let _ = writeln!(
+                out,
+                "{hop:<14} {mean:>11.0} {max:>11} {:>13.1}",
+                total as f64 / 1e3
+            );
+        }
+        let _ = writeln!(
+            out,
+            "(sizes in the compact link encoding: what the vehicle's own link would carry)"
+        );
+    }
 }
 
 /// Per process: iterations, nominal period, period and jitter (ms); with many agents, only
