@@ -472,6 +472,8 @@ pub struct OwnedRecord {
     /// converted, rounded).
     pub injected_ns: Option<u64>,
     pub reason: Option<String>,
+    /// The message's size in the compact link encoding, bytes (records that carry it).
+    pub bytes: Option<u64>,
 }
 
 impl From<MsgRecord<'_>> for OwnedRecord {
@@ -487,6 +489,7 @@ impl From<MsgRecord<'_>> for OwnedRecord {
             recv_ns: r.recv_ns,
             injected_ns: r.injected_ns,
             reason: r.reason.map(str::to_string),
+            bytes: r.bytes,
         }
     }
 }
@@ -525,6 +528,7 @@ impl OwnedRecord {
                 .as_f64()
                 .map(|ms| (ms * 1e6).round() as u64),
             reason: f["reason"].as_str().map(str::to_string),
+            bytes: None,
         })
     }
 }

@@ -55,7 +55,16 @@ fn quick_bench_measures_every_floor_and_run() {
         ] {
             assert!(row[rate].as_f64().unwrap() > 0.0, "{rate}: {row}");
         }
+        // What one vehicle is told: its own neighbours, fewer bytes than the fleet's
+        // snapshot every vehicle read before (from N = 16 on).
+        let told = row["command_mean_b"].as_f64().unwrap();
+        let shared = row["shared_snapshot_b"].as_f64().unwrap();
+        assert!(told > 0.0 && shared > 0.0, "{row}");
+        if row["vehicles"].as_u64().unwrap() >= 16 {
+            assert!(told < shared, "{row}");
+        }
     }
+    assert!(text.contains("what one vehicle is told"), "{text}");
     for side in ["sim", "run"] {
         let g = &r["glider"][side];
         assert!(g["error"].is_null(), "glider {side}: {g}");

@@ -246,6 +246,62 @@ fn lockstep_equals_in_process_3d() {
     assert_run_equals_sim(&mission_3d(&unique_name("eq3d"), 8.0));
 }
 
+/// Positions told at a resolution of 0.002 (`links.position_quantum`): `vbap run` still
+/// equals `vbap sim` byte for byte, the vehicles fly on the rounded values (the tracks
+/// differ from the exact run's), and the sizes each agent recorded for the commands it was
+/// told are those the coordinator counted in the summary.
+#[test]
+fn lockstep_equals_in_process_with_quantised_commands_whose_sizes_agree() {
+    let name = unique_name("eqq");
+    let exact = mission_2d(&name, 7, 6.0, "\"lockstep\"");
+    let text = format!("{exact}\n[links]\nposition_quantum = 0.002\n");
+    let tmp = assert_run_equals_sim(&text);
+    let run = tmp.join("run");
+    let exact_dir = TempDir::new("eqq_exact");
+    let file = write_mission(&exact_dir, "m.toml", &exact);
+    vbap_quiet("sim", &file, &exact_dir.join("sim"));
+    assert_ne!(
+        read(&run.join("vehicles.csv")),
+        read(&exact_dir.join("sim").join("vehicles.csv")),
+        "the rounded positions change the flight"
+    );
+    let s = summary(&run);
+    let counted = &s["link_bytes"];
+    let mut recorded: Vec<u64> = Vec::new();
+    for id in 0..7 {
+        let records = msg_records(&run, &format!("vehicle_agent_{id}"));
+        recorded.extend(
+            records
+                .iter()
+                .filter(|r| r.hop == "body")
+                .filter_map(|r| r.bytes),
+        );
+    }
+    assert!(
+        !recorded.is_empty(),
+        "the agents record the sizes of their commands"
+    );
+    assert_eq!(
+        recorded.iter().max().copied(),
+        counted["command_max_b"].as_u64(),
+        "the largest command: recorded by the agents, counted by the coordinator"
+    );
+    let mean = recorded.iter().sum::<u64>() as f64 / recorded.len() as f64;
+    let counted_mean = counted["command_mean_b"].as_f64().unwrap();
+    assert!(
+        (mean - counted_mean).abs() <= 0.01 * counted_mean,
+        "mean command: {mean} B recorded, {counted_mean} B counted"
+    );
+    // Quantised: 12 bytes a vector; 7 vehicles in a ring of which each hears a few.
+    assert!(counted_mean < 600.0, "{counted_mean} B");
+    assert_eq!(counted["report_b"].as_u64(), Some(68));
+    let states = msg_records(&run, "coordinator");
+    assert!(states
+        .iter()
+        .filter(|r| r.hop == "state")
+        .all(|r| r.bytes == Some(68)));
+}
+
 #[test]
 fn lockstep_equals_in_process_grid_field() {
     // The 2-D mission's Gaussian sampled onto a NetCDF grid: every process reads the file.
