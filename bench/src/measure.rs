@@ -175,8 +175,8 @@ fn lockstep_scaling(
             floor_us_per_tick_vehicle: per(floor),
             error: run.error.clone(),
             note: run.note.clone(),
-            command_mean_b: sim.link_bytes.map(|b| b.command_mean_b),
-            command_max_b: sim.link_bytes.map(|b| b.command_max_b),
+            command_mean_b: sim.link_bytes.as_ref().map(|b| b.command_mean_b),
+            command_max_b: sim.link_bytes.as_ref().map(|b| b.command_max_b),
             shared_snapshot_b: shared_snapshot_bytes(n),
         });
     }

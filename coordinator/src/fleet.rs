@@ -12,6 +12,10 @@ use vbap_mission::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
 
 use crate::planner::{Report, Told};
 
+/// The size of one state report as a vehicle's link carries it, bytes
+/// (`vbap_ipc::compact::StateReport`).
+const REPORT_BYTES: u64 = vbap_ipc::compact::StateReport::LEN as u64;
+
 /// Counters of the uplink (vehicle → coordinator).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct UplinkCounts {
@@ -310,6 +314,9 @@ impl Fleet {
             }));
             let state = self.links.entry(q.id).or_default();
             let fate = self.model.fate(state, q.id, Direction::Uplink, q.tick, t);
+            let fate = self
+                .model
+                .carry(fate, q.id, Direction::Uplink, q.tick, t, REPORT_BYTES);
             match fate {
                 Fate::Deliver { at, .. } => self.inbox.push(at, sent),
                 Fate::Drop(_) => self.counts.dropped_injected += 1,

@@ -78,6 +78,8 @@ pub struct CommandSizes {
     pub bytes: u64,
     /// The largest, bytes.
     pub max: u64,
+    /// Those over the link's per-message limit (Iridium's `down_limit`): split or refused.
+    pub over_limit: u64,
 }
 
 /// The size of the command of `command` each vehicle of `snapshot` (not lost, and in contact:
@@ -85,7 +87,7 @@ pub struct CommandSizes {
 /// encoding ([`vbap_wire::compact`], at `precision`): its own entry, the entries
 /// of its list in `lists` (other vehicles'), the leaders within its reach
 /// plus its drift margin (`SnapshotEntry::drift_margin`; `vehicle_agent::Guidance::with_near` keeps the same; commands
-/// flown for up to `horizon` s) and the committed path.
+/// flown for up to `horizon` s) and the committed path; those over `limit` bytes counted.
 pub fn command_sizes(
     command: &Command,
     snapshot: &[SnapshotEntry],
@@ -93,6 +95,7 @@ pub fn command_sizes(
     horizon: f64,
     precision: Precision,
     in_contact: impl Fn(u32) -> bool,
+    limit: Option<u64>,
 ) -> CommandSizes {
     let plan = command.schedule.as_ref().map(|s| s.segments.len());
     let leader_reach = reach(command.leader.d1, command.leader.d0);
@@ -120,6 +123,7 @@ pub fn command_sizes(
         sizes.count += 1;
         sizes.bytes += b;
         sizes.max = sizes.max.max(b);
+        sizes.over_limit += u64::from(limit.is_some_and(|l| b > l));
     }
     sizes
 }

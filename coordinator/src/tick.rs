@@ -74,7 +74,7 @@ pub fn plan_tick(
         .iter()
         .filter(|(_, f)| matches!(f, Fate::Deliver { .. }))
         .count() as u64;
-    let in_contact = |v: u32| fleet.model().contact(v, t).can_talk();
+    let in_contact = |v: u32| fleet.model().carries_command(v, k);
     let sizes = command_sizes(
         &command,
         &snapshot,
@@ -82,6 +82,7 @@ pub fn plan_tick(
         horizon,
         fleet.precision(),
         in_contact,
+        fleet.model().iridium().map(|i| i.down_limit),
     );
     recorder.links(&sizes, delivered);
     Ok(TickOutcome {

@@ -21,6 +21,12 @@ pub const NEGLIGIBLE: f64 = 1e-6;
 ///   commands more likely than [`NEGLIGIBLE`] (loss p: the least n with pⁿ ≤ NEGLIGIBLE;
 ///   bursty loss counts the bad state's loss).
 ///
+/// - Iridium sessions (`[links.iridium]`, interval I, failure f): a session carries nothing
+///   with probability q = f + (1 − f)·p; with surfacing, as above with the sessions of a
+///   window in place of its ticks; without, H = delay + jitter + (n + 1)·I + dt with n the
+///   longest likely run of empty sessions; both plus `latency_full`, the transfer of a
+///   full message.
+///
 /// `link_down` faults are not covered: they are failures, not the link's nature.
 pub fn plan_horizon(l: &LinksSection, dt: f64) -> f64 {
     let p = if l.burst_enter > 0.0 {
@@ -28,6 +34,16 @@ pub fn plan_horizon(l: &LinksSection, dt: f64) -> f64 {
     } else {
         l.loss
     };
+    if let Some(i) = l.iridium.as_ref().filter(|_| l.downlink) {
+        let q = i.session_failure + (1.0 - i.session_failure) * p;
+        let lag = l.delay + l.jitter + i.latency_full;
+        if l.surfacing_period > 0.0 {
+            let per_window = (l.surfacing_window / i.session_interval).ceil().max(1.0);
+            let windows = runs_until_negligible(q.powf(per_window)).max(1);
+            return windows as f64 * l.surfacing_period + lag + dt;
+        }
+        return lag + (runs_until_negligible(q) + 1) as f64 * i.session_interval + dt;
+    }
     let ideal = l.delay == 0.0 && l.jitter == 0.0 && p == 0.0 && l.surfacing_period == 0.0;
     if ideal || !l.downlink {
         return 0.0;

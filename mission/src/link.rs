@@ -1,5 +1,15 @@
 //! The emulated glider link (docs/ARCHITECTURE.md §7): delay and jitter, Bernoulli or bursty
-//! (Gilbert–Elliott) loss, link-down faults and surfacing windows with store-and-forward.
+//! (Gilbert–Elliott) loss, link-down faults and surfacing windows with store-and-forward;
+//! or Iridium SBD sessions (`[links.iridium]`): messages cross only in the sessions a
+//! vehicle opens at the surface, the shore keeps the newest command for a vehicle, reports
+//! go up packed into messages of a byte limit, and a message takes longer the more bytes
+//! it has.
+//!
+//! A message's fate is drawn in two steps: [`LinkModel::fate`] by the schedule alone (which
+//! session, lost or not: known before the message's content, so a vehicle can tell whether
+//! a command it has not read yet could already be due), then [`LinkModel::carry`] by its
+//! size (the transfer time, a split or a refusal over the limit). Without Iridium the
+//! second step changes nothing.
 //!
 //! Pure and seeded: the fate of a message is drawn from `rng::keyed(seed, Link, link, tick)`
 //! where `link` names the vehicle and the direction and `tick` the message, never from a
@@ -9,7 +19,7 @@
 
 use rand::Rng;
 
-use crate::config::{FaultKind, Mission, SurfacingPhase};
+use crate::config::{FaultKind, IridiumSection, Mission, Oversize, SurfacingPhase};
 use vbap_math::rng::{keyed, Stream};
 
 /// Direction of a message on a vehicle's link.
@@ -30,6 +40,13 @@ pub enum DropReason {
     Burst,
     /// A scheduled `link_down` fault.
     LinkDown,
+    /// Iridium: a newer command reached the shore before the vehicle's next session (the
+    /// shore keeps the newest only). Not a loss: what it said, the newer one says again.
+    Superseded,
+    /// Iridium: a command over `links.iridium.down_limit` with `oversize = "refuse"`.
+    Oversize,
+    /// Iridium: no session succeeded in the next million (session_failure near 1).
+    NoSession,
 }
 
 impl DropReason {
@@ -39,6 +56,9 @@ impl DropReason {
             DropReason::Loss => "loss",
             DropReason::Burst => "burst",
             DropReason::LinkDown => "link_down",
+            DropReason::Superseded => "superseded",
+            DropReason::Oversize => "oversize",
+            DropReason::NoSession => "no_session",
         }
     }
 }
@@ -107,7 +127,25 @@ pub struct LinkModel {
     downlink: bool,
     /// (vehicle, from, until) of every link_down fault, s.
     link_down: Vec<(u32, f64, f64)>,
+    /// Tick length, s: commands and reports are sent once a tick.
+    dt: f64,
+    /// `[links.iridium]`, when the link is Iridium SBD sessions.
+    iridium: Option<IridiumSection>,
 }
+
+/// One Iridium session of a vehicle ([`LinkModel::sessions`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Session {
+    /// When it opens, mission time, s.
+    pub at: f64,
+    /// False when it failed (nothing crossed).
+    pub ok: bool,
+}
+
+/// Largest number of sessions looked at for one that succeeds (with `session_failure`
+/// below 1 they all failing is practically impossible; past it the message is dropped,
+/// reason `no_session`).
+const SESSION_SEARCH: u32 = 1_000_000;
 
 impl LinkModel {
     /// The link model of `mission` (its `[links]` and its `link_down` faults).
@@ -132,7 +170,14 @@ impl LinkModel {
                 .filter(|f| f.kind == FaultKind::LinkDown)
                 .map(|f| (f.vehicle, f.at, f.until.unwrap_or(f64::INFINITY)))
                 .collect(),
+            dt: mission.mission.dt,
+            iridium: l.iridium.clone(),
         }
+    }
+
+    /// `[links.iridium]`, when the link is Iridium SBD sessions.
+    pub fn iridium(&self) -> Option<&IridiumSection> {
+        self.iridium.as_ref()
     }
 
     /// True when no message is ever delayed or lost.
@@ -143,6 +188,7 @@ impl LinkModel {
             && self.period == 0.0
             && self.burst_enter == 0.0
             && self.link_down.is_empty()
+            && self.iridium.is_none()
     }
 
     /// True when the model applies to messages in `dir`.
@@ -246,6 +292,18 @@ impl LinkModel {
         }
         let link = Self::link_id(vehicle, dir);
         self.advance(state, link, tick);
+        let session = match &self.iridium {
+            Some(_) => match self.next_open_session(vehicle, sent) {
+                None => return Fate::Drop(DropReason::NoSession),
+                // The shore keeps the newest command: the next one (sent a tick later)
+                // replaces this one if it is there before the session opens.
+                Some((_, at)) if dir == Direction::Downlink && sent + self.dt <= at => {
+                    return Fate::Drop(DropReason::Superseded)
+                }
+                Some((_, at)) => Some(at),
+            },
+            None => None,
+        };
         let (p_loss, reason) = if state.bad {
             (self.burst_loss, DropReason::Burst)
         } else {
@@ -262,13 +320,248 @@ impl LinkModel {
             let u: f64 = keyed(self.seed, Stream::Link, link * 4 + 1, tick).random();
             delay += self.jitter * (2.0 * u - 1.0);
         }
-        // Store and forward: nothing crosses while the vehicle is under water.
-        let at = self.next_surface(vehicle, sent + delay.max(0.0));
+        let at = match (session, &self.iridium) {
+            // Iridium: the session, then the shore's delay, then the transfer of a message
+            // of no bytes ([`LinkModel::carry`] adds the size's part).
+            (Some(opens), Some(i)) => opens + delay.max(0.0) + i.latency_short,
+            // Store and forward: nothing crosses while the vehicle is under water.
+            _ => self.next_surface(vehicle, sent + delay.max(0.0)),
+        };
         Fate::Deliver {
             at,
             injected: at - sent,
         }
     }
+
+    /// The fate of a message of `bytes` bytes whose fate by the schedule is `fate`
+    /// ([`LinkModel::fate`] of the message of tick `tick` sent at `sent` s on vehicle
+    /// `vehicle`'s link in direction `dir`): Iridium adds the transfer time of its bytes
+    /// (a report: of the message it is packed into with the reports of the same session,
+    /// after the full messages before it), splits a command over the limit into messages
+    /// sent one after another or refuses it. Without Iridium: `fate` as it is.
+    pub fn carry(
+        &self,
+        fate: Fate,
+        vehicle: u32,
+        dir: Direction,
+        tick: u64,
+        sent: f64,
+        bytes: u64,
+    ) -> Fate {
+        let (Some(i), Fate::Deliver { at, injected }) = (&self.iridium, fate) else {
+            return fate;
+        };
+        if !self.applies(dir) {
+            return fate;
+        }
+        let extra = match dir {
+            Direction::Downlink => {
+                if bytes > i.down_limit && i.oversize == Oversize::Refuse {
+                    return Fate::Drop(DropReason::Oversize);
+                }
+                transfer_time(i, bytes, i.down_limit)
+            }
+            Direction::Uplink => self.bundled_time(i, vehicle, tick, sent, bytes),
+        } - i.latency_short;
+        Fate::Deliver {
+            at: at + extra,
+            injected: injected + extra,
+        }
+    }
+
+    /// Time from the session's start until the report of tick `tick` (sent at `sent`, s,
+    /// `bytes` bytes) has reached the shore: the reports of the ticks since the vehicle's
+    /// previous successful session go up in this one, packed into messages of at most
+    /// `up_limit` bytes, sent one after another.
+    fn bundled_time(
+        &self,
+        i: &IridiumSection,
+        vehicle: u32,
+        tick: u64,
+        sent: f64,
+        bytes: u64,
+    ) -> f64 {
+        let bytes = bytes.max(1);
+        let Some((index, opens)) = self.next_open_session(vehicle, sent) else {
+            return transfer_time(i, bytes, i.up_limit);
+        };
+        let previous = self.previous_open_session(vehicle, index);
+        // The ticks whose reports this session carries: sent in (previous, opens].
+        let first = previous.map_or(0, |p| self.first_tick_after(p));
+        let last = self.last_tick_at_or_before(opens).max(first);
+        let count = last - first + 1;
+        let place = tick.clamp(first, last) - first;
+        let per_message = (i.up_limit / bytes).max(1);
+        let message = place / per_message;
+        let in_it = per_message.min(count - message * per_message);
+        message as f64 * message_time(i, per_message * bytes, i.up_limit)
+            + message_time(i, in_it * bytes, i.up_limit)
+    }
+
+    /// Number of messages a command of `bytes` bytes takes under Iridium (1 without it;
+    /// more than 1: it is split).
+    pub fn down_messages(&self, bytes: u64) -> u64 {
+        self.iridium
+            .as_ref()
+            .map_or(1, |i| bytes.div_ceil(i.down_limit).max(1))
+    }
+
+    /// True when the command of tick `tick` to vehicle `vehicle` is carried to it: without
+    /// Iridium, when the vehicle can talk at its sending time; with it, when it is the
+    /// newest command at the shore as a successful session opens (refusals and losses on
+    /// the way are not looked at: its bytes were sent).
+    pub fn carries_command(&self, vehicle: u32, tick: u64) -> bool {
+        let sent = tick as f64 * self.dt;
+        if self.iridium.is_none() {
+            return self.contact(vehicle, sent).can_talk();
+        }
+        if !self.applies(Direction::Downlink)
+            || self
+                .link_down
+                .iter()
+                .any(|&(v, from, until)| v == vehicle && sent >= from && sent < until)
+        {
+            return false;
+        }
+        self.next_open_session(vehicle, sent)
+            .is_some_and(|(_, at)| sent + self.dt > at)
+    }
+
+    /// The first tick whose sending time is after `t` s.
+    fn first_tick_after(&self, t: f64) -> u64 {
+        let mut k = (t / self.dt).floor().max(0.0) as u64;
+        while (k as f64 * self.dt) <= t {
+            k += 1;
+        }
+        while k > 0 && ((k - 1) as f64 * self.dt) > t {
+            k -= 1;
+        }
+        k
+    }
+
+    /// The last tick whose sending time is at or before `t` ≥ 0 s.
+    fn last_tick_at_or_before(&self, t: f64) -> u64 {
+        self.first_tick_after(t).saturating_sub(1)
+    }
+
+    /// Start of the surfacing windows and sessions per window (None: no surfacing
+    /// schedule, sessions all along).
+    fn windows(&self, i: &IridiumSection) -> Option<u64> {
+        (self.period > 0.0).then(|| ((self.window / i.session_interval).ceil() as u64).max(1))
+    }
+
+    /// Opening time of vehicle `vehicle`'s session number `index` (any integer; numbered
+    /// in time order).
+    fn session_time(&self, i: &IridiumSection, vehicle: u32, index: i64) -> f64 {
+        match self.windows(i) {
+            Some(per) => {
+                let per = per as i64;
+                let (m, j) = (index.div_euclid(per), index.rem_euclid(per));
+                self.phase_of(vehicle) + m as f64 * self.period + j as f64 * i.session_interval
+            }
+            None => self.session_phase(i, vehicle) + index as f64 * i.session_interval,
+        }
+    }
+
+    /// Without a surfacing schedule: vehicle `vehicle`'s first session, s (staggered:
+    /// vehicle i at i·interval/N).
+    fn session_phase(&self, i: &IridiumSection, vehicle: u32) -> f64 {
+        match self.phase {
+            SurfacingPhase::Together => 0.0,
+            SurfacingPhase::Staggered => {
+                i.session_interval * f64::from(vehicle) / self.vehicles as f64
+            }
+        }
+    }
+
+    /// The number of vehicle `vehicle`'s first session opening at or after `t` s.
+    fn session_at_or_after(&self, i: &IridiumSection, vehicle: u32, t: f64) -> i64 {
+        let guess = match self.windows(i) {
+            Some(per) => {
+                let phase = self.phase_of(vehicle);
+                let m = ((t - phase) / self.period).floor();
+                let offset = t - phase - m * self.period;
+                let j = (offset / i.session_interval).ceil().max(0.0) as i64;
+                m as i64 * per as i64 + j.min(per as i64)
+            }
+            None => ((t - self.session_phase(i, vehicle)) / i.session_interval).ceil() as i64,
+        };
+        // Rounding: step to the first session at or after t.
+        let mut index = guess;
+        while self.session_time(i, vehicle, index) < t {
+            index += 1;
+        }
+        while self.session_time(i, vehicle, index - 1) >= t {
+            index -= 1;
+        }
+        index
+    }
+
+    /// True when vehicle `vehicle`'s session `index` succeeds (a keyed draw per session,
+    /// shared by both directions).
+    fn session_ok(&self, i: &IridiumSection, vehicle: u32, index: i64) -> bool {
+        if i.session_failure <= 0.0 {
+            return true;
+        }
+        let link = Self::link_id(vehicle, Direction::Uplink);
+        let u: f64 = keyed(self.seed, Stream::Link, link * 4 + 3, index as u64).random();
+        u >= i.session_failure
+    }
+
+    /// Vehicle `vehicle`'s first successful session opening at or after `t` s: its
+    /// number and opening time.
+    pub fn next_open_session(&self, vehicle: u32, t: f64) -> Option<(i64, f64)> {
+        let i = self.iridium.as_ref()?;
+        let first = self.session_at_or_after(i, vehicle, t.max(0.0));
+        (first..first + i64::from(SESSION_SEARCH))
+            .find(|&n| self.session_ok(i, vehicle, n))
+            .map(|n| (n, self.session_time(i, vehicle, n)))
+    }
+
+    /// The opening time of vehicle `vehicle`'s last successful session before session
+    /// `index` (None: none since the mission began).
+    fn previous_open_session(&self, vehicle: u32, index: i64) -> Option<f64> {
+        let i = self.iridium.as_ref()?;
+        (index - i64::from(SESSION_SEARCH)..index)
+            .rev()
+            .map(|n| (n, self.session_time(i, vehicle, n)))
+            .take_while(|&(_, at)| at >= 0.0)
+            .find(|&(n, _)| self.session_ok(i, vehicle, n))
+            .map(|(_, at)| at)
+    }
+
+    /// Vehicle `vehicle`'s Iridium sessions opening in [`from`, `until`) s (none without
+    /// Iridium).
+    pub fn sessions(&self, vehicle: u32, from: f64, until: f64) -> Vec<Session> {
+        let Some(i) = &self.iridium else {
+            return Vec::new();
+        };
+        let mut n = self.session_at_or_after(i, vehicle, from.max(0.0));
+        let mut out = Vec::new();
+        loop {
+            let at = self.session_time(i, vehicle, n);
+            if at >= until {
+                return out;
+            }
+            out.push(Session {
+                at,
+                ok: self.session_ok(i, vehicle, n),
+            });
+            n += 1;
+        }
+    }
+}
+
+/// Time to send one message of `bytes` ≤ `limit` bytes, s.
+fn message_time(i: &IridiumSection, bytes: u64, limit: u64) -> f64 {
+    let share = bytes.min(limit) as f64 / limit.max(1) as f64;
+    i.latency_short + (i.latency_full - i.latency_short) * share
+}
+
+/// Time to send `bytes` bytes as messages of at most `limit` bytes one after another, s.
+fn transfer_time(i: &IridiumSection, bytes: u64, limit: u64) -> f64 {
+    let messages = bytes.div_ceil(limit.max(1)).max(1);
+    (messages - 1) as f64 * i.latency_full + message_time(i, bytes - (messages - 1) * limit, limit)
 }
 
 /// Messages held until their delivery time; released in delivery-time order (ties in
@@ -518,6 +811,203 @@ mod tests {
             out
         };
         assert_eq!(run(&[0, 1, 2, 3]), run(&[3, 1, 0, 2]));
+    }
+
+    /// A glider mission with Iridium sessions: 4 vehicles, dt = 10 s, surfacing 900 s of
+    /// every 7200 s, a session a minute, `extra` appended to `[links.iridium]`.
+    fn iridium(extra: &str) -> LinkModel {
+        LinkModel::new(&iridium_mission(extra))
+    }
+
+    fn iridium_mission(extra: &str) -> Mission {
+        let interval = if extra.contains("session_interval") {
+            ""
+        } else {
+            "session_interval = 60.0\n"
+        };
+        let text = format!(
+            "[mission]\nname = \"t\"\ndt = 10.0\nallow_unstable = true\nduration = 86400.0\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 4\n[links]\nsurfacing_period = 7200.0\nsurfacing_window = 900.0\n[links.iridium]\n{interval}{extra}"
+        );
+        Mission::from_toml_str(&text, "<test>").unwrap()
+    }
+
+    #[test]
+    fn sessions_open_at_the_surface_only_and_fail_at_their_rate() {
+        let m = iridium("session_failure = 0.25");
+        let mut failed = 0;
+        let mut all = 0;
+        for v in 0..4 {
+            let sessions = m.sessions(v, 0.0, 30.0 * 86_400.0);
+            for w in sessions.windows(2) {
+                assert!(w[1].at > w[0].at);
+            }
+            for s in &sessions {
+                assert!(m.at_surface(v, s.at), "vehicle {v} session at {}", s.at);
+                // Every interval from the window's start: 15 sessions a window.
+                let into = (s.at - m.phase_of(v)).rem_euclid(7200.0);
+                assert!((into / 60.0 - (into / 60.0).round()).abs() < 1e-9, "{into}");
+            }
+            assert!(sessions.len() >= 15 * 359, "{}", sessions.len());
+            failed += sessions.iter().filter(|s| !s.ok).count();
+            all += sessions.len();
+        }
+        let rate = failed as f64 / all as f64;
+        let se = (0.25 * 0.75 / all as f64).sqrt();
+        assert!((rate - 0.25).abs() < 5.0 * se, "{rate}");
+    }
+
+    #[test]
+    fn a_session_carries_the_newest_command_and_every_report_since_the_last() {
+        let m = iridium("session_failure = 0.3");
+        let dt = 10.0;
+        let (mut down, mut up) = (LinkState::default(), LinkState::default());
+        let v = 2;
+        let mut carried = Vec::new();
+        for k in 0..8640u64 {
+            let sent = k as f64 * dt;
+            let fate = m.fate(&mut down, v, Direction::Downlink, k, sent);
+            assert_eq!(
+                matches!(fate, Fate::Deliver { .. }),
+                m.carries_command(v, k),
+                "command {k}"
+            );
+            if let Fate::Deliver { at, .. } = fate {
+                let (_, opens) = m.next_open_session(v, sent).unwrap();
+                // Newest at the shore: the next command comes after the session opened.
+                assert!(sent <= opens && sent + dt > opens, "{k}: {sent} {opens}");
+                assert!((at - opens - 5.0).abs() < 1e-9, "a no-byte transfer: {at}");
+                let sized = m.carry(fate, v, Direction::Downlink, k, sent, 945);
+                let Fate::Deliver { at: later, .. } = sized else {
+                    panic!("{sized:?}")
+                };
+                assert!(
+                    (later - opens - 12.5).abs() < 1e-9,
+                    "half full: 12.5 s: {later}"
+                );
+                carried.push(opens);
+            }
+            // Every report crosses (no loss), in the first successful session after it.
+            let report = m.fate(&mut up, v, Direction::Uplink, k, sent);
+            let report = m.carry(report, v, Direction::Uplink, k, sent, 68);
+            let Fate::Deliver { at, .. } = report else {
+                panic!("report {k}: {report:?}")
+            };
+            let (_, opens) = m.next_open_session(v, sent).unwrap();
+            assert!(
+                at >= opens + 5.0 && m.at_surface(v, opens),
+                "{k}: {at} {opens}"
+            );
+        }
+        // One command per successful session, each a different session.
+        let mut sessions: Vec<f64> = m
+            .sessions(v, 0.0, 86_400.0)
+            .iter()
+            .filter(|s| s.ok)
+            .map(|s| s.at)
+            .collect();
+        sessions.retain(|&s| s <= 8639.0 * dt);
+        assert_eq!(carried, sessions);
+    }
+
+    #[test]
+    fn reports_of_a_long_dive_go_up_packed_into_several_messages() {
+        // 7200 s between surfacings at dt = 10 s: ~630 reports of 68 bytes wait, 28 to a
+        // 1960-byte message (1904 bytes): 23 messages, the last report after 22 full ones.
+        let m = iridium("");
+        let v = 0;
+        let mut state = LinkState::default();
+        let mut last = (0u64, 0.0);
+        let mut first_of_session = None;
+        for k in 0..=720u64 {
+            let sent = k as f64 * 10.0;
+            let fate = m.fate(&mut state, v, Direction::Uplink, k, sent);
+            let fate = m.carry(fate, v, Direction::Uplink, k, sent, 68);
+            if let Fate::Deliver { at, .. } = fate {
+                let (_, opens) = m.next_open_session(v, sent).unwrap();
+                if (opens - 7200.0).abs() < 1e-9 {
+                    first_of_session.get_or_insert((k, at - opens));
+                    last = (k, at - opens);
+                }
+            }
+        }
+        let (k0, t0) = first_of_session.unwrap();
+        let time = |bytes: u64| 5.0 + 15.0 * bytes as f64 / 1960.0;
+        assert!(
+            (t0 - time(28 * 68)).abs() < 1e-9,
+            "a full first message: {t0}"
+        );
+        let count = last.0 - k0 + 1;
+        let messages = count.div_ceil(28);
+        assert!(messages > 20, "{count} reports");
+        let in_last = count - 28 * (messages - 1);
+        let expected = (messages - 1) as f64 * time(28 * 68) + time(in_last * 68);
+        assert!((last.1 - expected).abs() < 1e-9, "{} vs {expected}", last.1);
+    }
+
+    #[test]
+    fn a_command_over_the_limit_is_split_or_refused_never_cut() {
+        let split = iridium("");
+        let refuse = iridium("oversize = \"refuse\"");
+        let fate = Fate::Deliver {
+            at: 100.0,
+            injected: 10.0,
+        };
+        // 4000 bytes = 1890 + 1890 + 220: two full messages and a short one.
+        let Fate::Deliver { at, .. } = split.carry(fate, 1, Direction::Downlink, 3, 30.0, 4000)
+        else {
+            panic!()
+        };
+        let expected = 100.0 - 5.0 + 2.0 * 20.0 + 5.0 + 15.0 * 220.0 / 1890.0;
+        assert!((at - expected).abs() < 1e-9, "{at} vs {expected}");
+        assert_eq!(split.down_messages(4000), 3);
+        assert_eq!(split.down_messages(1890), 1);
+        assert_eq!(
+            refuse.carry(fate, 1, Direction::Downlink, 3, 30.0, 1891),
+            Fate::Drop(DropReason::Oversize)
+        );
+        assert_eq!(
+            refuse.carry(fate, 1, Direction::Downlink, 3, 30.0, 1890),
+            Fate::Deliver {
+                at: 115.0,
+                injected: 25.0
+            }
+        );
+        // Without Iridium, size changes nothing.
+        let plain = LinkModel::new(&mission("delay = 1.0"));
+        assert_eq!(
+            plain.carry(fate, 1, Direction::Downlink, 3, 30.0, 1 << 20),
+            fate
+        );
+    }
+
+    #[test]
+    fn the_plan_horizon_covers_every_gap_between_commands_carried() {
+        for extra in [
+            "session_failure = 0.3",
+            "session_failure = 0.0",
+            "session_interval = 300.0\nsession_failure = 0.5",
+        ] {
+            let mission = iridium_mission(extra);
+            let m = LinkModel::new(&mission);
+            let horizon = crate::horizon::plan_horizon(&mission.links, 10.0);
+            for v in 0..4 {
+                let mut state = LinkState::default();
+                let mut heard = Vec::new();
+                for k in 0..30 * 8640u64 {
+                    let sent = k as f64 * 10.0;
+                    let fate = m.fate(&mut state, v, Direction::Downlink, k, sent);
+                    if let Fate::Deliver { at, .. } =
+                        m.carry(fate, v, Direction::Downlink, k, sent, 1890)
+                    {
+                        heard.push((sent, at));
+                    }
+                }
+                // A command heard at `at` is flown on until the next is heard.
+                for w in heard.windows(2) {
+                    assert!(w[1].1 - w[0].0 <= horizon, "{extra}: {w:?} > {horizon}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -284,7 +284,7 @@ fn step_vehicles(
     let lists = &outcome.near;
     for (&id, veh) in vehicles.iter_mut() {
         let own = own_index(snapshot, id);
-        let guidance = Guidance::of_command(
+        let told = Guidance::of_command(
             k,
             command.leaders.clone(),
             command.inter,
@@ -293,7 +293,7 @@ fn step_vehicles(
             command.velocity,
             v0,
         )
-        .with_near(
+        .tell(
             id,
             snapshot,
             own,
@@ -305,10 +305,12 @@ fn step_vehicles(
                 precision: fleet.precision(),
                 origin: command.body.r,
             },
-        )
-        .0
-        .with_plan(command.schedule.clone(), command.body.r, command.body.scale);
-        veh.on_command(fleet.model(), guidance, k, dt);
+            command.schedule.as_ref().map(|s| s.segments.len()),
+        );
+        let guidance =
+            told.guidance
+                .with_plan(command.schedule.clone(), command.body.r, command.body.scale);
+        veh.on_command(fleet.model(), guidance, told.bytes, k, dt);
     }
 }
 

@@ -28,7 +28,11 @@ fn os(s: &str) -> &std::ffi::OsStr {
 #[test]
 fn the_commented_fault_examples_of_the_shipped_missions_validate() {
     let tmp = TempDir::new("example");
-    for name in ["glider.toml", "glider_surfacing.toml"] {
+    for name in [
+        "glider.toml",
+        "glider_surfacing.toml",
+        "glider_iridium.toml",
+    ] {
         let text = read(&mission_file(name));
         let uncommented = uncomment_example(&text);
         assert!(

@@ -302,6 +302,65 @@ fn lockstep_equals_in_process_with_quantised_commands_whose_sizes_agree() {
         .all(|r| r.bytes == Some(68)));
 }
 
+/// The shipped Iridium mission (`glider_iridium.toml`, cut to 8 h), once as shipped and
+/// once with a down limit below its commands' size and `oversize = "refuse"`: `vbap run`
+/// equals `vbap sim` byte for byte; commands cross only in sessions (the shore keeps the
+/// newest: the others are dropped as `superseded`, never delivered), and a command over
+/// the limit is refused and counted, never cut.
+#[test]
+fn lockstep_equals_in_process_over_iridium_sessions() {
+    let shipped = read(&workspace().join("deploy/missions/glider_iridium.toml"));
+    for (tag, extra) in [("as shipped", ""), ("refusing", "refuse")] {
+        let name = unique_name("eqiri");
+        let mut text = shipped
+            .replace("name = \"glider_iridium\"", &format!("name = \"{name}\""))
+            .replace("duration = 259200.0", "duration = 28800.0");
+        if extra == "refuse" {
+            text = text
+                .replace("down_limit = 1890", "down_limit = 900")
+                .replace("oversize = \"split\"", "oversize = \"refuse\"");
+        }
+        let tmp = assert_run_equals_sim(&text);
+        let run = tmp.join("run");
+        let s = summary(&run);
+        let bytes = &s["link_bytes"];
+        let iridium = &bytes["iridium"];
+        assert!(iridium["sessions"].as_u64().unwrap() > 0, "{tag}: {bytes}");
+        let mut reasons: std::collections::BTreeMap<String, usize> = Default::default();
+        let mut delivered_sizes = Vec::new();
+        for id in 0..6 {
+            for r in msg_records(&run, &format!("vehicle_agent_{id}")) {
+                if r.hop != "body" {
+                    continue;
+                }
+                if let Some(reason) = &r.reason {
+                    *reasons.entry(reason.clone()).or_default() += 1;
+                }
+                delivered_sizes.extend(r.bytes);
+            }
+        }
+        assert!(
+            reasons.get("superseded").copied().unwrap_or(0) > 0,
+            "{tag}: {reasons:?}"
+        );
+        if extra == "refuse" {
+            let over = iridium["commands_over_limit"].as_u64().unwrap();
+            assert!(over > 0, "{tag}: {bytes}");
+            assert!(
+                reasons.get("oversize").copied().unwrap_or(0) > 0,
+                "{tag}: {reasons:?}"
+            );
+        } else {
+            assert_eq!(iridium["commands_over_limit"], 0, "{bytes}");
+            assert!(bytes["command_max_b"].as_u64().unwrap() <= 1890, "{bytes}");
+            assert!(
+                delivered_sizes.iter().all(|&b| b <= 1890),
+                "{delivered_sizes:?}"
+            );
+        }
+    }
+}
+
 #[test]
 fn lockstep_equals_in_process_grid_field() {
     // The 2-D mission's Gaussian sampled onto a NetCDF grid: every process reads the file.

@@ -4,7 +4,7 @@
 
 mod snapshot;
 
-pub use snapshot::Telling;
+pub use snapshot::{Telling, Told};
 
 use vbap_math::body::VirtualBody;
 use vbap_math::formation::FormationDesign;

@@ -274,8 +274,9 @@ impl<'m> Pilot<'m> {
     /// command's.
     fn finish(&mut self, mut commands: Vec<NewCommand>) {
         if !self.joining {
-            if let Some((tick, guidance, _)) = commands.pop() {
-                self.vehicle.receive(&self.model, guidance, tick, self.dt);
+            if let Some((tick, guidance, _, bytes)) = commands.pop() {
+                self.vehicle
+                    .receive(&self.model, guidance, bytes, tick, self.dt);
             }
         }
         self.log_fates();
@@ -334,11 +335,11 @@ impl<'m> Pilot<'m> {
             // joining vehicle never skips the one that admits it.
             let admission = commands
                 .iter()
-                .rposition(|(_, _, own)| self.joining && self.admits_me(own.as_ref()));
+                .rposition(|(_, _, own, _)| self.joining && self.admits_me(own.as_ref()));
             commands.drain(..admission.unwrap_or(commands.len() - 1));
         }
         let mut stepped = false;
-        for (tick, guidance, own) in commands {
+        for (tick, guidance, own, bytes) in commands {
             self.newest_command = Some(tick);
             let admitted = self.admits_me(own.as_ref());
             if self.joining || admitted {
@@ -353,7 +354,8 @@ impl<'m> Pilot<'m> {
                 }
                 self.k = tick;
             }
-            self.vehicle.receive(&self.model, guidance, tick, self.dt);
+            self.vehicle
+                .receive(&self.model, guidance, bytes, tick, self.dt);
             if paced {
                 // Paced: step on every command, from its tick (late ones are skipped).
                 self.vehicle.forget_before(tick);

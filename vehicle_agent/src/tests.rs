@@ -172,7 +172,7 @@ fn received_up_to(mission: &Mission, model: &LinkModel, c: u64) -> Vehicle {
     let agent = crate::initial_agent(mission, &design, 0);
     let mut vehicle = Vehicle::new(agent, initial.clone(), 0);
     for k in 0..=c {
-        let fate = vehicle.receive(model, initial.clone(), k, mission.mission.dt);
+        let fate = vehicle.receive(model, initial.clone(), 0, k, mission.mission.dt);
         assert!(fate.is_some(), "command {k} is new");
     }
     vehicle
@@ -218,7 +218,7 @@ fn a_delayed_link_lets_the_vehicle_run_ahead_exactly_as_far_as_the_delay() {
         );
         // The missing command arrives: the vehicle may go on.
         let design = initial_design(&mission).unwrap();
-        vehicle.receive(&model, Guidance::initial(&mission, &design), c + 1, dt);
+        vehicle.receive(&model, Guidance::initial(&mission, &design), 0, c + 1, dt);
         assert!(vehicle.ready_to_step(&model, c + 6, dt));
     }
 }

@@ -156,20 +156,38 @@ impl Vehicle {
         }
     }
 
-    /// The command of tick `c` arrives with `guidance`: held until the link delivers it.
-    /// Returns its fate (None: a command from before this vehicle's first, or one already
+    /// The command of tick `c` arrives with `guidance`, `bytes` bytes as its link carries
+    /// it: held until the link delivers it. Its fate by the schedule was drawn before
+    /// ([`LinkModel::fate`]); its size now adds its transfer time, or refuses it
+    /// ([`LinkModel::carry`]: Iridium; a refusal is counted and logged as a drop). Returns
+    /// its fate (None: a command from before this vehicle's first, or one already
     /// received).
     pub fn receive(
         &mut self,
         model: &LinkModel,
         guidance: Guidance,
+        bytes: u64,
         c: u64,
         dt: f64,
     ) -> Option<Fate> {
         self.draw_fates(model, c, dt);
-        let fate = self.ahead.remove(&c)?;
-        if let Fate::Deliver { at, .. } = fate {
-            self.inbox.push(at, guidance);
+        let drawn = self.ahead.remove(&c)?;
+        let fate = model.carry(
+            drawn,
+            self.agent.id,
+            Direction::Downlink,
+            c,
+            c as f64 * dt,
+            bytes,
+        );
+        match fate {
+            Fate::Deliver { at, .. } => self.inbox.push(at, guidance),
+            Fate::Drop(_) if matches!(drawn, Fate::Deliver { .. }) => {
+                self.counts.delivered -= 1;
+                self.counts.dropped += 1;
+                self.drawn.push((c, fate));
+            }
+            Fate::Drop(_) => {}
         }
         Some(fate)
     }
@@ -202,10 +220,11 @@ impl Vehicle {
         &mut self,
         model: &LinkModel,
         guidance: Guidance,
+        bytes: u64,
         k: u64,
         dt: f64,
     ) -> Option<Fate> {
-        let fate = self.receive(model, guidance, k, dt);
+        let fate = self.receive(model, guidance, bytes, k, dt);
         self.step(k, dt);
         fate
     }

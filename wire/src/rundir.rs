@@ -504,7 +504,7 @@ pub struct MessageCounts {
 
 /// The `link_bytes` object of `summary.json`: the bytes of the vehicles' own messages, each
 /// as the compact link encoding writes it (`crate::compact`, exact precision).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct LinkBytes {
     /// Commands to vehicles (one per vehicle a tick), their mean and largest size, bytes.
     pub commands: u64,
@@ -516,6 +516,23 @@ pub struct LinkBytes {
     /// Bytes per vehicle and day of mission time: commands down, reports up.
     pub down_b_per_vehicle_day: f64,
     pub up_b_per_vehicle_day: f64,
+    /// Iridium's sessions and limits (`[links.iridium]`); absent on other links. Under
+    /// Iridium `commands` counts the commands sessions carried (the newest at the shore
+    /// as each successful session opened), not those the shore replaced.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iridium: Option<IridiumTotals>,
+}
+
+/// The `link_bytes.iridium` object of `summary.json`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct IridiumTotals {
+    /// Sessions the vehicles opened (every vehicle over the whole mission), and those
+    /// that failed.
+    pub sessions: u64,
+    pub sessions_failed: u64,
+    /// Commands over `down_limit`, and what was done with them ("split" | "refuse").
+    pub commands_over_limit: u64,
+    pub oversize: String,
 }
 
 /// `summary.json` (docs/ARCHITECTURE.md §10). Fields may be added, never removed.

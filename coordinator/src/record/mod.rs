@@ -10,10 +10,12 @@ use std::sync::Arc;
 use vbap_ipc::compact::StateReport;
 use vbap_math::formation::FormationDesign;
 use vbap_math::Vec3;
-use vbap_mission::config::Mission;
+use vbap_mission::config::{Mission, Oversize};
 use vbap_mission::field::ScalarField;
+use vbap_mission::link::LinkModel;
 use vbap_mission::rundir::{
-    BodyRow, Event, EventLog, InputRow, LinkBytes, RunDir, TrackWriter, TruthWriter, VehicleRow,
+    BodyRow, Event, EventLog, InputRow, IridiumTotals, LinkBytes, RunDir, TrackWriter, TruthWriter,
+    VehicleRow,
 };
 
 mod summary;
@@ -83,15 +85,34 @@ pub struct LinkTotals {
     pub command_max: u64,
     /// Reports the link model delivered.
     pub reports: u64,
+    /// Commands over the link's per-message limit (Iridium).
+    #[serde(default)]
+    pub over_limit: u64,
 }
 
 impl LinkTotals {
     /// The `link_bytes` object of the summary, for `vehicles` vehicles over `duration` s of
     /// mission time.
-    pub fn summary(&self, vehicles: usize, duration: f64) -> LinkBytes {
+    pub fn summary(&self, vehicles: usize, duration: f64, model: &LinkModel) -> LinkBytes {
         let report_b = StateReport::LEN as u64;
         let vehicle_days = vehicles.max(1) as f64 * duration.max(f64::MIN_POSITIVE) / 86_400.0;
+        let iridium = model.iridium().map(|i| {
+            let sessions: Vec<_> = (0..vehicles as u32)
+                .flat_map(|v| model.sessions(v, 0.0, duration))
+                .collect();
+            IridiumTotals {
+                sessions: sessions.len() as u64,
+                sessions_failed: sessions.iter().filter(|s| !s.ok).count() as u64,
+                commands_over_limit: self.over_limit,
+                oversize: match i.oversize {
+                    Oversize::Split => "split",
+                    Oversize::Refuse => "refuse",
+                }
+                .to_string(),
+            }
+        });
         LinkBytes {
+            iridium,
             commands: self.commands,
             command_mean_b: self.command_bytes as f64 / self.commands.max(1) as f64,
             command_max_b: self.command_max,
@@ -313,6 +334,7 @@ impl Recorder {
         l.commands += sizes.count;
         l.command_bytes += sizes.bytes;
         l.command_max = l.command_max.max(sizes.max);
+        l.over_limit += sizes.over_limit;
         l.reports += reports;
     }
 

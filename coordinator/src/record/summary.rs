@@ -2,6 +2,7 @@
 //! field and the true states.
 
 use vbap_math::convergence::{default_delta_m, theorem_5_1_bound};
+use vbap_mission::link::LinkModel;
 use vbap_mission::rundir::Summary;
 
 use super::Recorder;
@@ -106,11 +107,11 @@ impl Recorder {
             verdict,
             reasons,
             formation: Some(truth::summary(&self.stats.truth)),
-            link_bytes: Some(
-                self.stats
-                    .links
-                    .summary(self.stats.vehicles_started, t + dt),
-            ),
+            link_bytes: Some(self.stats.links.summary(
+                self.stats.vehicles_started,
+                t + dt,
+                &LinkModel::new(&self.mission),
+            )),
             ..Summary::default()
         }
     }

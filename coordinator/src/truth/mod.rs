@@ -12,7 +12,8 @@
 //!   (the time the body needs to cross one design spacing at v0, at least
 //!   [`DEBOUNCE_TICKS`] ticks); it ends when ṡ is back above twice that fraction;
 //! - silence: a vehicle in contact by the schedule whose newest delivered state is older
-//!   than `delay + jitter + SILENCE_TICKS · dt` ([`TruthStats::silence_after`]);
+//!   than `delay + jitter + SILENCE_TICKS · dt`, plus the sessions' wait under Iridium
+//!   (`LinksSection::session_wait`, [`TruthStats::silence_after`]);
 //! - formation broken / restored events are debounced: the new state must hold for
 //!   [`DEBOUNCE_TICKS`] ticks; a near-collision event re-arms once the closest pair is back
 //!   beyond twice the threshold.
@@ -128,7 +129,10 @@ impl TruthStats {
             vehicles: vec![VehicleTruth::default(); mission.vehicles.count],
             near_reported: false,
             stall_after: cross.max(DEBOUNCE_TICKS as f64 * dt),
-            silence_after: mission.links.delay + mission.links.jitter + SILENCE_TICKS * dt,
+            silence_after: mission.links.delay
+                + mission.links.jitter
+                + mission.links.session_wait()
+                + SILENCE_TICKS * dt,
             ..Self::default()
         }
     }

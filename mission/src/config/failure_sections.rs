@@ -46,6 +46,82 @@ pub struct LinksSection {
     /// writes them (`vbap_wire::compact`, 12 bytes a vector instead of 24). The vehicles fly
     /// on the values so written.
     pub position_quantum: f64,
+    /// `[links.iridium]`: the link is Iridium Short Burst Data sessions (absent: messages
+    /// cross whenever the vehicle is in contact, as delay, jitter and loss say).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub iridium: Option<IridiumSection>,
+}
+
+/// What a vehicle does with a message over the Iridium per-message limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Oversize {
+    /// Sent as several SBD messages, one after another in the same session (counted).
+    #[default]
+    Split,
+    /// Not sent (counted as a drop, reason `oversize`).
+    Refuse,
+}
+
+/// `[links.iridium]`: Iridium Short Burst Data (SBD) between a vehicle and the shore
+/// (docs/guide/links-and-faults.md). A vehicle opens a session when it surfaces and every
+/// `session_interval` while at the surface (always, without a surfacing schedule); a
+/// session fails with probability `session_failure` (both directions); what the shore
+/// holds for a vehicle waits for its next session, the newest command replacing the older
+/// ones; the reports a vehicle made since its last session go up in it, packed into
+/// messages of at most `up_limit` bytes. A message of b bytes takes
+/// `latency_short + (latency_full − latency_short)·b/limit` s.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IridiumSection {
+    /// Time between two sessions while at the surface, s, > 0.
+    pub session_interval: f64,
+    /// Probability that a session fails (nothing crosses; the next one is tried), [0, 1).
+    pub session_failure: f64,
+    /// Largest message from the vehicle (mobile-originated), bytes.
+    pub up_limit: u64,
+    /// Largest message to the vehicle (mobile-terminated), bytes.
+    pub down_limit: u64,
+    /// Time to send a message of (nearly) no bytes, s.
+    pub latency_short: f64,
+    /// Time to send a message at the limit, s, ≥ `latency_short`.
+    pub latency_full: f64,
+    /// A command over `down_limit`: split or refused.
+    pub oversize: Oversize,
+}
+
+impl Default for IridiumSection {
+    /// Figures of the Iridium SBD service (9602/9603 transceivers): 1960 bytes up, 1890
+    /// down, about 5 s for a short message and 20 s for a full one; a session a minute at
+    /// the surface, one in ten failing at sea.
+    fn default() -> Self {
+        Self {
+            session_interval: 60.0,
+            session_failure: 0.1,
+            up_limit: 1960,
+            down_limit: 1890,
+            latency_short: 5.0,
+            latency_full: 20.0,
+            oversize: Oversize::Split,
+        }
+    }
+}
+
+impl LinksSection {
+    /// The longest a vehicle able to talk may wait for its next message to cross, s, beyond
+    /// the link's delay and jitter: 0, or under Iridium the sessions that likely fail in a
+    /// row (until a run has probability ≤ 10⁻³), one more, and a full message's transfer.
+    pub fn session_wait(&self) -> f64 {
+        self.iridium.as_ref().map_or(0.0, |i| {
+            let f = i.session_failure;
+            let likely = if f > 0.0 {
+                (1e-3f64.ln() / f.ln()).ceil().max(0.0)
+            } else {
+                0.0
+            };
+            (1.0 + likely) * i.session_interval + i.latency_full
+        })
+    }
 }
 
 impl Default for LinksSection {
@@ -62,6 +138,7 @@ impl Default for LinksSection {
             burst_loss: 0.5,
             downlink: true,
             position_quantum: 0.0,
+            iridium: None,
         }
     }
 }

@@ -39,7 +39,8 @@ mod tests;
 pub use control::{ControlSection, CurvatureSource, LawKind};
 pub use error::ConfigError;
 pub use failure_sections::{
-    FaultConfig, FaultKind, LinksSection, RestartPolicy, RestartSection, SurfacingPhase,
+    FaultConfig, FaultKind, IridiumSection, LinksSection, Oversize, RestartPolicy, RestartSection,
+    SurfacingPhase,
 };
 pub use motion::DEFAULT_DIVE_RATE;
 pub use motion::{

@@ -1,7 +1,7 @@
 //! The neighbours of a [`Guidance`] read from the swarm snapshot of a body command's
 //! payload (`vbap_ipc::msg::coordinator_to_agent::SnapshotEntry`).
 
-use vbap_ipc::compact::Precision;
+use vbap_ipc::compact::{command_len, Precision};
 use vbap_ipc::msg::coordinator_to_agent::SnapshotEntry;
 use vbap_ipc::msg::{from_vec3, to_vec3};
 use vbap_math::neighbourhood::{reach, within};
@@ -9,6 +9,17 @@ use vbap_math::rejoin::homing_weight;
 use vbap_math::Vec3;
 
 use crate::Guidance;
+
+/// What one body command tells one vehicle ([`Guidance::tell`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Told {
+    /// Its guidance (without the body path: [`Guidance::with_plan`]).
+    pub guidance: Guidance,
+    /// Its own entry of the command's snapshot, as its link carries it.
+    pub own: Option<SnapshotEntry>,
+    /// The size of the command it is told in the compact link encoding, bytes.
+    pub bytes: u64,
+}
 
 /// How what a vehicle is told crosses its link: the longest it flies on one command, and
 /// the precision of the positions and velocities (`links.position_quantum`) relative to
@@ -87,13 +98,31 @@ impl Guidance {
     /// and velocities are read at the precision of the vehicle's link (`link`,
     /// `links.position_quantum`): as its compact encoding would carry them.
     pub fn with_near(
-        mut self,
+        self,
         id: u32,
         snapshot: &[SnapshotEntry],
         own: Option<usize>,
         near: impl IntoIterator<Item = usize>,
         link: &Telling,
     ) -> (Self, Option<SnapshotEntry>) {
+        let told = self.tell(id, snapshot, own, near, link, None);
+        (told.guidance, told.own)
+    }
+
+    /// [`Guidance::with_near`], and the size of what the vehicle is told in the compact
+    /// link encoding (`vbap_ipc::compact::command_len`) when the command carries a body
+    /// path of `plan` segments (None: no path), from the same pass: the one place a
+    /// command is turned into what one vehicle reads (the agents and the in-process
+    /// simulator alike).
+    pub fn tell(
+        mut self,
+        id: u32,
+        snapshot: &[SnapshotEntry],
+        own: Option<usize>,
+        near: impl IntoIterator<Item = usize>,
+        link: &Telling,
+        plan: Option<usize>,
+    ) -> Told {
         let own = own
             .and_then(|i| snapshot.get(i))
             .map(|e| link.as_read(e, true));
@@ -110,8 +139,6 @@ impl Guidance {
             }
         }
         if let Some(own) = own {
-            let at = told.partition_point(|e| e.id < own.id);
-            told.insert(at, own);
             let x = to_vec3(&own.position);
             let margin = own.drift_margin(&self.velocity, link.horizon);
             let r = reach(self.leader.d1, self.leader.d0) + margin;
@@ -120,7 +147,23 @@ impl Guidance {
                 self.leaders = kept.iter().map(|&l| self.leaders[l as usize]).collect();
             }
         }
-        self.with_neighbours_and_own(id, &told)
+        let bytes = command_len(
+            plan,
+            self.leaders.len(),
+            own.as_ref(),
+            &told,
+            link.precision,
+        );
+        if let Some(own) = own {
+            let at = told.partition_point(|e| e.id < own.id);
+            told.insert(at, own);
+        }
+        let (guidance, own) = self.with_neighbours_and_own(id, &told);
+        Told {
+            guidance,
+            own,
+            bytes: bytes as u64,
+        }
     }
 
     /// [`Guidance::with_neighbours`], and the first entry of the snapshot with this

@@ -2,7 +2,7 @@
 
 use anyhow::Result;
 use tracing::warn;
-use vbap_ipc::compact::{command_len, Precision};
+use vbap_ipc::compact::Precision;
 use vbap_ipc::msg::coordinator_to_agent::{BodyCommand, SnapshotEntry};
 use vbap_ipc::msg::{to_vec3, wall_ns, Header};
 use vbap_ipc::msglog::MsgLog;
@@ -11,9 +11,10 @@ use vbap_math::potential::PairPotential;
 
 use crate::{Guidance, Telling};
 
-/// One new command: its tick, the guidance it carries for this vehicle, and this
-/// vehicle's own entry of its snapshot (how a rejoining vehicle learns it is admitted).
-pub(super) type NewCommand = (u64, Guidance, Option<SnapshotEntry>);
+/// One new command: its tick, the guidance it carries for this vehicle, this vehicle's
+/// own entry of its snapshot (how a rejoining vehicle learns it is admitted), and its size
+/// as the vehicle's link carries it, bytes.
+pub(super) type NewCommand = (u64, Guidance, Option<SnapshotEntry>, u64);
 
 /// What one drain of the body subscriber found.
 #[derive(Default)]
@@ -91,8 +92,8 @@ impl CommandFilter {
                 out.finished = true;
                 break;
             }
-            let (new, bytes) = self.guidance(command);
-            record(msgs, Some(bytes));
+            let new = self.guidance(command);
+            record(msgs, Some(new.3));
             out.commands.push(new);
         }
         Ok(out)
@@ -122,7 +123,7 @@ impl CommandFilter {
     /// The guidance of `command` for this vehicle, and its own snapshot entry: read from its
     /// own entry and its neighbour list only (O(its neighbours), whatever the fleet); and
     /// the size of what it was told in the compact link encoding (`vbap_ipc::compact`), bytes.
-    fn guidance(&self, command: &BodyCommand) -> (NewCommand, u64) {
+    fn guidance(&self, command: &BodyCommand) -> NewCommand {
         let tick = command.header.tick;
         let snapshot = command.snapshot_entries();
         let own = command.own_index(self.id);
@@ -132,7 +133,8 @@ impl CommandFilter {
             d0: p[1],
             d1: p[2],
         };
-        let (guidance, own_entry) = Guidance::of_command(
+        let schedule = command.schedule();
+        let told = Guidance::of_command(
             tick,
             command.leaders[..command.n_leaders as usize]
                 .iter()
@@ -144,7 +146,7 @@ impl CommandFilter {
             to_vec3(&command.velocity),
             self.v0,
         )
-        .with_near(
+        .tell(
             self.id,
             snapshot,
             own,
@@ -154,21 +156,11 @@ impl CommandFilter {
                 precision: self.precision,
                 origin: to_vec3(&command.r),
             },
-        );
-        let told: Vec<SnapshotEntry> = near
-            .iter()
-            .map(|&j| snapshot[j as usize])
-            .filter(|e| e.id != self.id)
-            .collect();
-        let schedule = command.schedule();
-        let bytes = command_len(
             schedule.as_ref().map(|s| s.segments.len()),
-            guidance.leaders.len(),
-            own_entry.as_ref(),
-            &told,
-            self.precision,
         );
-        let guidance = guidance.with_plan(schedule, to_vec3(&command.r), command.scale);
-        ((tick, guidance, own_entry), bytes as u64)
+        let guidance = told
+            .guidance
+            .with_plan(schedule, to_vec3(&command.r), command.scale);
+        (tick, guidance, told.own, told.bytes)
     }
 }

@@ -1,8 +1,9 @@
 //! `[links]` (delay, loss, surfacing, bursts) and `[restart]`.
 
 use super::super::toml_text::num;
-use super::super::{LinksSection, RestartSection};
+use super::super::{IridiumSection, LinksSection, RestartSection};
 use super::{Check, Checked};
+use vbap_wire::compact::Precision;
 
 /// Checks `[links]`.
 pub(super) fn links(c: &Check, l: &LinksSection) -> Checked {
@@ -69,7 +70,49 @@ pub(super) fn links(c: &Check, l: &LinksSection) -> Checked {
             "must be < 1",
         )?;
     }
+    if let Some(iridium) = &l.iridium {
+        self::iridium(c, iridium)?;
+    }
     Ok(())
+}
+
+/// The smallest `links.iridium.up_limit`: one state report must fit in one message.
+const REPORT_BYTES: u64 = vbap_wire::compact::StateReport::LEN as u64;
+
+/// Checks `[links.iridium]`.
+fn iridium(c: &Check, i: &IridiumSection) -> Checked {
+    c.positive("links.iridium.session_interval", i.session_interval)?;
+    c.finite("links.iridium.session_failure", i.session_failure)?;
+    c.ensure(
+        (0.0..1.0).contains(&i.session_failure),
+        "links.iridium.session_failure",
+        num(i.session_failure),
+        "must be in [0, 1) (1: no session ever succeeds)",
+    )?;
+    c.ensure(
+        i.up_limit >= REPORT_BYTES,
+        "links.iridium.up_limit",
+        i.up_limit,
+        &format!("must be ≥ {REPORT_BYTES} bytes (one state report)"),
+    )?;
+    let least = vbap_wire::compact::command_len(None, 0, None, &[], Precision::Exact) as u64;
+    c.ensure(
+        i.down_limit >= least,
+        "links.iridium.down_limit",
+        i.down_limit,
+        &format!("must be ≥ {least} bytes (a command telling nothing)"),
+    )?;
+    c.non_negative("links.iridium.latency_short", i.latency_short)?;
+    c.finite("links.iridium.latency_full", i.latency_full)?;
+    c.ensure(
+        i.latency_full >= i.latency_short,
+        "links.iridium.latency_full",
+        num(i.latency_full),
+        &format!(
+            "must be ≥ links.iridium.latency_short = {}",
+            num(i.latency_short)
+        ),
+    )
 }
 
 /// Checks `[restart]`.
