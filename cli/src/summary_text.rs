@@ -3,7 +3,7 @@
 
 use std::fmt::Write;
 
-use vbap_mission::rundir::{FormationSummary, Summary};
+use vbap_mission::rundir::{FormationSummary, LinkBytes, Summary};
 
 /// A duration for people: seconds, with hours or days beside long ones.
 fn duration(s: f64) -> String {
@@ -78,14 +78,48 @@ pub fn human_summary(s: &Summary) -> String {
         &mut o,
         "messages",
         format!(
-            "{} sent, {} delivered, {} dropped by the links",
-            m.sent, m.delivered, m.dropped_injected
+            "{} sent, {} delivered, {} dropped by the links{}",
+            m.sent,
+            m.delivered,
+            m.dropped_injected,
+            if m.superseded > 0 {
+                format!(
+                    ", {} replaced at the shore by a newer command",
+                    m.superseded
+                )
+            } else {
+                String::new()
+            }
         ),
     );
+    if let Some(b) = &s.link_bytes {
+        row(&mut o, "link bytes", link_bytes(b));
+    }
     o.push_str(
         "  (all figures: summary.json; per tick: truth.csv, formation.csv; --json prints the JSON)",
     );
     o
+}
+
+/// The `link bytes` row: per vehicle and day, down and up (and Iridium's sessions).
+fn link_bytes(b: &LinkBytes) -> String {
+    let kb = |x: f64| format!("{:.1} kB", x / 1000.0);
+    let mut text = format!(
+        "{} per vehicle-day down (commands {} B mean, {} B max), {} up ({} B a report)",
+        kb(b.down_b_per_vehicle_day),
+        b.command_mean_b.round(),
+        b.command_max_b,
+        kb(b.up_b_per_vehicle_day),
+        b.report_b
+    );
+    if let Some(i) = &b.iridium {
+        let _ = write!(
+            text,
+            "; Iridium: {} sessions, {} failed, {} commands over the limit ({})",
+            i.sessions, i.sessions_failed, i.commands_over_limit, i.oversize
+        );
+    }
+    text
 }
 
 /// The rows about the formation (from summary.json `formation`).

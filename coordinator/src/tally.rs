@@ -18,13 +18,16 @@ pub struct LinkTally {
     pub downlink_delivered: u64,
     /// Commands dropped by the link model.
     pub downlink_dropped: u64,
+    /// Commands the shore replaced with a newer one (Iridium).
+    pub downlink_superseded: u64,
 }
 
 impl LinkTally {
     /// Adds the downlink counters of one vehicle (at its loss, or at the end).
-    pub fn add_downlink(&mut self, delivered: u64, dropped: u64) {
+    pub fn add_downlink(&mut self, delivered: u64, dropped: u64, superseded: u64) {
         self.downlink_delivered += delivered;
         self.downlink_dropped += dropped;
+        self.downlink_superseded += superseded;
     }
 
     /// The link messages of the whole run, uplink from `fleet`'s counters. Reports still
@@ -36,9 +39,10 @@ impl LinkTally {
         let delivered = up.delivered + in_flight + self.downlink_delivered;
         let dropped_injected = up.dropped_injected + self.downlink_dropped;
         MessageCounts {
-            sent: delivered + dropped_injected,
+            sent: delivered + dropped_injected + self.downlink_superseded,
             delivered,
             dropped_injected,
+            superseded: self.downlink_superseded,
             ..MessageCounts::default()
         }
     }
@@ -89,8 +93,8 @@ mod tests {
             fleet.end_tick();
         }
         let mut tally = LinkTally::default();
-        tally.add_downlink(50, 5);
-        tally.add_downlink(20, 1);
+        tally.add_downlink(50, 5, 0);
+        tally.add_downlink(20, 1, 0);
         let c = tally.counts(&fleet);
         assert!(fleet.counts.dropped_injected > 0 && !fleet.held_reports().0.is_empty());
         assert_eq!(c.sent, 3 * ticks + 76);

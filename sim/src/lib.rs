@@ -212,7 +212,11 @@ fn simulate_parts(
         }
     }
     for veh in vehicles.values() {
-        tally.add_downlink(veh.counts.delivered, veh.counts.dropped);
+        tally.add_downlink(
+            veh.counts.delivered,
+            veh.counts.dropped,
+            veh.counts.superseded,
+        );
     }
     recorder.flush()?;
     let mut summary = recorder.summary(&planner, "in-process");
@@ -247,8 +251,11 @@ impl FaultWorld<'_> {
         for v in plan.kills_at(k).collect::<Vec<_>>() {
             if let Some(event) = membership::lose(self.fleet, k, dt, v, &Loss::scheduled_kill()) {
                 if let Some(gone) = self.vehicles.remove(&v) {
-                    self.tally
-                        .add_downlink(gone.counts.delivered, gone.counts.dropped);
+                    self.tally.add_downlink(
+                        gone.counts.delivered,
+                        gone.counts.dropped,
+                        gone.counts.superseded,
+                    );
                 }
                 self.recorder.event(event)?;
             }

@@ -302,7 +302,7 @@ fn lockstep_equals_in_process_with_quantised_commands_whose_sizes_agree() {
         .all(|r| r.bytes == Some(68)));
 }
 
-/// The shipped Iridium mission (`glider_iridium.toml`, cut to 8 h), once as shipped and
+/// The shipped Iridium mission (`glider_iridium.toml`, cut to 4 h: two surfacings each), once as shipped and
 /// once with a down limit below its commands' size and `oversize = "refuse"`: `vbap run`
 /// equals `vbap sim` byte for byte; commands cross only in sessions (the shore keeps the
 /// newest: the others are dropped as `superseded`, never delivered), and a command over
@@ -314,7 +314,7 @@ fn lockstep_equals_in_process_over_iridium_sessions() {
         let name = unique_name("eqiri");
         let mut text = shipped
             .replace("name = \"glider_iridium\"", &format!("name = \"{name}\""))
-            .replace("duration = 259200.0", "duration = 28800.0");
+            .replace("duration = 259200.0", "duration = 14400.0");
         if extra == "refuse" {
             text = text
                 .replace("down_limit = 1890", "down_limit = 900")

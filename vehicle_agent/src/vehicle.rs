@@ -7,7 +7,7 @@ use std::sync::Arc;
 use vbap_math::law::{ControlLaw, PaperLaw};
 use vbap_math::rejoin::Homing;
 use vbap_math::Vec3;
-use vbap_mission::link::{DelayQueue, Direction, Fate, LinkModel, LinkState};
+use vbap_mission::link::{DelayQueue, Direction, DropReason, Fate, LinkModel, LinkState};
 
 use crate::{motion, Agent, AgentInputs, Guidance};
 
@@ -18,6 +18,8 @@ pub struct DownlinkCounts {
     pub delivered: u64,
     /// Commands dropped by the link model.
     pub dropped: u64,
+    /// Commands the shore replaced with a newer one (Iridium).
+    pub superseded: u64,
 }
 
 /// One vehicle with its side of the link: the per-tick logic of an agent, pure. The
@@ -148,6 +150,7 @@ impl Vehicle {
             let fate = model.fate(&mut self.link, self.agent.id, Direction::Downlink, k, t);
             match fate {
                 Fate::Deliver { .. } => self.counts.delivered += 1,
+                Fate::Drop(DropReason::Superseded) => self.counts.superseded += 1,
                 Fate::Drop(_) => self.counts.dropped += 1,
             }
             self.ahead.insert(k, fate);

@@ -497,6 +497,10 @@ pub struct MessageCounts {
     pub dropped_injected: u64,
     /// Messages lost to a full receive queue.
     pub dropped_overflow: u64,
+    /// Commands the shore replaced with a newer one before the vehicle's next session
+    /// (Iridium, `[links.iridium]`): neither delivered nor lost (the newer says it again).
+    #[serde(default)]
+    pub superseded: u64,
     /// Messages the coordinator rejected (non-finite, foreign, replayed, from the future);
     /// the agents' rejections are in `agent_rejected`.
     pub rejected: u64,

@@ -121,7 +121,7 @@ fn hop_reports(hops: BTreeMap<String, HopAcc>, report: &mut Report, dists: &mut 
         // deliveries are the receptions not dropped, and those delivered without a
         // "held" record were delivered at once (0 ms).
         let (delivered, mut injected) = if acc.inline_ms.is_empty() {
-            let delivered = received.saturating_sub(acc.dropped_injected);
+            let delivered = received.saturating_sub(acc.dropped_injected + acc.superseded);
             let mut v = std::mem::take(&mut acc.held_ms);
             let at_once = (delivered as usize).saturating_sub(v.len());
             v.extend(std::iter::repeat_n(0.0, at_once));
@@ -137,6 +137,7 @@ fn hop_reports(hops: BTreeMap<String, HopAcc>, report: &mut Report, dists: &mut 
                 injected_ms: Percentiles::of(&mut injected),
                 delivered,
                 dropped_injected: acc.dropped_injected,
+                superseded: acc.superseded,
                 dropped_overflow: acc.dropped_overflow,
                 received,
                 bytes_mean: (acc.sized > 0).then(|| acc.bytes as f64 / acc.sized as f64),

@@ -88,6 +88,8 @@ pub(super) struct HopAcc {
     /// Injected delays of `"held"` records (messages the link model delayed).
     pub(super) held_ms: Vec<f64>,
     pub(super) dropped_injected: u64,
+    /// Commands the shore replaced with a newer one (Iridium).
+    pub(super) superseded: u64,
     pub(super) dropped_overflow: u64,
     /// Received messages whose size is recorded, their bytes summed and the largest.
     pub(super) sized: u64,
@@ -101,6 +103,7 @@ impl HopAcc {
         self.inline_ms.extend(other.inline_ms);
         self.held_ms.extend(other.held_ms);
         self.dropped_injected += other.dropped_injected;
+        self.superseded += other.superseded;
         self.dropped_overflow += other.dropped_overflow;
         self.sized += other.sized;
         self.bytes += other.bytes;
@@ -140,6 +143,7 @@ impl Partial {
             // Dropped: by a full queue, or by the link model (loss, burst, link_down).
             MsgEvent::Drop => match r.reason {
                 Some("overflow") => acc.dropped_overflow += 1,
+                Some("superseded") => acc.superseded += 1,
                 _ => acc.dropped_injected += 1,
             },
             // Held by the link model for `injected_ms` (mission time) before delivery.

@@ -18,6 +18,9 @@ pub struct HopReport {
     pub delivered: u64,
     /// Messages dropped by the link model.
     pub dropped_injected: u64,
+    /// Commands the shore replaced with a newer one (Iridium).
+    #[serde(default)]
+    pub superseded: u64,
     /// Messages lost to a full queue.
     pub dropped_overflow: u64,
     /// Messages received over IPC (the link model may drop some of them after).
@@ -107,6 +110,7 @@ impl Report {
         s.messages.sent = links.iter().flatten().map(|h| h.received).sum();
         s.messages.delivered = links.iter().flatten().map(|h| h.delivered).sum();
         s.messages.dropped_injected = links.iter().flatten().map(|h| h.dropped_injected).sum();
+        s.messages.superseded = links.iter().flatten().map(|h| h.superseded).sum();
         s.messages.dropped_overflow = self.hops.values().map(|h| h.dropped_overflow).sum();
     }
 }

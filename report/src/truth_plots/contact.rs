@@ -11,12 +11,16 @@ use crate::plot::chart::{
 use crate::plot::style::{self, TimeUnit, CONTACT_STATES};
 use crate::plot::PlotError;
 use vbap_mission::config::Mission;
+use vbap_mission::link::{LinkModel, Session};
 use vbap_wire::rundir::Event;
 
 use super::{panels::age_panel, Formation, Lane, N_STATES};
 
 /// Colour of the delivery ticks.
 const DELIVERY: &str = "#08306b";
+/// Colours of the Iridium sessions (`[links.iridium]`): opened, failed.
+const SESSION_OK: &str = "#1a9850";
+const SESSION_FAILED: &str = "#d73027";
 /// Lines of event labels above the rows.
 const LABEL_LINES: usize = 3;
 /// Height of a legend row of the timeline, px.
@@ -141,12 +145,35 @@ pub fn render_contact_svg(
     let age = age_panel(mission, f, events, unit, age_unit);
     let height = l.axis_bottom + 20.0 + panel_height(&age) + 10.0;
     let deliveries: u64 = f.lanes.values().map(|l| l.deliveries).sum();
+    let model = LinkModel::new(mission);
+    let sessions: std::collections::BTreeMap<u32, Vec<Session>> = f
+        .lanes
+        .keys()
+        .map(|&id| (id, model.sessions(id, l.t0, l.t1)))
+        .collect();
+    let (opened, failed) =
+        sessions.values().flatten().fold(
+            (0, 0),
+            |(o, x), s| {
+                if s.ok {
+                    (o + 1, x)
+                } else {
+                    (o, x + 1)
+                }
+            },
+        );
+    let iridium = model.iridium().is_some();
+    let subtitle_sessions = if iridium {
+        format!(" · Iridium sessions along the top ({opened} opened, {failed} failed)")
+    } else {
+        String::new()
+    };
     canvas::render((crate::plot::chart::WIDTH, height), |c| {
         draw_head(
             c,
             &format!("{} (seed {}): contact with the coordinator", m.name, m.seed),
             &format!(
-                "{} vehicles over {} · one row per vehicle: colour = contact state, dark ticks = reports delivered ({deliveries} in all)",
+                "{} vehicles over {} · one row per vehicle: colour = contact state, dark ticks = reports delivered ({deliveries} in all){subtitle_sessions}",
                 f.lanes.len(),
                 unit.fmt(l.t1 - l.t0)
             ),
@@ -156,6 +183,7 @@ pub fn render_contact_svg(
         for (row, (id, lane)) in f.lanes.iter().enumerate() {
             let y = l.rows_top + row as f64 * l.row_h;
             draw_lane(c, &l, y, *id, lane)?;
+            draw_sessions(c, &l, y, &sessions[id])?;
             let own = vehicle_events
                 .iter()
                 .filter(|(v, _)| v == id)
@@ -165,7 +193,7 @@ pub fn render_contact_svg(
         let rows = (PLOT_W, l.rows_bottom - l.rows_top);
         c.frame((MARGIN_LEFT, l.rows_top), rows, "#000000")?;
         draw_fleet_events(c, &l, &fleet_events)?;
-        draw_legend(c, &l, f, &vehicle_events, !fleet_events.is_empty())?;
+        draw_legend(c, &l, f, &vehicle_events, !fleet_events.is_empty(), iridium)?;
         draw_panel(c, &age, l.axis_bottom + 20.0, false)
     })
 }
@@ -364,13 +392,32 @@ fn draw_fleet_events(c: &Canvas<'_>, l: &Layout, events: &[&Event]) -> Result<()
     Ok(())
 }
 
-/// The legend: the states met, deliveries, the kinds of vehicle events drawn, fleet events.
+/// A vehicle's Iridium sessions in its row at `y`: a mark along the top at each, green when
+/// it opened, red when it failed.
+fn draw_sessions(
+    c: &Canvas<'_>,
+    l: &Layout,
+    y: f64,
+    sessions: &[Session],
+) -> Result<(), PlotError> {
+    let h = (l.row_h - 3.0).max(4.0);
+    let dh = (h * 0.3).max(2.0);
+    for s in sessions {
+        let colour = if s.ok { SESSION_OK } else { SESSION_FAILED };
+        c.rect((l.x(s.at), y), (1.0, dh), colour, 1.0)?;
+    }
+    Ok(())
+}
+
+/// The legend: the states met, deliveries, Iridium's sessions, the kinds of vehicle events
+/// drawn, fleet events.
 fn draw_legend(
     c: &Canvas<'_>,
     l: &Layout,
     f: &Formation,
     vehicle_events: &[(u32, &Event)],
     fleet_events: bool,
+    iridium: bool,
 ) -> Result<(), PlotError> {
     let x = MARGIN_LEFT + PLOT_W + 22.0;
     let mut y = l.fleet_top + 6.0;
@@ -391,6 +438,18 @@ fn draw_legend(
         height: 5.0,
     };
     entries.push((Some(sw), None, "report delivered (age reset)".into()));
+    if iridium {
+        for (colour, text) in [
+            (SESSION_OK, "Iridium session"),
+            (SESSION_FAILED, "Iridium session failed"),
+        ] {
+            let sw = Swatch::Box {
+                colour,
+                height: 5.0,
+            };
+            entries.push((Some(sw), None, text.into()));
+        }
+    }
     let mut kinds = std::collections::BTreeSet::new();
     for (_, e) in vehicle_events {
         if let Some(st) = style::event_style(&e.kind) {
