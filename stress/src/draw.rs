@@ -90,6 +90,9 @@ pub struct Draw {
     pub burst: Option<(f64, f64, f64)>,
     /// Surfacing (`surfacing_period`, `surfacing_window`), s; none: always in contact.
     pub surfacing: Option<(f64, f64)>,
+    /// Iridium sessions on a surfacing link (`session_interval`, `session_failure`,
+    /// `latency_short`), s; none: store and forward.
+    pub iridium: Option<(f64, f64, f64)>,
     /// `[[faults]]`: kills and rejoins.
     pub faults: Vec<FaultDraw>,
     /// `formation.adapt`.
@@ -240,6 +243,17 @@ impl Draw {
         let seed_of_mission = rng.random::<u64>() >> 1;
         let min_scale = draw(rng, &space.min_scale);
         let radius_factor = draw(rng, &space.radius_factor);
+        // Drawn last: a mission without it draws what it drew before Iridium was in the
+        // space.
+        let iridium = surfacing.and_then(|(_, window)| {
+            (rng.random::<f64>() < space.p_iridium).then(|| {
+                (
+                    window / draw(rng, &space.sessions_per_window),
+                    draw(rng, &space.session_failure),
+                    window * draw(rng, &space.session_latency_fraction),
+                )
+            })
+        });
         Draw {
             index,
             seed: seed_of_mission,
@@ -254,6 +268,7 @@ impl Draw {
             loss,
             burst,
             surfacing,
+            iridium,
             faults,
             adapt,
             alpha,
@@ -559,6 +574,13 @@ impl Draw {
             let _ = writeln!(
                 s,
                 "surfacing_period = {period:?}\nsurfacing_window = {window:?}"
+            );
+        }
+        if let Some((interval, failure, latency)) = self.iridium {
+            let _ = writeln!(
+                s,
+                "\n[links.iridium]\nsession_interval = {interval:?}\nsession_failure = {failure:?}\nlatency_short = {latency:?}\nlatency_full = {:?}",
+                4.0 * latency
             );
         }
     }

@@ -105,6 +105,15 @@ pub struct Space {
     pub surfacing_period: Range,
     /// Surfacing window ÷ the period.
     pub surfacing_window_fraction: Range,
+    /// Probability that a surfacing link is Iridium sessions (`[links.iridium]`), drawn
+    /// last, so the other draws of a mission are those of a space without it.
+    pub p_iridium: f64,
+    /// Iridium: sessions per surfacing window (the window ÷ `session_interval`).
+    pub sessions_per_window: Range,
+    /// Iridium: `session_failure`.
+    pub session_failure: Range,
+    /// Iridium: `latency_short` ÷ the window (`latency_full` is 4 times it).
+    pub session_latency_fraction: Range,
     /// Number of faults 0..=3 and the probability of each count.
     pub fault_counts: [f64; 4],
     /// Probability a fault is a rejoin (a kill with `until`, `[restart] vehicles =
@@ -187,6 +196,10 @@ impl Default for Space {
             p_surfacing: 0.25,
             surfacing_period: Range::log(2.0, 10.0),
             surfacing_window_fraction: Range::uniform(0.2, 0.5),
+            p_iridium: 0.5,
+            sessions_per_window: Range::uniform(1.0, 6.0),
+            session_failure: Range::uniform(0.0, 0.3),
+            session_latency_fraction: Range::uniform(0.01, 0.05),
             fault_counts: [0.5, 0.25, 0.15, 0.1],
             p_rejoin: 0.5,
             fault_at: Range::uniform(0.1, 0.6),
@@ -267,6 +280,13 @@ impl Space {
                 format!(
                     "p = {}: period {} s, window {} of the period",
                     self.p_surfacing, self.surfacing_period, self.surfacing_window_fraction
+                ),
+            ),
+            (
+                "Iridium sessions",
+                format!(
+                    "p = {} of surfacing links: {} sessions a window, session_failure {}, latency_short {} of the window (latency_full 4 times it), SBD byte limits",
+                    self.p_iridium, self.sessions_per_window, self.session_failure, self.session_latency_fraction
                 ),
             ),
             (
