@@ -35,6 +35,10 @@ pub struct Dims {
     pub loss: f64,
     pub bursty: bool,
     pub surfacing: bool,
+    /// Iridium sessions on the surfacing link (false in result lines written before it was
+    /// drawn).
+    #[serde(default)]
+    pub iridium: bool,
     pub faults: usize,
     pub adapt: bool,
     pub glider: bool,
@@ -77,6 +81,7 @@ impl Dims {
             loss: d.loss,
             bursty: d.burst.is_some(),
             surfacing: d.surfacing.is_some(),
+            iridium: d.iridium.is_some(),
             faults: d.faults.len(),
             adapt: d.adapt,
             glider: d.glider.is_some(),

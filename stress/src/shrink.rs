@@ -73,7 +73,11 @@ pub fn simplifications(d: &Draw) -> Vec<(String, Draw)> {
         s.delay = 0.0;
         s.jitter = 0.0;
     });
-    with("surfacing off", &|s| s.surfacing = None);
+    with("Iridium off", &|s| s.iridium = None);
+    with("surfacing off", &|s| {
+        s.surfacing = None;
+        s.iridium = None;
+    });
     with("current off", &|s| s.current = None);
     with("glider -> ideal", &|s| {
         s.glider = None;

@@ -148,6 +148,7 @@ pub fn dimensions() -> Vec<(&'static str, Box<dyn Fn(&Dims) -> String>)> {
         ),
         ("bursty", Box::new(|d: &Dims| yes_no(d.bursty))),
         ("surfacing", Box::new(|d: &Dims| yes_no(d.surfacing))),
+        ("Iridium sessions", Box::new(|d: &Dims| yes_no(d.iridium))),
         (
             "links",
             Box::new(|d: &Dims| {
