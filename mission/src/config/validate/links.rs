@@ -15,13 +15,7 @@ pub(super) fn links(c: &Check, l: &LinksSection) -> Checked {
         num(l.jitter),
         &format!("must be ≤ links.delay = {}", num(l.delay)),
     )?;
-    c.finite("links.loss", l.loss)?;
-    c.ensure(
-        (0.0..1.0).contains(&l.loss),
-        "links.loss",
-        num(l.loss),
-        "must be in [0, 1)",
-    )?;
+    c.probability_below_one("links.loss", l.loss, "")?;
     c.non_negative("links.position_quantum", l.position_quantum)?;
     c.non_negative("links.surfacing_period", l.surfacing_period)?;
     c.non_negative("links.surfacing_window", l.surfacing_window)?;
@@ -82,12 +76,10 @@ const REPORT_BYTES: u64 = vbap_wire::compact::StateReport::LEN as u64;
 /// Checks `[links.iridium]`.
 fn iridium(c: &Check, i: &IridiumSection) -> Checked {
     c.positive("links.iridium.session_interval", i.session_interval)?;
-    c.finite("links.iridium.session_failure", i.session_failure)?;
-    c.ensure(
-        (0.0..1.0).contains(&i.session_failure),
+    c.probability_below_one(
         "links.iridium.session_failure",
-        num(i.session_failure),
-        "must be in [0, 1) (1: no session ever succeeds)",
+        i.session_failure,
+        " (1: no session ever succeeds)",
     )?;
     c.ensure(
         i.up_limit >= REPORT_BYTES,
@@ -104,14 +96,11 @@ fn iridium(c: &Check, i: &IridiumSection) -> Checked {
     )?;
     c.non_negative("links.iridium.latency_short", i.latency_short)?;
     c.finite("links.iridium.latency_full", i.latency_full)?;
-    c.ensure(
-        i.latency_full >= i.latency_short,
+    c.at_least(
         "links.iridium.latency_full",
-        num(i.latency_full),
-        &format!(
-            "must be ≥ links.iridium.latency_short = {}",
-            num(i.latency_short)
-        ),
+        i.latency_full,
+        "links.iridium.latency_short",
+        i.latency_short,
     )
 }
 

@@ -25,12 +25,7 @@ pub(super) fn check(c: &Check, m: &MissionSection) -> Checked {
     )?;
     c.positive("mission.dt", m.dt)?;
     c.positive("mission.duration", m.duration)?;
-    c.ensure(
-        m.duration >= m.dt,
-        "mission.duration",
-        num(m.duration),
-        &format!("must be ≥ mission.dt = {}", num(m.dt)),
-    )?;
+    c.at_least("mission.duration", m.duration, "mission.dt", m.dt)?;
     c.ensure(
         m.duration / m.dt <= MAX_TICKS,
         "mission.duration",

@@ -94,6 +94,28 @@ impl Check<'_> {
         self.ensure(x >= 0.0, key, num(x), "must be ≥ 0")
     }
 
+    /// `x` is a probability that is not certain: finite, in [0, 1) (`why`: what 1 would
+    /// mean, or empty).
+    fn probability_below_one(&self, key: &str, x: f64, why: &str) -> Checked {
+        self.finite(key, x)?;
+        self.ensure(
+            (0.0..1.0).contains(&x),
+            key,
+            num(x),
+            &format!("must be in [0, 1){why}"),
+        )
+    }
+
+    /// `x` (of `key`) is at least `floor`, the value of `floor_key`.
+    fn at_least(&self, key: &str, x: f64, floor_key: &str, floor: f64) -> Checked {
+        self.ensure(
+            x >= floor,
+            key,
+            num(x),
+            &format!("must be ≥ {floor_key} = {}", num(floor)),
+        )
+    }
+
     /// Every component of `v` is finite (named `key[i]`).
     fn all_finite(&self, key: &str, v: &[f64]) -> Checked {
         for (i, x) in v.iter().enumerate() {
