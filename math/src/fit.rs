@@ -263,52 +263,96 @@ fn fit_slots_turning(
     }
     let trim = 0.5 * spacing(design, body);
     let mut rotation = own;
+    // The pass at `rotation`, when one was made at exactly that rotation.
+    let mut at_rotation: Option<Pass> = None;
     if turn && !q.x.is_empty() {
-        let mut best = (robust_cost(&q, &rotate(&own, &base), trim), own);
+        let mut best = Pass::new(&q, &base, own);
+        let mut best_cost = best.robust_cost(trim);
         let anchors = anchors(&q.x, &base);
         for r in candidates(&q.x, &base, dim, &anchors) {
-            let c = robust_cost(&q, &rotate(&r, &base), trim);
-            if c < best.0 {
-                best = (c, r);
+            let pass = Pass::new(&q, &base, r);
+            let c = pass.robust_cost(trim);
+            if c < best_cost {
+                (best, best_cost) = (pass, c);
             }
         }
-        if best.0 >= trim * trim && base.len() <= EVERY_SLOT_LIMIT {
+        if best_cost >= trim * trim && base.len() <= EVERY_SLOT_LIMIT {
             for r in every_slot_candidates(&q.x, &base, dim, &anchors) {
-                let c = robust_cost(&q, &rotate(&r, &base), trim);
-                if c < best.0 {
-                    best = (c, r);
+                let pass = Pass::new(&q, &base, r);
+                let c = pass.robust_cost(trim);
+                if c < best_cost {
+                    (best, best_cost) = (pass, c);
                 }
             }
         }
-        rotation = best.1;
+        rotation = best.rotation;
+        at_rotation = Some(best);
         let mut last: Option<Vec<Option<usize>>> = None;
         for _ in 0..FIT_ITERATIONS {
-            let slots = rotate(&rotation, &base);
-            let slot = assign(&q, &slots);
+            let pass = at_rotation
+                .take()
+                .unwrap_or_else(|| Pass::new(&q, &base, rotation));
+            let slot = pass.assign(&q);
             if last.as_ref() == Some(&slot) {
+                at_rotation = Some(pass);
                 break;
             }
             rotation = refit(&q.x, &base, &slot, &rotation, trim, dim);
             last = Some(slot);
         }
     }
-    let slots = rotate(&rotation, &base);
-    let circle = circle_order(&slots);
-    let near = nearest_all(&q, &slots, circle.as_deref());
-    let slot = assign_from(&q, &slots, &near, circle.as_deref());
+    let pass = at_rotation.unwrap_or_else(|| Pass::new(&q, &base, rotation));
+    let slot = pass.assign(&q);
     let errors =
         q.x.iter()
             .zip(&slot)
             .enumerate()
             .map(|(i, (x, s))| match s {
-                Some(j) => (x - slots[*j]).norm(),
-                None => near[i].1.sqrt(),
+                Some(j) => (x - pass.slots[*j]).norm(),
+                None => pass.near[i].1.sqrt(),
             })
             .collect();
     SlotFit {
         errors,
         slot,
         rotation,
+    }
+}
+
+/// The slots turned by one rotation and every vehicle's nearest among them: what the
+/// robust cost of a candidate rotation, and an assignment at that rotation, are made of
+/// (made once per rotation and kept while the fit stays at it).
+struct Pass {
+    rotation: Mat3,
+    /// The base slots turned by `rotation` (relative to the centre).
+    slots: Vec<Vec3>,
+    /// Their [`circle_order`].
+    circle: Option<Vec<(f64, usize)>>,
+    /// Every vehicle's nearest slot, squared distance ([`nearest_all`]).
+    near: Vec<(usize, f64)>,
+}
+
+impl Pass {
+    fn new(q: &Centred, base: &[Vec3], rotation: Mat3) -> Self {
+        let slots = rotate(&rotation, base);
+        let circle = circle_order(&slots);
+        let near = nearest_all(q, &slots, circle.as_deref());
+        Self {
+            rotation,
+            slots,
+            circle,
+            near,
+        }
+    }
+
+    /// `Σ min(e_i², trim²)`, `e_i` each vehicle's distance to its nearest slot.
+    fn robust_cost(&self, trim: f64) -> f64 {
+        self.near.iter().map(|(_, d)| d.min(trim * trim)).sum()
+    }
+
+    /// Vehicle → slot: nearest slots when distinct, else greedy by distance.
+    fn assign(&self, q: &Centred) -> Vec<Option<usize>> {
+        assign_from(q, &self.slots, &self.near, self.circle.as_deref())
     }
 }
 
@@ -531,21 +575,7 @@ fn nearest_free(
     best.map(|(j, _)| j)
 }
 
-fn robust_cost(q: &Centred, slots: &[Vec3], trim: f64) -> f64 {
-    nearest_all(q, slots, circle_order(slots).as_deref())
-        .into_iter()
-        .map(|(_, d)| d.min(trim * trim))
-        .sum()
-}
-
-/// Vehicle → slot: nearest slots when distinct, else greedy by distance.
-fn assign(q: &Centred, slots: &[Vec3]) -> Vec<Option<usize>> {
-    let circle = circle_order(slots);
-    let near = nearest_all(q, slots, circle.as_deref());
-    assign_from(q, slots, &near, circle.as_deref())
-}
-
-/// [`assign`] given every vehicle's nearest slot `near_d` (from [`nearest_all`]) and the
+/// [`Pass::assign`]: the assignment given every vehicle's nearest slot `near_d` (from [`nearest_all`]) and the
 /// slots' [`circle_order`].
 fn assign_from(
     q: &Centred,
