@@ -189,39 +189,15 @@ fn greedy_nearest_pairs(
     if free == 0 {
         return;
     }
-    // The least pair of vehicle `i` over the free slots (ties by slot). The distance is
-    // `√|x − p|²` (nalgebra's `norm`); √ is monotone and correctly rounded, so a slot at
-    // the least distance has its squared distance within a few ulps of the least one
-    // (`cut` leaves a wide margin, and takes in every tiny one): only those need the root.
+    // The least pair of vehicle `i` over the free slots (ties by slot).
     let least = |i: usize, used: &[bool]| -> Option<Pair> {
         let x = positions[i];
-        let mut least2 = f64::INFINITY;
-        let mut any = false;
-        for (j, p) in at.iter().enumerate() {
-            if !used[j] {
-                let d2 = (x - p).norm_squared();
-                any = true;
-                if d2.is_nan() {
-                    least2 = f64::INFINITY;
-                    break;
-                }
-                least2 = least2.min(d2);
-            }
-        }
-        if !any {
-            return None;
-        }
-        let cut = least2 * (1.0 + 1e-12) + 1e-300;
         let mut best: Option<Pair> = None;
         for (j, p) in at.iter().enumerate() {
             if used[j] {
                 continue;
             }
-            let d2 = (x - p).norm_squared();
-            if d2 > cut {
-                continue;
-            }
-            let d = d2.sqrt();
+            let d = (x - p).norm();
             if best.is_none_or(|b| d.total_cmp(&b.0) == Ordering::Less) {
                 best = Some(Pair(d, i, j));
             }
