@@ -108,15 +108,21 @@ fn small_integer(x: f64) -> Option<u64> {
     (a < LIMIT && a.fract() == 0.0).then_some(a as u64)
 }
 
-/// The text of groups of `K` number cells remembered by the bits of their numbers, one
-/// group per key (a small index: a vehicle's id; keys from [`Memo::MAX_KEY`] on are not
-/// remembered), for numbers written again and again: a tick's time on every row of the
-/// tick, a vehicle's state on its row of `planner_inputs.csv` and of `vehicles.csv`. The
-/// text is [`push_num`]'s, a function of the bits alone, so a remembered group writes the
-/// same bytes as the numbers would.
+/// The text of groups of `K` number cells remembered by the bits of their numbers, the
+/// last two groups per key (a small index: a vehicle's id; keys from [`Memo::MAX_KEY`] on
+/// are not remembered), for numbers written again and again: a tick's time on every row of
+/// the tick, a vehicle's state on its rows of `planner_inputs.csv` and of `vehicles.csv`
+/// (the same report in lockstep on ideal links; a submerged glider's last report, on its
+/// `member` row tick after tick, beside its true state). The text is [`push_num`]'s, a
+/// function of the bits alone, so a remembered group writes the same bytes as the numbers
+/// would.
 pub struct Memo<const K: usize> {
-    groups: Vec<Option<([u64; K], String)>>,
+    /// Per key: two groups, and which of them was used last.
+    groups: Vec<([Group<K>; 2], usize)>,
 }
+
+/// The bits of `K` numbers and their text (none yet).
+type Group<const K: usize> = Option<([u64; K], String)>;
 
 impl<const K: usize> Default for Memo<K> {
     fn default() -> Self {
@@ -177,11 +183,18 @@ impl Line {
             return self;
         }
         if memo.groups.len() <= key {
-            memo.groups.resize_with(key + 1, || None);
+            memo.groups.resize_with(key + 1, || ([None, None], 0));
         }
         let bits = xs.map(f64::to_bits);
-        let group = &mut memo.groups[key];
-        if !matches!(group, Some((b, _)) if *b == bits) {
+        let (pair, last) = &mut memo.groups[key];
+        let hit = pair
+            .iter()
+            .position(|g| matches!(g, Some((b, _)) if *b == bits));
+        // On a miss, the group not used last makes way.
+        let at = hit.unwrap_or(1 - *last);
+        *last = at;
+        let group = &mut pair[at];
+        if hit.is_none() {
             let (b, text) = group.get_or_insert_with(|| (bits, String::new()));
             *b = bits;
             text.clear();
@@ -372,6 +385,11 @@ mod tests {
             [0.5, 0.0, 1e-7],
             [f64::NAN, 3.0, 0.1 + 0.2],
             [0.5, 0.0, 1e-7],
+            [f64::NAN, 3.0, 0.1 + 0.2],
+            [7.0, 8.0, 9.0],
+            [0.5, 0.0, 1e-7],
+            [7.0, 8.0, 9.0],
+            [0.25, 8.0, 9.0],
         ];
         for (row, xs) in groups.iter().enumerate() {
             for key in [0, 2, Memo::<3>::MAX_KEY] {
