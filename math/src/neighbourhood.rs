@@ -105,9 +105,10 @@ impl Neighbourhoods {
             }
         }
         cells.sort_unstable();
-        let in_cell = |key: &[i64; 3]| {
-            let from = cells.partition_point(|(c, _)| c < key);
-            let to = from + cells[from..].partition_point(|(c, _)| c == key);
+        // The points of the cells from `lo` to `hi` in the cells' (lexicographic) order.
+        let between = |lo: [i64; 3], hi: [i64; 3]| {
+            let from = cells.partition_point(|(c, _)| *c < lo);
+            let to = from + cells[from..].partition_point(|(c, _)| *c <= hi);
             &cells[from..to]
         };
         let mut found: Vec<(f64, u32)> = Vec::new();
@@ -134,15 +135,22 @@ impl Neighbourhoods {
                         keep(i, j, p, &mut found);
                     }
                 } else {
+                    // The cells within `s` of `c` on each axis: one run of the sorted
+                    // cells per row of them (x and y fixed, z from −s to s; in a flat
+                    // grid, where every z is 0, x fixed and y from −s to s).
                     let s = span as i64;
-                    let dz = if flat { 0 } else { s };
                     for dx in -s..=s {
+                        let x = c[0] + dx;
+                        if flat {
+                            for &(_, j) in between([x, c[1] - s, 0], [x, c[1] + s, 0]) {
+                                keep(i, j, p, &mut found);
+                            }
+                            continue;
+                        }
                         for dy in -s..=s {
-                            for dz in -dz..=dz {
-                                let key = [c[0] + dx, c[1] + dy, c[2] + dz];
-                                for &(_, j) in in_cell(&key) {
-                                    keep(i, j, p, &mut found);
-                                }
+                            let y = c[1] + dy;
+                            for &(_, j) in between([x, y, c[2] - s], [x, y, c[2] + s]) {
+                                keep(i, j, p, &mut found);
                             }
                         }
                     }
