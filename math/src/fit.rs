@@ -106,7 +106,10 @@ pub fn held_slots(
 /// the same one); the others take the free slots, the nearest vehicle–slot pair first
 /// (ties by vehicle, then slot). Where nobody has a last slot, the assignment `fresh`
 /// makes (such as [`held_slots`]'s) is returned as it is; `fresh` is called only then.
-/// `O(n m log(n m))` when some vehicles choose again.
+///
+/// The choosing is the greedy of every (distance, vehicle, slot) pair taken in sorted
+/// order, found lazily ([`greedy_nearest_pairs`]): `O(c m)` when the `c` vehicles that
+/// choose want distinct slots, `O(c m log m)` at worst.
 pub fn keep_slots(
     positions: &[Vec3],
     design: &FormationDesign,
@@ -119,33 +122,124 @@ pub fn keep_slots(
         return fresh();
     }
     let reach = spacing(design, body);
-    let at = |j: usize| body.r + rotation * (body.scale * design.slots[j]);
-    let mut used = vec![false; design.slots.len()];
+    let at: Vec<Vec3> = design
+        .slots
+        .iter()
+        .map(|p| body.r + rotation * (body.scale * p))
+        .collect();
+    let mut used = vec![false; at.len()];
     let mut slot: Vec<Option<usize>> = vec![None; positions.len()];
     for (i, x) in positions.iter().enumerate() {
         if let Some(j) = last.get(i).copied().flatten() {
-            if j < used.len() && !used[j] && (x - at(j)).norm() < reach {
+            if j < used.len() && !used[j] && (x - at[j]).norm() < reach {
                 slot[i] = Some(j);
                 used[j] = true;
             }
         }
     }
-    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
-    for (i, x) in positions.iter().enumerate() {
-        if slot[i].is_none() {
-            for (j, _) in used.iter().enumerate().filter(|(_, u)| !**u) {
-                pairs.push(((x - at(j)).norm(), i, j));
+    greedy_nearest_pairs(positions, &at, &mut slot, &mut used);
+    slot
+}
+
+/// Gives the vehicles at `positions` without a slot in `slot` the slots not `used`
+/// (inertial positions `at`, length unit) as taking every pair (distance, vehicle, slot)
+/// of those in ascending order (`f64::total_cmp`, then vehicle, then slot) would, each
+/// pair taken when both are still free.
+///
+/// Exactly that greedy, without sorting all pairs: the pair it takes next is always the
+/// least pair of a free vehicle and a free slot (a pair passed over had a vehicle or slot
+/// already taken, and they stay taken). Each choosing vehicle holds its least pair over
+/// the slots free when it was found, in a min-heap; slots are only ever taken, so a held
+/// pair is never above the vehicle's least pair now, and the heap's least pair, if its
+/// slot is still free, is the least of all. If its slot was taken meanwhile, the vehicle
+/// looks again: the first time from a scan, after that along its pairs sorted once.
+fn greedy_nearest_pairs(
+    positions: &[Vec3],
+    at: &[Vec3],
+    slot: &mut [Option<usize>],
+    used: &mut [bool],
+) {
+    use std::cmp::{Ordering, Reverse};
+    use std::collections::BinaryHeap;
+
+    /// A (distance, vehicle, slot) pair, ordered as the greedy takes them.
+    #[derive(Clone, Copy)]
+    struct Pair(f64, usize, usize);
+    impl PartialEq for Pair {
+        fn eq(&self, other: &Self) -> bool {
+            self.cmp(other) == Ordering::Equal
+        }
+    }
+    impl Eq for Pair {}
+    impl PartialOrd for Pair {
+        fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+            Some(self.cmp(other))
+        }
+    }
+    impl Ord for Pair {
+        fn cmp(&self, other: &Self) -> Ordering {
+            self.0
+                .total_cmp(&other.0)
+                .then(self.1.cmp(&other.1))
+                .then(self.2.cmp(&other.2))
+        }
+    }
+
+    let mut free = used.iter().filter(|u| !**u).count();
+    if free == 0 {
+        return;
+    }
+    // The least pair of vehicle `i` over the free slots (ties by slot).
+    let least = |i: usize, used: &[bool]| -> Option<Pair> {
+        let x = positions[i];
+        let mut best: Option<Pair> = None;
+        for (j, p) in at.iter().enumerate() {
+            if used[j] {
+                continue;
+            }
+            let d = (x - p).norm();
+            if best.is_none_or(|b| d.total_cmp(&b.0) == Ordering::Less) {
+                best = Some(Pair(d, i, j));
             }
         }
-    }
-    pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
-    for (_, i, j) in pairs {
-        if slot[i].is_none() && !used[j] {
+        best
+    };
+    let mut heap: BinaryHeap<Reverse<Pair>> = (0..positions.len())
+        .filter(|&i| slot[i].is_none())
+        .filter_map(|i| least(i, used).map(Reverse))
+        .collect();
+    // Per vehicle that had to look again: its (distance, slot) pairs over the slots free
+    // then, sorted, and how far along them it is.
+    type Along = (Vec<(f64, usize)>, usize);
+    let mut sorted: Vec<Option<Along>> = vec![None; positions.len()];
+    while let Some(Reverse(Pair(_, i, j))) = heap.pop() {
+        if !used[j] {
             slot[i] = Some(j);
             used[j] = true;
+            free -= 1;
+            if free == 0 {
+                return;
+            }
+            continue;
+        }
+        let (list, next) = sorted[i].get_or_insert_with(|| {
+            let x = positions[i];
+            let mut list: Vec<(f64, usize)> = at
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| !used[*j])
+                .map(|(j, p)| ((x - p).norm(), j))
+                .collect();
+            list.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            (list, 0)
+        });
+        while *next < list.len() && used[list[*next].1] {
+            *next += 1;
+        }
+        if let Some(&(d, j)) = list.get(*next) {
+            heap.push(Reverse(Pair(d, i, j)));
         }
     }
-    slot
 }
 
 /// [`fit_slots`], free to turn about the centre only when `turn`.
@@ -169,52 +263,96 @@ fn fit_slots_turning(
     }
     let trim = 0.5 * spacing(design, body);
     let mut rotation = own;
+    // The pass at `rotation`, when one was made at exactly that rotation.
+    let mut at_rotation: Option<Pass> = None;
     if turn && !q.x.is_empty() {
-        let mut best = (robust_cost(&q, &rotate(&own, &base), trim), own);
+        let mut best = Pass::new(&q, &base, own);
+        let mut best_cost = best.robust_cost(trim);
         let anchors = anchors(&q.x, &base);
         for r in candidates(&q.x, &base, dim, &anchors) {
-            let c = robust_cost(&q, &rotate(&r, &base), trim);
-            if c < best.0 {
-                best = (c, r);
+            let pass = Pass::new(&q, &base, r);
+            let c = pass.robust_cost(trim);
+            if c < best_cost {
+                (best, best_cost) = (pass, c);
             }
         }
-        if best.0 >= trim * trim && base.len() <= EVERY_SLOT_LIMIT {
+        if best_cost >= trim * trim && base.len() <= EVERY_SLOT_LIMIT {
             for r in every_slot_candidates(&q.x, &base, dim, &anchors) {
-                let c = robust_cost(&q, &rotate(&r, &base), trim);
-                if c < best.0 {
-                    best = (c, r);
+                let pass = Pass::new(&q, &base, r);
+                let c = pass.robust_cost(trim);
+                if c < best_cost {
+                    (best, best_cost) = (pass, c);
                 }
             }
         }
-        rotation = best.1;
+        rotation = best.rotation;
+        at_rotation = Some(best);
         let mut last: Option<Vec<Option<usize>>> = None;
         for _ in 0..FIT_ITERATIONS {
-            let slots = rotate(&rotation, &base);
-            let slot = assign(&q, &slots);
+            let pass = at_rotation
+                .take()
+                .unwrap_or_else(|| Pass::new(&q, &base, rotation));
+            let slot = pass.assign(&q);
             if last.as_ref() == Some(&slot) {
+                at_rotation = Some(pass);
                 break;
             }
             rotation = refit(&q.x, &base, &slot, &rotation, trim, dim);
             last = Some(slot);
         }
     }
-    let slots = rotate(&rotation, &base);
-    let circle = circle_order(&slots);
-    let near = nearest_all(&q, &slots, circle.as_deref());
-    let slot = assign_from(&q, &slots, &near, circle.as_deref());
+    let pass = at_rotation.unwrap_or_else(|| Pass::new(&q, &base, rotation));
+    let slot = pass.assign(&q);
     let errors =
         q.x.iter()
             .zip(&slot)
             .enumerate()
             .map(|(i, (x, s))| match s {
-                Some(j) => (x - slots[*j]).norm(),
-                None => near[i].1.sqrt(),
+                Some(j) => (x - pass.slots[*j]).norm(),
+                None => pass.near[i].1.sqrt(),
             })
             .collect();
     SlotFit {
         errors,
         slot,
         rotation,
+    }
+}
+
+/// The slots turned by one rotation and every vehicle's nearest among them: what the
+/// robust cost of a candidate rotation, and an assignment at that rotation, are made of
+/// (made once per rotation and kept while the fit stays at it).
+struct Pass {
+    rotation: Mat3,
+    /// The base slots turned by `rotation` (relative to the centre).
+    slots: Vec<Vec3>,
+    /// Their [`circle_order`].
+    circle: Option<Vec<(f64, usize)>>,
+    /// Every vehicle's nearest slot, squared distance ([`nearest_all`]).
+    near: Vec<(usize, f64)>,
+}
+
+impl Pass {
+    fn new(q: &Centred, base: &[Vec3], rotation: Mat3) -> Self {
+        let slots = rotate(&rotation, base);
+        let circle = circle_order(&slots);
+        let near = nearest_all(q, &slots, circle.as_deref());
+        Self {
+            rotation,
+            slots,
+            circle,
+            near,
+        }
+    }
+
+    /// `Σ min(e_i², trim²)`, `e_i` each vehicle's distance to its nearest slot.
+    fn robust_cost(&self, trim: f64) -> f64 {
+        self.near.iter().map(|(_, d)| d.min(trim * trim)).sum()
+    }
+
+    /// Vehicle → slot: nearest slots when distinct, else greedy by distance.
+    fn assign(&self, q: &Centred) -> Vec<Option<usize>> {
+        assign_from(q, &self.slots, &self.near, self.circle.as_deref())
     }
 }
 
@@ -437,21 +575,7 @@ fn nearest_free(
     best.map(|(j, _)| j)
 }
 
-fn robust_cost(q: &Centred, slots: &[Vec3], trim: f64) -> f64 {
-    nearest_all(q, slots, circle_order(slots).as_deref())
-        .into_iter()
-        .map(|(_, d)| d.min(trim * trim))
-        .sum()
-}
-
-/// Vehicle → slot: nearest slots when distinct, else greedy by distance.
-fn assign(q: &Centred, slots: &[Vec3]) -> Vec<Option<usize>> {
-    let circle = circle_order(slots);
-    let near = nearest_all(q, slots, circle.as_deref());
-    assign_from(q, slots, &near, circle.as_deref())
-}
-
-/// [`assign`] given every vehicle's nearest slot `near_d` (from [`nearest_all`]) and the
+/// [`Pass::assign`]: the assignment given every vehicle's nearest slot `near_d` (from [`nearest_all`]) and the
 /// slots' [`circle_order`].
 fn assign_from(
     q: &Centred,
@@ -755,6 +879,80 @@ mod tests {
             keep_slots(&x, &d, &body, &own, &[None; 13], || fresh.slot.clone()),
             fresh.slot
         );
+    }
+
+    /// The greedy of `keep_slots` as it was first written: every free (distance, vehicle,
+    /// slot) pair sorted, then taken in order when both are free (the reference).
+    fn greedy_by_sorting(
+        positions: &[Vec3],
+        at: &[Vec3],
+        slot: &mut [Option<usize>],
+        used: &mut [bool],
+    ) {
+        let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+        for (i, x) in positions.iter().enumerate() {
+            if slot[i].is_none() {
+                for (j, _) in used.iter().enumerate().filter(|(_, u)| !**u) {
+                    pairs.push(((x - at[j]).norm(), i, j));
+                }
+            }
+        }
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        for (_, i, j) in pairs {
+            if slot[i].is_none() && !used[j] {
+                slot[i] = Some(j);
+                used[j] = true;
+            }
+        }
+    }
+
+    #[test]
+    fn the_lazy_greedy_takes_the_pairs_of_the_sorted_greedy() {
+        let mut rng = keyed(11, Stream::Test, 2, 0);
+        for trial in 0..3000 {
+            let n = rng.random_range(0..40usize);
+            let m = rng.random_range(0..40usize);
+            // A coarse lattice makes equal distances (ties) common; some trials bunch
+            // every vehicle onto a few points.
+            let coarse = trial % 3 == 0;
+            let point = |rng: &mut rand_chacha::ChaCha8Rng| {
+                if coarse {
+                    Vec3::new(
+                        rng.random_range(-2..3) as f64,
+                        rng.random_range(-2..3) as f64,
+                        0.0,
+                    )
+                } else {
+                    Vec3::new(
+                        rng.random_range(-5.0..5.0),
+                        rng.random_range(-5.0..5.0),
+                        rng.random_range(-1.0..1.0),
+                    )
+                }
+            };
+            // Some trials far below 1 (squared distances subnormal), some with a NaN.
+            let scale = [1.0, 1e-160, 1e-155, 3.0][trial % 4];
+            let mut x: Vec<Vec3> = (0..n).map(|_| scale * point(&mut rng)).collect();
+            let at: Vec<Vec3> = (0..m).map(|_| scale * point(&mut rng)).collect();
+            if trial % 17 == 5 && n > 0 {
+                x[trial % n].y = f64::NAN;
+            }
+            let mut used = vec![false; m];
+            let mut slot = vec![None; n];
+            for s in slot.iter_mut() {
+                let j = rng.random_range(0..m.max(1) * 2);
+                if j < m && !used[j] && rng.random_bool(0.5) {
+                    used[j] = true;
+                    *s = Some(j);
+                }
+            }
+            let (mut s1, mut u1) = (slot.clone(), used.clone());
+            greedy_by_sorting(&x, &at, &mut s1, &mut u1);
+            let (mut s2, mut u2) = (slot, used);
+            greedy_nearest_pairs(&x, &at, &mut s2, &mut u2);
+            assert_eq!(s1, s2, "trial {trial}");
+            assert_eq!(u1, u2, "trial {trial}");
+        }
     }
 
     #[test]

@@ -239,6 +239,21 @@ impl GradientFilter {
         // updates in turn: O(m·n²) instead of the O(m³) factorisation of the m×m
         // innovation covariance (a surfacing glider delivers hundreds of readings at once).
         // Each scalar update is in Joseph form.
+        if self.dim < SMALL {
+            return self.update_small(rel_positions, measurements, meas_var);
+        }
+        self.update_dynamic(rel_positions, measurements, meas_var)
+    }
+
+    /// [`Self::update`]'s scalar updates on heap matrices (any state size); the reference
+    /// [`Self::update_small`] equals bit for bit.
+    fn update_dynamic(
+        &mut self,
+        rel_positions: &[Vec3],
+        measurements: &[f64],
+        meas_var: &[f64],
+    ) -> Result<(), EstimateError> {
+        let m = rel_positions.len();
         let n = self.dim + 1;
         let c = measurement_matrix(self.dim, rel_positions);
         let mut x = self.x.clone();
@@ -267,6 +282,103 @@ impl GradientFilter {
         self.p = p;
         Ok(())
     }
+
+    /// [`Self::update_dynamic`] for a state of at most [`SMALL`] components, on arrays
+    /// instead of heap matrices: the same operations in the same order (every sum of
+    /// products `Σ_k a_k b_k` from `k = 0` up, its first term not added to a zero, as
+    /// nalgebra's products of small matrices take them), so the same bits.
+    #[allow(clippy::needless_range_loop)] // matrices by their indices, as written on paper
+    fn update_small(
+        &mut self,
+        rel_positions: &[Vec3],
+        measurements: &[f64],
+        meas_var: &[f64],
+    ) -> Result<(), EstimateError> {
+        let n = self.dim + 1;
+        let mut x = [0.0; SMALL];
+        let mut p = [[0.0; SMALL]; SMALL];
+        for r in 0..n {
+            x[r] = self.x[r];
+            for c in 0..n {
+                p[r][c] = self.p[(r, c)];
+            }
+        }
+        for (rel, (&z, &var)) in rel_positions.iter().zip(measurements.iter().zip(meas_var)) {
+            let at = project(self.dim, rel);
+            let mut h = [1.0; SMALL];
+            h[..self.dim].copy_from_slice(&at.as_slice()[..self.dim]);
+            let mut ph = [0.0; SMALL];
+            for (r, v) in ph.iter_mut().enumerate().take(n) {
+                *v = dot_in_order(n, |k| p[r][k], |k| h[k]);
+            }
+            let s = dot_in_order(n, |k| h[k], |k| ph[k]) + var;
+            if s.is_nan() || s <= 0.0 {
+                return Err(EstimateError::Numerical("innovation variance not positive"));
+            }
+            let mut k = [0.0; SMALL];
+            for r in 0..n {
+                k[r] = ph[r] / s;
+            }
+            let innov = z - dot_in_order(n, |j| h[j], |j| x[j]);
+            for r in 0..n {
+                x[r] += k[r] * innov;
+            }
+            let mut ikh = [[0.0; SMALL]; SMALL];
+            for r in 0..n {
+                for c in 0..n {
+                    let id = if r == c { 1.0 } else { 0.0 };
+                    ikh[r][c] = id - k[r] * h[c];
+                }
+            }
+            let mut ikhp = [[0.0; SMALL]; SMALL];
+            for r in 0..n {
+                for c in 0..n {
+                    ikhp[r][c] = dot_in_order(n, |j| ikh[r][j], |j| p[j][c]);
+                }
+            }
+            let mut next = [[0.0; SMALL]; SMALL];
+            for r in 0..n {
+                for c in 0..n {
+                    let joseph = dot_in_order(n, |j| ikhp[r][j], |j| ikh[c][j]);
+                    next[r][c] = joseph + k[r] * k[c] * var;
+                }
+            }
+            // Symmetrised: (P + Pᵀ) · ½.
+            for r in 0..n {
+                for c in 0..n {
+                    p[r][c] = (next[r][c] + next[c][r]) * 0.5;
+                }
+            }
+        }
+        let finite = (0..n).all(|r| x[r].is_finite() && (0..n).all(|c| p[r][c].is_finite()));
+        if !finite {
+            return Err(EstimateError::Numerical(
+                "update produced non-finite values",
+            ));
+        }
+        for r in 0..n {
+            self.x[r] = x[r];
+            for c in 0..n {
+                self.p[(r, c)] = p[r][c];
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The largest state (gradient and value: `dim + 1`) [`GradientFilter::update`] works on
+/// in arrays on the stack.
+const SMALL: usize = 4;
+
+/// `Σ_k a(k) · b(k)` over `k < n` (`n ≥ 1`), summed from `k = 0` up, the first product
+/// not added to a zero (a −0 product stays −0).
+#[inline(always)]
+fn dot_in_order(n: usize, a: impl Fn(usize) -> f64, b: impl Fn(usize) -> f64) -> f64 {
+    let mut acc = a(0) * b(0);
+    for k in 1..n {
+        acc += a(k) * b(k);
+    }
+    acc
 }
 
 /// C of Lemma 5.1: rows `(p_iᵀ, 1)`, N×(dim+1) (z ignored in 2-D).
@@ -355,6 +467,72 @@ mod tests {
     use crate::rng::{keyed, Stream};
     use approx::assert_relative_eq;
     use rand::Rng;
+
+    #[test]
+    fn the_small_update_is_the_dynamic_one_bit_for_bit() {
+        let mut rng = keyed(5, Stream::Test, 3, 0);
+        for trial in 0..2000 {
+            let dim = 2 + trial % 2;
+            let m = rng.random_range(0..12usize);
+            let scale = 10f64.powi(rng.random_range(-3..4));
+            let pos: Vec<Vec3> = (0..m)
+                .map(|_| {
+                    Vec3::new(
+                        rng.random_range(-2.0..2.0) * scale,
+                        rng.random_range(-2.0..2.0) * scale,
+                        if trial % 5 == 0 {
+                            -0.0
+                        } else {
+                            rng.random_range(-2.0..2.0)
+                        },
+                    )
+                })
+                .collect();
+            let z: Vec<f64> = (0..m).map(|_| rng.random_range(-50.0..50.0)).collect();
+            let var: Vec<f64> = (0..m)
+                .map(|_| {
+                    if trial % 7 == 0 {
+                        0.0
+                    } else {
+                        rng.random_range(0.0..2.0)
+                    }
+                })
+                .collect();
+            let grad = Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                0.3,
+            );
+            let p0 = if trial % 11 == 0 {
+                0.0
+            } else {
+                rng.random_range(0.01..5.0)
+            };
+            let start = GradientFilter::try_new(dim, grad, 1.5, p0).unwrap();
+            let (mut a, mut b) = (start.clone(), start.clone());
+            // Three updates in turn: the later ones start from a full covariance.
+            for round in 0..3 {
+                let ra = a.update_small(
+                    &pos[round * m / 3..],
+                    &z[round * m / 3..],
+                    &var[round * m / 3..],
+                );
+                let rb = b.update_dynamic(
+                    &pos[round * m / 3..],
+                    &z[round * m / 3..],
+                    &var[round * m / 3..],
+                );
+                assert_eq!(ra.is_ok(), rb.is_ok(), "trial {trial}");
+            }
+            let bits = |f: &GradientFilter| {
+                (
+                    f.x.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    f.p.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                )
+            };
+            assert_eq!(bits(&a), bits(&b), "trial {trial}");
+        }
+    }
 
     fn formation() -> Vec<Vec3> {
         vec![

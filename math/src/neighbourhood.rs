@@ -21,8 +21,6 @@
 //! points is compared with every point). The lists are exactly those of every pair
 //! ([`Neighbourhoods::every_pair`], the reference of the tests), in ascending index.
 
-use std::collections::HashMap;
-
 use crate::Vec3;
 
 /// Margin added to a cut-off, in spacings `d0` (see [`reach`]).
@@ -95,14 +93,24 @@ impl Neighbourhoods {
                 ]
             })
         };
-        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        // Every point with a cell, sorted by cell (then index): a cell's points are one
+        // run of it, found by bisection. (The lists do not depend on the order in which
+        // the cells are looked at: `push_list` sorts what was found.)
+        let mut cells: Vec<([i64; 3], u32)> = Vec::with_capacity(n);
         let mut flat = true;
         for (i, p) in points.iter().enumerate() {
             if let Some(c) = cell_of(p) {
                 flat &= c[2] == 0;
-                cells.entry(c).or_default().push(i as u32);
+                cells.push((c, i as u32));
             }
         }
+        cells.sort_unstable();
+        // The points of the cells from `lo` to `hi` in the cells' (lexicographic) order.
+        let between = |lo: [i64; 3], hi: [i64; 3]| {
+            let from = cells.partition_point(|(c, _)| *c < lo);
+            let to = from + cells[from..].partition_point(|(c, _)| *c <= hi);
+            &cells[from..to]
+        };
         let mut found: Vec<(f64, u32)> = Vec::new();
         let keep = |i: usize, j: u32, p: &Vec3, found: &mut Vec<(f64, u32)>| {
             let d = (points[j as usize] - p).norm();
@@ -127,15 +135,22 @@ impl Neighbourhoods {
                         keep(i, j, p, &mut found);
                     }
                 } else {
+                    // The cells within `s` of `c` on each axis: one run of the sorted
+                    // cells per row of them (x and y fixed, z from −s to s; in a flat
+                    // grid, where every z is 0, x fixed and y from −s to s).
                     let s = span as i64;
-                    let dz = if flat { 0 } else { s };
                     for dx in -s..=s {
+                        let x = c[0] + dx;
+                        if flat {
+                            for &(_, j) in between([x, c[1] - s, 0], [x, c[1] + s, 0]) {
+                                keep(i, j, p, &mut found);
+                            }
+                            continue;
+                        }
                         for dy in -s..=s {
-                            for dz in -dz..=dz {
-                                let key = [c[0] + dx, c[1] + dy, c[2] + dz];
-                                for &j in cells.get(&key).map_or(&[][..], |v| &v[..]) {
-                                    keep(i, j, p, &mut found);
-                                }
+                            let y = c[1] + dy;
+                            for &(_, j) in between([x, y, c[2] - s], [x, y, c[2] + s]) {
+                                keep(i, j, p, &mut found);
                             }
                         }
                     }

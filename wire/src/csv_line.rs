@@ -82,10 +82,57 @@ fn may_tie(x: f64) -> bool {
 
 /// Appends `Num(x)`'s text to `out`.
 pub fn push_num(out: &mut String, x: f64) {
+    if let Some(n) = small_integer(x) {
+        if x.is_sign_negative() {
+            out.push('-');
+        }
+        out.push_str(itoa::Buffer::new().format(n));
+        return;
+    }
     match zmij_text(x, &mut zmij::Buffer::new()) {
         Some(text) => out.push_str(text),
         None => std_text(Num(x), out).expect("writing to a String cannot fail"),
     }
+}
+
+/// `|x|` when `x` is an integer below 2^53 in magnitude (zero and −0 included). `std`
+/// spells such a value as the decimal digits of that integer (a sign first when
+/// negative, `-0` for −0, no `.0`): below 2^53 every integer is a double and the shortest
+/// digits that read back to `x` are its own (any other candidate with as few digits is
+/// another integer, at least 1 away, beyond the half-ulp ≤ ½ that reads back to `x`).
+/// Such values are common in the files (times of whole seconds, zero ages), and `std`'s
+/// formatting of them is slow.
+fn small_integer(x: f64) -> Option<u64> {
+    const LIMIT: f64 = (1u64 << 53) as f64;
+    let a = x.abs();
+    (a < LIMIT && a.fract() == 0.0).then_some(a as u64)
+}
+
+/// The text of groups of `K` number cells remembered by the bits of their numbers, the
+/// last two groups per key (a small index: a vehicle's id; keys from [`Memo::MAX_KEY`] on
+/// are not remembered), for numbers written again and again: a tick's time on every row of
+/// the tick, a vehicle's state on its rows of `planner_inputs.csv` and of `vehicles.csv`
+/// (the same report in lockstep on ideal links; a submerged glider's last report, on its
+/// `member` row tick after tick, beside its true state). The text is [`push_num`]'s, a
+/// function of the bits alone, so a remembered group writes the same bytes as the numbers
+/// would.
+pub struct Memo<const K: usize> {
+    /// Per key: two groups, and which of them was used last.
+    groups: Vec<([Group<K>; 2], usize)>,
+}
+
+/// The bits of `K` numbers and their text (none yet).
+type Group<const K: usize> = Option<([u64; K], String)>;
+
+impl<const K: usize> Default for Memo<K> {
+    fn default() -> Self {
+        Self { groups: Vec::new() }
+    }
+}
+
+impl<const K: usize> Memo<K> {
+    /// Keys from this one on are written without remembering.
+    pub const MAX_KEY: usize = 1 << 20;
 }
 
 /// One CSV row under construction: cells appended with their separating commas, then
@@ -120,6 +167,51 @@ impl Line {
     /// Three number cells (x, y, z).
     pub fn vec3(&mut self, v: &vbap_math::Vec3) -> &mut Self {
         self.num(v.x).num(v.y).num(v.z)
+    }
+    /// `K` number cells, as [`Line::num`] of each, their text taken from `memo`'s group
+    /// `key` when it holds the same numbers (bit for bit), and kept there otherwise.
+    pub fn nums_memo<const K: usize>(
+        &mut self,
+        xs: &[f64; K],
+        key: usize,
+        memo: &mut Memo<K>,
+    ) -> &mut Self {
+        if key >= Memo::<K>::MAX_KEY {
+            for &x in xs {
+                self.num(x);
+            }
+            return self;
+        }
+        if memo.groups.len() <= key {
+            memo.groups.resize_with(key + 1, || ([None, None], 0));
+        }
+        let bits = xs.map(f64::to_bits);
+        let (pair, last) = &mut memo.groups[key];
+        let hit = pair
+            .iter()
+            .position(|g| matches!(g, Some((b, _)) if *b == bits));
+        // On a miss, the group not used last makes way.
+        let at = hit.unwrap_or(1 - *last);
+        *last = at;
+        let group = &mut pair[at];
+        if hit.is_none() {
+            let (b, text) = group.get_or_insert_with(|| (bits, String::new()));
+            *b = bits;
+            text.clear();
+            for (i, &x) in xs.iter().enumerate() {
+                if i > 0 {
+                    text.push(',');
+                }
+                push_num(text, x);
+            }
+        }
+        let text = group.as_ref().map_or("", |(_, text)| text.as_str());
+        if K > 0 {
+            self.comma();
+            self.text.push_str(text);
+            self.cells += K - 1;
+        }
+        self
     }
     /// An integer cell.
     pub fn int(&mut self, n: impl itoa::Integer) -> &mut Self {
@@ -243,6 +335,84 @@ mod tests {
         ] {
             check(x);
         }
+    }
+
+    #[test]
+    fn integers_spell_as_std() {
+        let limit = (1u64 << 53) as f64;
+        for x in [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            10.0,
+            100.0,
+            1e15,
+            -1e15,
+            limit - 1.0,
+            -(limit - 1.0),
+            limit,
+            limit + 2.0,
+            9_007_199_254_740_994.0,
+            9.999_999_999_999_998e15,
+            1e16,
+            123_456_789.0,
+            86_400.0,
+        ] {
+            check(x);
+        }
+        let mut r = values(0x1234_5678_9abc_def1);
+        for _ in 0..200_000 {
+            let bits = r.next().unwrap();
+            let scale = 1u64 << (bits % 54);
+            let n = (r.next().unwrap() % scale) as f64;
+            check(n);
+            check(-n);
+            check(n * 10f64.powi((bits % 5) as i32));
+        }
+    }
+
+    #[test]
+    fn remembered_groups_write_the_same_bytes() {
+        let mut memo = Memo::<3>::default();
+        let mut one = Memo::<1>::default();
+        let mut a = Line::default();
+        let mut b = Line::default();
+        let (mut out_a, mut out_b) = (Vec::new(), Vec::new());
+        let groups = [
+            [0.5, -0.0, 1e-7],
+            [0.5, -0.0, 1e-7],
+            [0.5, 0.0, 1e-7],
+            [f64::NAN, 3.0, 0.1 + 0.2],
+            [0.5, 0.0, 1e-7],
+            [f64::NAN, 3.0, 0.1 + 0.2],
+            [7.0, 8.0, 9.0],
+            [0.5, 0.0, 1e-7],
+            [7.0, 8.0, 9.0],
+            [0.25, 8.0, 9.0],
+        ];
+        for (row, xs) in groups.iter().enumerate() {
+            for key in [0, 2, Memo::<3>::MAX_KEY] {
+                let t = row as f64 * 0.05;
+                a.num(t).int(key).num(xs[0]).num(xs[1]).num(xs[2]).text("x");
+                a.finish(&mut out_a).unwrap();
+                b.nums_memo(&[t], 0, &mut one)
+                    .int(key)
+                    .nums_memo(xs, key, &mut memo)
+                    .text("x");
+                b.finish(&mut out_b).unwrap();
+            }
+        }
+        assert_eq!(
+            String::from_utf8(out_b).unwrap(),
+            String::from_utf8(out_a).unwrap()
+        );
+        let mut c = Line::default();
+        let mut out = Vec::new();
+        c.nums_memo(&[1.5, 2.0], 1, &mut Memo::default())
+            .finish(&mut out)
+            .unwrap();
+        assert_eq!(out, b"1.5,2\n");
     }
 
     #[test]

@@ -246,8 +246,21 @@ pub struct InputRow<'a> {
     pub measurement: f64,
 }
 
-use crate::csv_line::Line;
 pub use crate::csv_line::Num;
+use crate::csv_line::{Line, Memo};
+
+/// A vehicle's state as the cells of a row: position (3), velocity (3), measurement.
+fn state_cells(position: &Vec3, velocity: &Vec3, measurement: f64) -> [f64; 7] {
+    [
+        position.x,
+        position.y,
+        position.z,
+        velocity.x,
+        velocity.y,
+        velocity.z,
+        measurement,
+    ]
+}
 
 /// Appends rows to `vehicles.csv`, `body.csv` and `planner_inputs.csv`.
 pub struct TrackWriter {
@@ -255,6 +268,11 @@ pub struct TrackWriter {
     body: AppendFile,
     inputs: AppendFile,
     line: Line,
+    /// The text of the tick's time (every row of `vehicles.csv` of a tick has it).
+    time: Memo<1>,
+    /// The text of each vehicle's state (by id), written on its rows of both
+    /// `planner_inputs.csv` and `vehicles.csv` (the same report, in lockstep on ideal links).
+    states: Memo<7>,
 }
 
 impl TrackWriter {
@@ -271,6 +289,8 @@ impl TrackWriter {
             body: open_append(&dir.body(), BODY_HEADER)?,
             inputs: open_append(&dir.planner_inputs(), INPUTS_HEADER)?,
             line: Line::default(),
+            time: Memo::default(),
+            states: Memo::default(),
         })
     }
     /// Appends one planner input row.
@@ -280,21 +300,25 @@ impl TrackWriter {
             .text(r.role)
             .int(r.id)
             .int(r.tick)
-            .vec3(&r.position)
-            .vec3(&r.velocity)
-            .num(r.measurement)
+            .nums_memo(
+                &state_cells(&r.position, &r.velocity, r.measurement),
+                r.id as usize,
+                &mut self.states,
+            )
             .finish(&mut self.inputs)
     }
     /// Appends one vehicle row.
     pub fn vehicle(&mut self, r: &VehicleRow) -> io::Result<()> {
         let line = self
             .line
-            .num(r.t)
+            .nums_memo(&[r.t], 0, &mut self.time)
             .int(r.k)
             .int(r.id)
-            .vec3(&r.position)
-            .vec3(&r.velocity)
-            .num(r.measurement);
+            .nums_memo(
+                &state_cells(&r.position, &r.velocity, r.measurement),
+                r.id as usize,
+                &mut self.states,
+            );
         if let Some((b, w, c)) = &r.motion {
             line.vec3(b).vec3(w).vec3(c);
         }
@@ -360,6 +384,8 @@ pub struct TruthWriter {
     formation: AppendFile,
     truth: AppendFile,
     line: Line,
+    /// The text of the tick's time (every row of `formation.csv` of a tick has it).
+    time: Memo<1>,
 }
 
 impl TruthWriter {
@@ -369,12 +395,13 @@ impl TruthWriter {
             formation: open_append(&dir.formation(), FORMATION_HEADER)?,
             truth: open_append(&dir.truth(), TRUTH_HEADER)?,
             line: Line::default(),
+            time: Memo::default(),
         })
     }
     /// Appends one `formation.csv` row.
     pub fn formation(&mut self, r: &FormationRow<'_>) -> io::Result<()> {
         self.line
-            .num(r.t)
+            .nums_memo(&[r.t], 0, &mut self.time)
             .int(r.k)
             .int(r.id)
             .text(r.contact)
