@@ -22,7 +22,8 @@ pub const NEGLIGIBLE: f64 = 1e-6;
 ///   bursty loss counts the bad state's loss).
 ///
 /// - Iridium sessions (`[links.iridium]`, interval I, failure f): a session carries nothing
-///   with probability q = f + (1 − f)·p; with surfacing, as above with the sessions of a
+///   with probability q = f + (1 − f)·p, p the loss of a session's command after a lost
+///   one (`session_loss`: under bursts, by the chain's memory over I / dt ticks); with surfacing, as above with the sessions of a
 ///   window in place of its ticks; without, H = delay + jitter + (n + 1)·I + dt with n the
 ///   longest likely run of empty sessions; both plus `latency_full`, the transfer of a
 ///   full message.
@@ -35,7 +36,8 @@ pub fn plan_horizon(l: &LinksSection, dt: f64) -> f64 {
         l.loss
     };
     if let Some(i) = l.iridium.as_ref().filter(|_| l.downlink) {
-        let q = i.session_failure + (1.0 - i.session_failure) * p;
+        let q = i.session_failure
+            + (1.0 - i.session_failure) * session_loss(l, i.session_interval / dt);
         let lag = l.delay + l.jitter + i.latency_full;
         if l.surfacing_period > 0.0 {
             let per_window = (l.surfacing_window / i.session_interval).ceil().max(1.0);
@@ -56,6 +58,25 @@ pub fn plan_horizon(l: &LinksSection, dt: f64) -> f64 {
         return windows as f64 * l.surfacing_period + lag + dt;
     }
     lag + (runs_until_negligible(p) + 1) as f64 * dt
+}
+
+/// The probability that the command of a session is lost given that the previous
+/// session's was lost in the worst way (`loss` for Bernoulli loss; under bursts, lost in
+/// the bad state), for sessions `ticks` ticks apart. The burst chain moves once a tick:
+/// from bad, it is bad `ticks` later with probability π + (1 − π)·λ^ticks (π = enter /
+/// (enter + exit), the stationary share of bad; λ = 1 − enter − exit, |λ| taken), so
+/// sessions far apart in ticks lose nearly independently at the stationary rate, and
+/// sessions a tick apart as a burst does.
+fn session_loss(l: &LinksSection, ticks: f64) -> f64 {
+    if l.burst_enter <= 0.0 {
+        return l.loss;
+    }
+    let pi = l.burst_enter / (l.burst_enter + l.burst_exit);
+    let memory = (1.0 - l.burst_enter - l.burst_exit)
+        .abs()
+        .powf(ticks.max(1.0));
+    let bad = pi + (1.0 - pi) * memory;
+    (bad * l.burst_loss + (1.0 - bad) * l.loss).min(1.0)
 }
 
 /// The fewest n ≥ 0 with qⁿ ≤ [`NEGLIGIBLE`] (q in [0, 1); q ≥ 1 is capped at 10⁶).

@@ -820,13 +820,18 @@ mod tests {
     }
 
     fn iridium_mission(extra: &str) -> Mission {
+        iridium_mission_with("", extra)
+    }
+
+    /// [`iridium_mission`] with `links` appended to `[links]`.
+    fn iridium_mission_with(links: &str, extra: &str) -> Mission {
         let interval = if extra.contains("session_interval") {
             ""
         } else {
             "session_interval = 60.0\n"
         };
         let text = format!(
-            "[mission]\nname = \"t\"\ndt = 10.0\nallow_unstable = true\nduration = 86400.0\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 4\n[links]\nsurfacing_period = 7200.0\nsurfacing_window = 900.0\n[links.iridium]\n{interval}{extra}"
+            "[mission]\nname = \"t\"\ndt = 10.0\nallow_unstable = true\nduration = 86400.0\n[field]\ncenter = [20.0, 10.0]\namplitude = 10.0\nwidth = 15.0\n[vehicles]\ncount = 4\n[links]\nsurfacing_period = 7200.0\nsurfacing_window = 900.0\n{links}[links.iridium]\n{interval}{extra}"
         );
         Mission::from_toml_str(&text, "<test>").unwrap()
     }
@@ -982,12 +987,22 @@ mod tests {
 
     #[test]
     fn the_plan_horizon_covers_every_gap_between_commands_carried() {
-        for extra in [
-            "session_failure = 0.3",
-            "session_failure = 0.0",
-            "session_interval = 300.0\nsession_failure = 0.5",
+        for (links, extra) in [
+            ("", "session_failure = 0.3"),
+            ("", "session_failure = 0.0"),
+            ("", "session_interval = 300.0\nsession_failure = 0.5"),
+            // Bursts: sessions 6 ticks apart, the chain's memory 0.55⁶ between them.
+            (
+                "loss = 0.02\nburst_enter = 0.05\nburst_exit = 0.4\nburst_loss = 0.7\n",
+                "session_failure = 0.2",
+            ),
+            // Bursts that outlast sessions (memory 0.98⁶).
+            (
+                "loss = 0.02\nburst_enter = 0.005\nburst_exit = 0.015\nburst_loss = 0.9\n",
+                "session_failure = 0.1",
+            ),
         ] {
-            let mission = iridium_mission(extra);
+            let mission = iridium_mission_with(links, extra);
             let m = LinkModel::new(&mission);
             let horizon = crate::horizon::plan_horizon(&mission.links, 10.0);
             for v in 0..4 {
