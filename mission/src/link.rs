@@ -231,11 +231,7 @@ impl LinkModel {
     /// (surfacing windows, `link_down` faults; random loss and delay are not a state):
     /// a `link_down` fault wins over the surfacing schedule.
     pub fn contact(&self, vehicle: u32, t: f64) -> Contact {
-        if self
-            .link_down
-            .iter()
-            .any(|&(v, from, until)| v == vehicle && t >= from && t < until)
-        {
+        if self.link_down_at(vehicle, t) {
             Contact::LinkDown
         } else if self.period <= 0.0 {
             Contact::Contact
@@ -244,6 +240,13 @@ impl LinkModel {
         } else {
             Contact::Submerged
         }
+    }
+
+    /// True when a `link_down` fault of vehicle `vehicle` is active at `t` s.
+    fn link_down_at(&self, vehicle: u32, t: f64) -> bool {
+        self.link_down
+            .iter()
+            .any(|&(v, from, until)| v == vehicle && t >= from && t < until)
     }
 
     fn link_id(vehicle: u32, dir: Direction) -> u64 {
@@ -283,24 +286,15 @@ impl LinkModel {
                 injected: 0.0,
             };
         }
-        if self
-            .link_down
-            .iter()
-            .any(|&(v, from, until)| v == vehicle && sent >= from && sent < until)
-        {
+        if self.link_down_at(vehicle, sent) {
             return Fate::Drop(DropReason::LinkDown);
         }
         let link = Self::link_id(vehicle, dir);
         self.advance(state, link, tick);
         let session = match &self.iridium {
-            Some(_) => match self.next_open_session(vehicle, sent) {
-                None => return Fate::Drop(DropReason::NoSession),
-                // The shore keeps the newest command: the next one (sent a tick later)
-                // replaces this one if it is there before the session opens.
-                Some((_, at)) if dir == Direction::Downlink && sent + self.dt <= at => {
-                    return Fate::Drop(DropReason::Superseded)
-                }
-                Some((_, at)) => Some(at),
+            Some(_) => match self.carrying_session(vehicle, dir, sent) {
+                Ok(at) => Some(at),
+                Err(reason) => return Fate::Drop(reason),
             },
             None => None,
         };
@@ -415,16 +409,26 @@ impl LinkModel {
         if self.iridium.is_none() {
             return self.contact(vehicle, sent).can_talk();
         }
-        if !self.applies(Direction::Downlink)
-            || self
-                .link_down
-                .iter()
-                .any(|&(v, from, until)| v == vehicle && sent >= from && sent < until)
-        {
+        if !self.applies(Direction::Downlink) || self.link_down_at(vehicle, sent) {
             return false;
         }
-        self.next_open_session(vehicle, sent)
-            .is_some_and(|(_, at)| sent + self.dt > at)
+        self.carrying_session(vehicle, Direction::Downlink, sent)
+            .is_ok()
+    }
+
+    /// Iridium: the opening time of the session that carries the message sent at `sent` s
+    /// on vehicle `vehicle`'s link in direction `dir`: the vehicle's first successful one
+    /// from then on, unless none comes (`NoSession`) or, for a command, the next one (sent
+    /// a tick later) reaches the shore before it opens and replaces it (`Superseded`: the
+    /// shore keeps the newest).
+    fn carrying_session(&self, vehicle: u32, dir: Direction, sent: f64) -> Result<f64, DropReason> {
+        match self.next_open_session(vehicle, sent) {
+            None => Err(DropReason::NoSession),
+            Some((_, at)) if dir == Direction::Downlink && sent + self.dt <= at => {
+                Err(DropReason::Superseded)
+            }
+            Some((_, at)) => Ok(at),
+        }
     }
 
     /// The first tick whose sending time is after `t` s.
@@ -444,8 +448,7 @@ impl LinkModel {
         self.first_tick_after(t).saturating_sub(1)
     }
 
-    /// Start of the surfacing windows and sessions per window (None: no surfacing
-    /// schedule, sessions all along).
+    /// Sessions per surfacing window (None: no surfacing schedule, sessions all along).
     fn windows(&self, i: &IridiumSection) -> Option<u64> {
         (self.period > 0.0).then(|| ((self.window / i.session_interval).ceil() as u64).max(1))
     }

@@ -4,7 +4,7 @@
 
 mod snapshot;
 
-pub use snapshot::{Telling, Told};
+pub use snapshot::{Telling, ToldCommand};
 
 use vbap_math::body::VirtualBody;
 use vbap_math::formation::FormationDesign;

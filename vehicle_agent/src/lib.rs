@@ -23,7 +23,7 @@ mod tests;
 mod vehicle;
 
 pub use agent::{Agent, AgentInputs};
-pub use guidance::{Guidance, Telling, Told};
+pub use guidance::{Guidance, Telling, ToldCommand};
 pub use start::{
     initial_agent, initial_design, initial_lyapunov, initial_lyapunov_warning, mission_law,
 };

@@ -12,7 +12,7 @@ use crate::Guidance;
 
 /// What one body command tells one vehicle ([`Guidance::tell`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Told {
+pub struct ToldCommand {
     /// Its guidance (without the body path: [`Guidance::with_plan`]).
     pub guidance: Guidance,
     /// Its own entry of the command's snapshot, as its link carries it.
@@ -122,7 +122,7 @@ impl Guidance {
         near: impl IntoIterator<Item = usize>,
         link: &Telling,
         plan: Option<usize>,
-    ) -> Told {
+    ) -> ToldCommand {
         let own = own
             .and_then(|i| snapshot.get(i))
             .map(|e| link.as_read(e, true));
@@ -159,7 +159,7 @@ impl Guidance {
             told.insert(at, own);
         }
         let (guidance, own) = self.with_neighbours_and_own(id, &told);
-        Told {
+        ToldCommand {
             guidance,
             own,
             bytes: bytes as u64,
