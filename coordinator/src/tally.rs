@@ -6,7 +6,8 @@
 //! supervised run (it counts, from the records of every process, what the simulator
 //! counts).
 
-use vbap_mission::rundir::MessageCounts;
+use vbap_mission::acoustic::{AcousticCounts, AcousticModel};
+use vbap_mission::rundir::{AcousticTotals, MessageCounts};
 
 use crate::fleet::Fleet;
 
@@ -14,6 +15,8 @@ use crate::fleet::Fleet;
 /// vehicle's link model delivered or dropped, summed over every vehicle that ever ran.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LinkTally {
+    /// The acoustic receptions of every vehicle that ever ran (`[acoustic]`).
+    pub acoustic: AcousticCounts,
     /// Commands delivered by the link model.
     pub downlink_delivered: u64,
     /// Commands dropped by the link model.
@@ -28,6 +31,22 @@ impl LinkTally {
         self.downlink_delivered += delivered;
         self.downlink_dropped += dropped;
         self.downlink_superseded += superseded;
+    }
+
+    /// The `acoustic` object of the summary on `channel` (None without one).
+    pub fn acoustic_totals(&self, channel: Option<&AcousticModel>) -> Option<AcousticTotals> {
+        channel.map(|m| {
+            let a = &self.acoustic;
+            AcousticTotals {
+                frame_b: m.frame_bytes(),
+                heard: a.heard,
+                range: a.range,
+                deaf: a.deaf,
+                collision: a.collision,
+                undecoded: a.undecoded,
+                noise: a.noise,
+            }
+        })
     }
 
     /// The link messages of the whole run, uplink from `fleet`'s counters. Reports still

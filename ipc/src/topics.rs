@@ -29,6 +29,7 @@ use iceoryx2::service::port_factory::{event, publish_subscribe, request_response
 
 use iceoryx2::signal_handling_mode::SignalHandlingMode;
 
+use crate::msg::agent_to_agent::AcousticFrame;
 use crate::msg::agent_to_coordinator::VehicleState;
 use crate::msg::coordinator_to_agent::BodyCommand;
 use crate::msg::coordinator_to_field::SampleBatch;
@@ -93,6 +94,27 @@ impl Limits {
     pub fn fleet_ports(&self) -> usize {
         self.vehicles + 4
     }
+    /// Notifiers of a vehicle's wake service: the coordinator, its restarts, the bridge,
+    /// tools; and on a fleet that may have acoustic modems (≤ `MAX_ACOUSTIC_VEHICLES`)
+    /// every other agent, whose frames wake it.
+    pub fn vehicle_wake_notifiers(&self) -> usize {
+        6 + if self.vehicles <= crate::msg::MAX_ACOUSTIC_VEHICLES {
+            self.vehicles
+        } else {
+            0
+        }
+    }
+    /// Buffer of an acoustic subscriber: 4 frames per vehicle and 8 more. A vehicle sends
+    /// one frame an `acoustic.interval` (≥ dt: rarely two in a tick), and an agent drains
+    /// at every wake-up and steps at most a tick past the newest command on an acoustic
+    /// mission, so it finds at most a few ticks of frames; an overflow would show as a gap
+    /// in a sender's sequence numbers (counted and logged by the agent).
+    pub fn acoustic_buffer(&self) -> usize {
+        (4 * self.vehicles + 8).max(Self::ACOUSTIC_HISTORY)
+    }
+    /// Frames of each agent a subscriber that comes late (a restarted agent) is handed:
+    /// those of the ticks the others may have run ahead of its admission.
+    pub const ACOUSTIC_HISTORY: usize = Self::LOOKAHEAD_TICKS as usize;
     /// Buffer of a vehicle-state subscriber: enough for a burst of stored-and-forwarded states.
     pub const STATE_BUFFER: usize = 64;
     /// Buffer of a body subscriber (commands an agent has not read yet): as many as fit
@@ -496,6 +518,27 @@ impl Domain {
             .map_err(|e| service_err(&name, e))
     }
 
+    /// `<m>/acoustic`: every agent's acoustic frames, to every agent (`[acoustic]`).
+    /// Between two drains an agent may find every vehicle's frames of a few ticks:
+    /// [`Limits::acoustic_buffer`].
+    pub fn acoustic_service(
+        &self,
+        node: &Node<ipc::Service>,
+        limits: &Limits,
+    ) -> Result<publish_subscribe::PortFactory<ipc::Service, AcousticFrame, ()>, TopicError> {
+        let name = self.service_name("acoustic")?;
+        node.service_builder(&name)
+            .publish_subscribe::<AcousticFrame>()
+            .max_publishers(limits.fleet_ports())
+            .max_subscribers(limits.fleet_ports())
+            .max_nodes(limits.max_nodes())
+            .history_size(Limits::ACOUSTIC_HISTORY)
+            .subscriber_max_buffer_size(limits.acoustic_buffer())
+            .enable_safe_overflow(true)
+            .open_or_create()
+            .map_err(|e| service_err(&name, e))
+    }
+
     /// `<m>/field/sample`: the sensor reads of a tick, one batch per tick (coordinator →
     /// field server). One client and one server: a reply scans one connection.
     pub fn sample_service(
@@ -572,7 +615,8 @@ impl Domain {
             .map_err(|e| service_err(&name, e))
     }
 
-    /// `<m>/vehicle/<id>/wake`: the agent listens, the coordinator notifies.
+    /// `<m>/vehicle/<id>/wake`: the agent listens, the coordinator (and on an acoustic
+    /// mission every other agent) notifies.
     pub fn vehicle_wake(
         &self,
         node: &Node<ipc::Service>,
@@ -583,7 +627,7 @@ impl Domain {
             node,
             &format!("vehicle/{id}/wake"),
             2,
-            6,
+            limits.vehicle_wake_notifiers(),
             limits,
             EVENT_ID_MAX,
         )

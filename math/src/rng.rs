@@ -21,6 +21,9 @@ pub enum Stream {
     Link = 3,
     /// Multi-start points of the optimal formation search.
     FormationSearch = 4,
+    /// Acoustic channel: transmission offsets (`id` = 2·sender, `tick` = transmission
+    /// number) and decoding draws (`id` = 1 + 2·(sender·1024 + receiver)).
+    Acoustic = 5,
     /// Anything a test needs.
     Test = 99,
 }

@@ -266,5 +266,36 @@ fn add_force(u: &mut Vec3, x: &Vec3, p: &Vec3, pot: &PairPotential, w: f64) {
     *u -= (w * pot.force(dist) / dist) * d;
 }
 
+/// One source of what a vehicle knows of a neighbour (the coordinator's relay, a frame its
+/// acoustic modem decoded): the neighbour's position moved with the body to now (length),
+/// its last velocity (length/s) and the information's age (s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Source {
+    /// Position, length unit.
+    pub position: Vec3,
+    /// Velocity, length unit/s.
+    pub velocity: Vec3,
+    /// Age, s.
+    pub age: f64,
+}
+
+/// Two sources of one neighbour fused, each weighed by its own fade `w = exp(−age/τ)`
+/// ([`fade`], memory τ = `memory` s): the weighted mean of their positions and velocities,
+/// as old as the fresher (the law then fades the term by the fresher's weight). When both
+/// have faded to nothing (or τ is 0), the fresher alone.
+pub fn fuse(a: &Source, b: &Source, memory: f64) -> Source {
+    let (wa, wb) = (fade(a.age, memory), fade(b.age, memory));
+    let fresher = if b.age < a.age { b } else { a };
+    let total = wa + wb;
+    if total.is_nan() || total <= 0.0 || total.is_infinite() {
+        return *fresher;
+    }
+    Source {
+        position: (wa * a.position + wb * b.position) / total,
+        velocity: (wa * a.velocity + wb * b.velocity) / total,
+        age: fresher.age,
+    }
+}
+
 #[cfg(test)]
 mod tests;

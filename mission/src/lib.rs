@@ -12,6 +12,7 @@
 //! - [`rundir`]: the run directory a mission writes (CSV, JSON lines, summary), defined in
 //!   `vbap-wire` (its writers and readers meet there) and re-exported here for its many users.
 
+pub mod acoustic;
 pub mod config;
 pub mod current;
 pub mod faults;

@@ -21,6 +21,7 @@ use coordinator::tally::LinkTally;
 use coordinator::tick::{plan_tick, TickOutcome};
 use field_server::{Sensors, World};
 use std::collections::BTreeMap;
+use vbap_mission::acoustic::AcousticModel;
 use vbap_mission::config::Mission;
 use vbap_mission::faults::FaultPlan;
 use vbap_mission::rundir::{RunDir, Summary};
@@ -150,6 +151,7 @@ fn simulate_parts(
     let plan = FaultPlan::new(mission);
     let ids: Vec<u32> = (0..mission.vehicles.count as u32).collect();
     let kin = Kinematics::of(mission);
+    let channel = AcousticModel::new(mission);
     // A vehicle's process from its first state at tick k (at the start, or restarted).
     let spawn = |agent: Agent, k: u64| {
         let guidance = if k == 0 {
@@ -160,6 +162,7 @@ fn simulate_parts(
         Vehicle::new(agent, guidance, k)
             .with_law(law.clone())
             .with_motion(kin.clone(), dt)
+            .with_acoustic(channel.clone(), mission.control.neighbour_memory, false)
     };
     let mut vehicles: BTreeMap<u32, Vehicle> = ids
         .iter()
@@ -197,6 +200,7 @@ fn simulate_parts(
             &mut recorder,
         )?;
         let stepping = Instant::now();
+        exchange_frames(&mut vehicles, k);
         step_vehicles(&mut vehicles, &fleet, &outcome, k, dt, mission.body.v0);
         let stepped = Instant::now();
         fleet.end_tick();
@@ -217,10 +221,14 @@ fn simulate_parts(
             veh.counts.dropped,
             veh.counts.superseded,
         );
+        if let Some(ear) = veh.ear() {
+            tally.acoustic.merge(&ear.counts);
+        }
     }
     recorder.flush()?;
     let mut summary = recorder.summary(&planner, "in-process");
     summary.messages = tally.counts(&fleet);
+    summary.acoustic = tally.acoustic_totals(channel.as_deref());
     summary.wall_time_s = wall.elapsed().as_secs_f64();
     summary.write(dir).context("writing summary.json")?;
     vbap_report::draw_run_with(dir, None, plugins.field.as_deref())
@@ -256,6 +264,9 @@ impl FaultWorld<'_> {
                         gone.counts.dropped,
                         gone.counts.superseded,
                     );
+                    if let Some(ear) = gone.ear() {
+                        self.tally.acoustic.merge(&ear.counts);
+                    }
                 }
                 self.recorder.event(event)?;
             }
@@ -273,6 +284,26 @@ impl FaultWorld<'_> {
             }
         }
         Ok(())
+    }
+}
+
+/// The acoustic frames every vehicle sends during tick `k` (its state being that of `k`),
+/// handed to every other vehicle's receiver (`[acoustic]`; nothing without). The agents
+/// do the same over IPC (`vehicle_agent::run`).
+fn exchange_frames(vehicles: &mut BTreeMap<u32, Vehicle>, k: u64) {
+    let frames: Vec<_> = vehicles
+        .values_mut()
+        .flat_map(|veh| veh.transmit(k))
+        .collect();
+    if frames.is_empty() {
+        return;
+    }
+    for veh in vehicles.values_mut() {
+        if let Some(ear) = veh.ear_mut() {
+            for f in &frames {
+                ear.hear(*f);
+            }
+        }
     }
 }
 

@@ -24,6 +24,8 @@ pub struct Guidance {
     pub leaders: Vec<Vec3>,
     /// Positions of the other members (ordered by id).
     pub neighbours: Vec<Vec3>,
+    /// Their ids (same order).
+    pub neighbour_ids: Vec<u32>,
     /// Scaled inter-vehicle potential.
     pub inter: PairPotential,
     /// Scaled vehicle–leader potential.
@@ -79,6 +81,7 @@ impl Guidance {
             tick,
             leaders,
             neighbours: Vec::new(),
+            neighbour_ids: Vec::new(),
             inter,
             leader,
             damping,
@@ -133,6 +136,7 @@ impl Guidance {
             tick: 0,
             leaders: body.leader_positions(design),
             neighbours: Vec::new(),
+            neighbour_ids: Vec::new(),
             inter: body.scaled_inter(design),
             leader: body.scaled_leader(design),
             damping: mission.vehicles.damping,

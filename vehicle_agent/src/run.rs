@@ -16,6 +16,7 @@
 //! the body commands, the `Outbox` (`run/outbox.rs`) numbers and publishes the states.
 
 mod commands;
+pub mod modem;
 mod outbox;
 
 use std::sync::Arc;
@@ -35,6 +36,7 @@ use vbap_mission::config::{Mission, Pace};
 use vbap_mission::link::{Fate, LinkModel};
 
 use self::commands::{CommandFilter, NewCommand};
+use self::modem::Modem;
 use self::outbox::{Announce, Outbox};
 use crate::{initial_agent, initial_design, Agent, Guidance, Vehicle};
 
@@ -77,6 +79,10 @@ pub fn run_with(
         .map_err(|e| anyhow::anyhow!("vehicle {id}: cannot publish its state: {e}"))?;
     let body = domain.body_receiver(&node, id, &limits)?;
     let waiter = body.wake().attach()?;
+    let modem = match mission.acoustic {
+        Some(_) => Some(Modem::open(&domain, &node, id, &limits)?),
+        None => None,
+    };
 
     let mut pilot = Pilot::new(
         mission,
@@ -85,6 +91,7 @@ pub fn run_with(
         Outbox::new(state, id, incarnation, mission.mission.dt),
         msgs,
     )?;
+    pilot.modem = modem;
     info!(
         vehicle = id,
         joining = pilot.joining,
@@ -135,6 +142,7 @@ pub fn run_with(
         if let Some(after) = drained.resend_after {
             pilot.resend_after(after)?;
         }
+        pilot.listen()?;
         let stepped = pilot.apply(drained.commands)?;
         let ran_ahead = pilot.lockstep_step()?;
         idle = !(stepped || ran_ahead);
@@ -184,7 +192,16 @@ struct Pilot<'m> {
     filter: CommandFilter,
     out: Outbox,
     msgs: MsgLog,
+    /// The acoustic modem (`[acoustic]`; None without).
+    modem: Option<Modem>,
+    /// Since when the next step has waited for acoustic frames.
+    waiting_frames: Option<std::time::Instant>,
 }
+
+/// How long a lockstep agent waits for another vehicle's acoustic frames before it steps
+/// without them (wall time): far above any scheduling delay of a live sender, short
+/// against a mission.
+const FRAME_PATIENCE: Duration = Duration::from_secs(2);
 
 impl<'m> Pilot<'m> {
     fn new(
@@ -204,7 +221,12 @@ impl<'m> Pilot<'m> {
         let kin = crate::motion::Kinematics::of(mission);
         let vehicle = Vehicle::new(initial_agent(mission, &design, id), initial, 0)
             .with_law(law.clone())
-            .with_motion(kin.clone(), dt);
+            .with_motion(kin.clone(), dt)
+            .with_acoustic(
+                vbap_mission::acoustic::AcousticModel::new(mission),
+                mission.control.neighbour_memory,
+                msgs.is_enabled(),
+            );
         Ok(Self {
             mission,
             id,
@@ -235,7 +257,64 @@ impl<'m> Pilot<'m> {
             ),
             out,
             msgs,
+            modem: None,
+            waiting_frames: None,
         })
+    }
+
+    /// Reads the acoustic frames that came in (`[acoustic]`). Not while joining: the
+    /// frames wait in the buffer for the receiver of the vehicle admitted back (those of
+    /// its admission tick may come with the command that admits it).
+    fn listen(&mut self) -> Result<()> {
+        match &mut self.modem {
+            Some(m) if !self.joining => m.drain(&mut self.vehicle),
+            _ => Ok(()),
+        }
+    }
+
+    /// The vehicle has reached the state of tick `self.k`: its acoustic frames of the tick
+    /// go out, before the state itself (a step of another vehicle that needs them waits for
+    /// a command the coordinator publishes only once it has this state).
+    fn transmit(&mut self) -> Result<()> {
+        match &mut self.modem {
+            Some(m) => m.transmit(&mut self.vehicle, self.k),
+            None => Ok(()),
+        }
+    }
+
+    /// On an acoustic mission the step from tick `k` needs every frame sent before t_k by
+    /// the schedule (`Ear::missing`); their senders wake this agent as they send them. A
+    /// sender whose frames do not come for [`FRAME_PATIENCE`] (its process died without a
+    /// scheduled fault: `vbap chaos`) is given up for those ticks, with a warning.
+    fn frames_in(&mut self, k: u64) -> bool {
+        if self.modem.is_some() && self.newest_command.is_none() {
+            // No frame before the first command: the coordinator publishes it once every
+            // agent has said it is up, its acoustic subscriber open.
+            return false;
+        }
+        let Some(ear) = self.vehicle.ear_mut() else {
+            return true;
+        };
+        loop {
+            let Some(sender) = ear.missing(k) else {
+                self.waiting_frames = None;
+                return true;
+            };
+            let since = *self
+                .waiting_frames
+                .get_or_insert_with(std::time::Instant::now);
+            if since.elapsed() < FRAME_PATIENCE {
+                return false;
+            }
+            warn!(
+                vehicle = self.id,
+                sender,
+                tick = k,
+                "acoustic frames never came: stepping without them"
+            );
+            ear.give_up(sender, k);
+            self.waiting_frames = None;
+        }
     }
 
     /// The commands read so far (`VehicleState::commands_read`).
@@ -254,6 +333,7 @@ impl<'m> Pilot<'m> {
     fn hold_station(&mut self) -> Result<()> {
         self.vehicle.hold_station(self.k, self.dt);
         self.k += 1;
+        self.transmit()?;
         warn!(
             vehicle = self.id,
             tick = self.k,
@@ -277,6 +357,14 @@ impl<'m> Pilot<'m> {
             if let Some((tick, guidance, _, bytes)) = commands.pop() {
                 self.vehicle
                     .receive(&self.model, guidance, bytes, tick, self.dt);
+            }
+            // The simulator steps from the last tick too: its receiver decides the frames
+            // that ended by then; so does this one (its step would change nothing recorded).
+            let _ = self.listen();
+            let (k, truth) = (self.k, self.vehicle.agent.position);
+            if let Some(ear) = self.vehicle.ear_mut() {
+                ear.track(k, truth);
+                ear.decide(k);
             }
         }
         self.log_fates();
@@ -362,6 +450,7 @@ impl<'m> Pilot<'m> {
                 self.vehicle.step(self.k, self.dt);
                 self.k += 1;
                 stepped = true;
+                self.transmit()?;
                 if self.k < self.ticks {
                     self.out
                         .publish(&self.vehicle, self.k, 0, self.read(), Announce::Now)?;
@@ -386,9 +475,17 @@ impl<'m> Pilot<'m> {
             tick,
         )
         .with_law(self.law.clone())
-        .with_motion(self.kin.clone(), self.dt);
+        .with_motion(self.kin.clone(), self.dt)
+        .with_acoustic(
+            vbap_mission::acoustic::AcousticModel::new(self.mission),
+            self.mission.control.neighbour_memory,
+            self.msgs.is_enabled(),
+        );
         self.joining = false;
         self.k = tick;
+        if let Some(m) = &mut self.modem {
+            m.rejoined();
+        }
         info!(vehicle = self.id, tick, "admitted back into the formation");
     }
 
@@ -401,9 +498,14 @@ impl<'m> Pilot<'m> {
         }
         let limit = self.read() + Limits::LOOKAHEAD_TICKS;
         let k = self.k;
-        if k + 1 < self.ticks && k < limit && self.vehicle.ready_to_step(&self.model, k, self.dt) {
+        if k + 1 < self.ticks
+            && k < limit
+            && self.frames_in(k)
+            && self.vehicle.ready_to_step(&self.model, k, self.dt)
+        {
             self.vehicle.step(k, self.dt);
             self.k += 1;
+            self.transmit()?;
             // The state of the tick the coordinator gathers now (or next) wakes it; ahead of
             // it, it is woken once, before we next wait.
             let announce = if self.k <= self.read() + 1 {
@@ -424,8 +526,10 @@ impl<'m> Pilot<'m> {
         Ok(false)
     }
 
-    /// The link model's verdicts on commands, for the message records.
+    /// The link model's verdicts on commands and the acoustic receiver's on frames, for
+    /// the message records.
     fn log_fates(&mut self) {
+        modem::log_verdicts(&mut self.vehicle, &mut self.msgs);
         for (tick, fate) in self.vehicle.take_drawn() {
             match fate {
                 Fate::Deliver { injected, .. } if injected > 0.0 => {

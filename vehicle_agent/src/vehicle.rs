@@ -6,7 +6,9 @@ use std::sync::Arc;
 
 use vbap_math::law::{ControlLaw, PaperLaw};
 use vbap_math::rejoin::Homing;
+use vbap_math::robust::{derived_memory, fuse, Source};
 use vbap_math::Vec3;
+use vbap_mission::acoustic::{AcousticModel, Ear, Frame, Heard};
 use vbap_mission::link::{DelayQueue, Direction, DropReason, Fate, LinkModel, LinkState};
 
 use crate::{motion, Agent, AgentInputs, Guidance};
@@ -52,6 +54,11 @@ pub struct Vehicle {
     /// Beyond the ideal vehicle (glider, current, land; [`Vehicle::with_motion`]): what it
     /// believes and feels. None: the paper's vehicle, `agent` is all.
     pub moving: Option<motion::Moving>,
+    /// The tick of its first state (deployment or restart).
+    first: u64,
+    /// Its acoustic modem's receiver (`[acoustic]`, [`Vehicle::with_acoustic`]), and the
+    /// neighbour memory τ (s; None: derived from the potentials) its sources are fused with.
+    acoustic: Option<(Ear, Option<f64>)>,
 }
 
 /// What a vehicle reports of itself: its believed position and its velocity through the
@@ -83,7 +90,60 @@ impl Vehicle {
             counts: DownlinkCounts::default(),
             law: Arc::new(PaperLaw),
             moving: None,
+            first: first_command,
+            acoustic: None,
         }
+    }
+
+    /// This vehicle with an acoustic modem on `channel` (None: without), fusing what it
+    /// hears with the coordinator's relay under neighbour memory `memory` s
+    /// (`control.neighbour_memory`; None: `vbap_math::robust::derived_memory`).
+    /// `verdicts`: keep each frame's verdict for the message records.
+    pub fn with_acoustic(
+        mut self,
+        channel: Option<Arc<AcousticModel>>,
+        memory: Option<f64>,
+        verdicts: bool,
+    ) -> Self {
+        self.acoustic = channel.map(|m| {
+            let ear = Ear::new(m, self.agent.id, self.first);
+            (
+                if verdicts {
+                    ear.keeping_verdicts()
+                } else {
+                    ear
+                },
+                memory,
+            )
+        });
+        self
+    }
+
+    /// Its acoustic receiver (None without `[acoustic]`).
+    pub fn ear(&self) -> Option<&Ear> {
+        self.acoustic.as_ref().map(|(e, _)| e)
+    }
+
+    /// Its acoustic receiver, to hand it frames (None without `[acoustic]`).
+    pub fn ear_mut(&mut self) -> Option<&mut Ear> {
+        self.acoustic.as_mut().map(|(e, _)| e)
+    }
+
+    /// The frames its modem sends during tick `k`, its state being that of tick `k` (none
+    /// without `[acoustic]`); its own receiver is deaf meanwhile.
+    pub fn transmit(&mut self, k: u64) -> Vec<Frame> {
+        let said = self.reported();
+        let (id, first, truth) = (self.agent.id, self.first, self.agent.position);
+        let Some((ear, _)) = &mut self.acoustic else {
+            return Vec::new();
+        };
+        let frames = ear
+            .model()
+            .frames(id, k, first, truth, said.position, said.water);
+        for f in &frames {
+            ear.transmitted(f);
+        }
+        frames
     }
 
     /// This vehicle moving by `kin` (None: the paper's ideal vehicle). Its state is that of
@@ -239,6 +299,16 @@ impl Vehicle {
         if let Some(newest) = self.inbox.pop_due(t).into_iter().last() {
             self.current = newest;
         }
+        let truth = self.agent.position;
+        let heard: Vec<Heard> = match &mut self.acoustic {
+            Some((ear, _)) => {
+                ear.track(k, truth);
+                ear.decide(k);
+                ear.heard().copied().collect()
+            }
+            None => Vec::new(),
+        };
+        let memory = self.acoustic.as_ref().and_then(|(_, m)| *m);
         let g = &self.current;
         let age = k.saturating_sub(g.tick) as f64 * dt;
         // Out of contact: dead-reckon the virtual body (leaders, neighbours, own slot) from
@@ -309,13 +379,19 @@ impl Vehicle {
                 hulls: &g.hulls,
                 ..AgentInputs::paper(&leaders, &neighbours, inter, leader, g.damping)
             };
-            fly(
+            let hearing = Hearing {
+                ids: &g.neighbour_ids,
+                heard: &heard,
+                now: t,
+                dt,
+                memory,
+            };
+            hearing.fly(
                 &mut self.agent,
                 &mut self.moving,
                 self.law.as_ref(),
                 &inputs,
                 k,
-                dt,
             );
         } else {
             let inputs = AgentInputs {
@@ -331,15 +407,110 @@ impl Vehicle {
                 hulls: &g.hulls,
                 ..AgentInputs::paper(&g.leaders, &g.neighbours, g.inter, g.leader, g.damping)
             };
-            fly(
+            let hearing = Hearing {
+                ids: &g.neighbour_ids,
+                heard: &heard,
+                now: t,
+                dt,
+                memory,
+            };
+            hearing.fly(
                 &mut self.agent,
                 &mut self.moving,
                 self.law.as_ref(),
                 &inputs,
                 k,
-                dt,
             );
         }
+    }
+}
+
+/// What a vehicle's acoustic modem has decoded, for one step at mission time `now` (s):
+/// fused into the neighbour terms of the coordinator's relay ([`Hearing::fly`]).
+struct Hearing<'a> {
+    /// The relay's neighbours' ids (same order as the inputs' neighbours).
+    ids: &'a [u32],
+    /// The newest frame decoded from each sender.
+    heard: &'a [Heard],
+    now: f64,
+    dt: f64,
+    /// τ of the fusion, s (None: derived from the potentials).
+    memory: Option<f64>,
+}
+
+impl Hearing<'_> {
+    /// [`fly`] with `inputs`' neighbours fused with what was heard: a neighbour of both
+    /// sources gets each weighed by its own age (`vbap_math::robust::fuse`); a vehicle only
+    /// heard is added, its position moved with the body for its age. Nothing heard:
+    /// `inputs` as they are (bit for bit the flight without a modem).
+    fn fly(
+        &self,
+        agent: &mut Agent,
+        moving: &mut Option<motion::Moving>,
+        law: &dyn ControlLaw,
+        inputs: &AgentInputs<'_>,
+        k: u64,
+    ) {
+        if self.heard.is_empty() {
+            return fly(agent, moving, law, inputs, k, self.dt);
+        }
+        let memory = self
+            .memory
+            .unwrap_or_else(|| derived_memory(&inputs.inter, inputs.damping));
+        let n = inputs.neighbours.len();
+        let mut positions = inputs.neighbours.to_vec();
+        let mut velocities: Vec<Vec3> = (0..n)
+            .map(|j| {
+                inputs
+                    .neighbour_velocities
+                    .get(j)
+                    .copied()
+                    .unwrap_or_else(Vec3::zeros)
+            })
+            .collect();
+        let mut ages: Vec<f64> = (0..n)
+            .map(|j| inputs.neighbour_ages.get(j).copied().unwrap_or(0.0))
+            .collect();
+        let homing = !inputs.neighbour_sigmas.is_empty();
+        let mut sigmas = inputs.neighbour_sigmas.to_vec();
+        let mut slots = inputs.neighbour_slots.to_vec();
+        for h in self.heard {
+            let age = (self.now - h.tick as f64 * self.dt).max(0.0);
+            let heard = Source {
+                position: h.position + inputs.body_velocity * age,
+                velocity: h.velocity,
+                age,
+            };
+            match self.ids.iter().position(|&id| id == h.sender) {
+                Some(j) if j < n => {
+                    let relay = Source {
+                        position: positions[j],
+                        velocity: velocities[j],
+                        age: ages[j],
+                    };
+                    let f = fuse(&relay, &heard, memory);
+                    (positions[j], velocities[j], ages[j]) = (f.position, f.velocity, f.age);
+                }
+                _ => {
+                    positions.push(heard.position);
+                    velocities.push(heard.velocity);
+                    ages.push(age);
+                    if homing {
+                        sigmas.push(0.0);
+                        slots.push(heard.position);
+                    }
+                }
+            }
+        }
+        let fused = AgentInputs {
+            neighbours: &positions,
+            neighbour_velocities: &velocities,
+            neighbour_ages: &ages,
+            neighbour_sigmas: &sigmas,
+            neighbour_slots: &slots,
+            ..*inputs
+        };
+        fly(agent, moving, law, &fused, k, self.dt);
     }
 }
 

@@ -394,6 +394,14 @@ pub fn command_len(
             .sum::<usize>()
 }
 
+/// The size of one acoustic state frame (`[acoustic]`), bytes: the sender's id (`u16`), its
+/// state's tick (`u32`, wrapping), then its position and velocity at `precision`
+/// (absolute: 2 × 12 bytes quantised, 2 × 24 exact). 30 bytes fit the 32-byte frame of an
+/// FH-FSK acoustic modem.
+pub fn acoustic_frame_len(precision: Precision) -> usize {
+    2 + 4 + 2 * precision.vector()
+}
+
 /// The entry bits of `e`: rejoining, has a slot (own entry only), age present.
 fn bits(e: &SnapshotEntry, own: bool) -> u8 {
     let mut b = 0;

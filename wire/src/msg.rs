@@ -13,6 +13,9 @@ use vbap_math::Vec3;
 
 /// Largest fleet a mission may have (fixed capacity of the swarm snapshot).
 pub const MAX_VEHICLES: usize = 1024;
+/// Largest fleet on one acoustic channel (`[acoustic]`): every agent publishes to, reads
+/// from and wakes every other, so the ports grow as N².
+pub const MAX_ACOUSTIC_VEHICLES: usize = 64;
 /// Largest number of virtual leaders a formation design may have.
 pub const MAX_LEADERS: usize = 256;
 /// Capacity of a body command's neighbour lists: [`vbap_math::neighbourhood::MAX_NEAR`]
@@ -555,6 +558,35 @@ pub mod field_to_coordinator {
         pub fn readings(&self) -> &[Reading] {
             &self.readings[..(self.n as usize).min(MAX_VEHICLES)]
         }
+    }
+}
+
+/// Vehicle → vehicles (`[acoustic]`).
+pub mod agent_to_agent {
+    use super::*;
+
+    versioned! {
+    "vbap.AcousticFrame.v1", RawAcousticFrame;
+    /// One acoustic frame of a vehicle's modem (service `<mission>/acoustic`, every agent
+    /// publishes and subscribes): `header.sender` the vehicle, `header.tick` the tick of
+    /// the state it carries, `header.t` when the frame starts (s). Every agent receives
+    /// every frame at once over IPC; the acoustic channel model
+    /// (`vbap_mission::acoustic`) decides, in mission time, whether and when each
+    /// receiver hears it.
+    #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+    #[repr(C)]
+    pub struct AcousticFrame {
+        pub header: Header,
+        /// The sender's transmission number.
+        pub n: u64,
+        /// Where the sender truly is (the channel's geometry, not the frame's content),
+        /// length unit.
+        pub source: [f64; 3],
+        /// The believed position the frame carries, length unit.
+        pub position: [f64; 3],
+        /// The velocity the frame carries, length unit/s.
+        pub velocity: [f64; 3],
+    }
     }
 }
 

@@ -566,6 +566,26 @@ pub struct IridiumTotals {
     pub oversize: String,
 }
 
+/// The `acoustic` object of `summary.json` (`[acoustic]`): what became of every frame at
+/// every receiver (each frame is decided once at each vehicle alive to hear it).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct AcousticTotals {
+    /// The size of a frame, bytes.
+    pub frame_b: u64,
+    /// Decoded.
+    pub heard: u64,
+    /// Beyond detection range.
+    pub range: u64,
+    /// Missed while the receiver transmitted (half-duplex).
+    pub deaf: u64,
+    /// Lost to another frame overlapping it at the receiver.
+    pub collision: u64,
+    /// Detected beyond communication range, not decoded.
+    pub undecoded: u64,
+    /// Lost to the decoding draw.
+    pub noise: u64,
+}
+
 /// `summary.json` (docs/ARCHITECTURE.md §10). Fields may be added, never removed.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
@@ -626,6 +646,9 @@ pub struct Summary {
     /// (`crate::compact`). Since the neighbour lists (absent before).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub link_bytes: Option<LinkBytes>,
+    /// The acoustic channel's receptions (`[acoustic]`; absent without).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acoustic: Option<AcousticTotals>,
 }
 
 /// The `formation` object of `summary.json`: the formation judged from the vehicles' true

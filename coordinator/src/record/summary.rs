@@ -2,8 +2,9 @@
 //! field and the true states.
 
 use vbap_math::convergence::{default_delta_m, theorem_5_1_bound};
+use vbap_mission::acoustic::AcousticModel;
 use vbap_mission::link::LinkModel;
-use vbap_mission::rundir::Summary;
+use vbap_mission::rundir::{AcousticTotals, Summary};
 
 use super::Recorder;
 use crate::plan::Plan;
@@ -112,6 +113,12 @@ impl Recorder {
                 t + dt,
                 &LinkModel::new(&self.mission),
             )),
+            // The receptions are counted by the vehicles (`vbap sim`'s tally, the analysis of
+            // the agents' message records after `vbap run`); the frame's size is the mission's.
+            acoustic: AcousticModel::new(&self.mission).map(|c| AcousticTotals {
+                frame_b: c.frame_bytes(),
+                ..AcousticTotals::default()
+            }),
             ..Summary::default()
         }
     }

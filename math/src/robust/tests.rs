@@ -328,3 +328,27 @@ fn the_repulsion_kept_during_a_rejoin_acts_where_a_member_was_seen() {
     // And it does repel: away from the member, against the homing velocity's y.
     assert!(u.y < 0.0, "{u:?}");
 }
+
+#[test]
+fn fused_sources_weigh_each_by_its_own_age() {
+    let at = |x: f64, age: f64| Source {
+        position: Vec3::new(x, 0.0, 0.0),
+        velocity: Vec3::new(0.0, x, 0.0),
+        age,
+    };
+    // Equal ages: the mean; the result is as old as the fresher.
+    let f = fuse(&at(0.0, 5.0), &at(2.0, 5.0), 10.0);
+    assert!((f.position.x - 1.0).abs() < 1e-12 && (f.velocity.y - 1.0).abs() < 1e-12);
+    // A fresh source and one of age τ: weights 1 and 1/e.
+    let f = fuse(&at(0.0, 0.0), &at(1.0, 10.0), 10.0);
+    let w = (-1.0f64).exp();
+    assert!((f.position.x - w / (1.0 + w)).abs() < 1e-12);
+    assert_eq!(f.age, 0.0);
+    // Symmetric, and the fresher alone when both have faded away.
+    assert_eq!(
+        fuse(&at(3.0, 1.0), &at(7.0, 4.0), 2.0),
+        fuse(&at(7.0, 4.0), &at(3.0, 1.0), 2.0)
+    );
+    assert_eq!(fuse(&at(3.0, 1e6), &at(7.0, 2e6), 1.0), at(3.0, 1e6));
+    assert_eq!(fuse(&at(3.0, 1.0), &at(7.0, 2.0), 0.0).position.x, 3.0);
+}

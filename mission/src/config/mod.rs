@@ -18,6 +18,7 @@
 //! checks (`validate/`, one file per group of sections), the time step against the
 //! formation's stiffness (`stiffness.rs`) and numbers as TOML writes them (`toml_text.rs`).
 
+mod acoustic;
 mod control;
 mod envelope;
 mod error;
@@ -36,6 +37,7 @@ mod validate;
 #[cfg(test)]
 mod tests;
 
+pub use acoustic::{AcousticSchedule, AcousticSection};
 pub use control::{ControlSection, CurvatureSource, LawKind};
 pub use error::ConfigError;
 pub use failure_sections::{
@@ -56,6 +58,7 @@ pub use sections::{
 pub use sets::KeySet;
 pub use stiffness::Stiffness;
 pub use trail::Trail;
+pub use validate::MAX_ACOUSTIC_VEHICLES;
 
 use serde::{Deserialize, Serialize};
 use vbap_math::{Mat3, Vec3};
@@ -111,6 +114,9 @@ pub struct Mission {
     /// `[land]` (beyond the paper; not written when none).
     #[serde(skip_serializing_if = "LandSection::is_none")]
     pub land: LandSection,
+    /// `[acoustic]`: acoustic modems between the vehicles (beyond the paper; absent: none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub acoustic: Option<AcousticSection>,
     /// `[[faults]]`, in file order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub faults: Vec<FaultConfig>,
@@ -136,6 +142,7 @@ impl PartialEq for Mission {
             && self.control == other.control
             && self.current == other.current
             && self.land == other.land
+            && self.acoustic == other.acoustic
             && self.faults == other.faults
     }
 }

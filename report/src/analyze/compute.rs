@@ -120,6 +120,7 @@ fn hop_reports(hops: BTreeMap<String, HopAcc>, report: &mut Report, dists: &mut 
         // link model deciding afterwards (separate "held" and "drop" records): then the
         // deliveries are the receptions not dropped, and those delivered without a
         // "held" record were delivered at once (0 ms).
+        let held = acc.held_ms.len() as u64;
         let (delivered, mut injected) = if acc.inline_ms.is_empty() {
             let delivered = received.saturating_sub(acc.dropped_injected + acc.superseded);
             let mut v = std::mem::take(&mut acc.held_ms);
@@ -143,6 +144,8 @@ fn hop_reports(hops: BTreeMap<String, HopAcc>, report: &mut Report, dists: &mut 
                 bytes_mean: (acc.sized > 0).then(|| acc.bytes as f64 / acc.sized as f64),
                 bytes_max: (acc.sized > 0).then_some(acc.bytes_max),
                 bytes_total: (acc.sized > 0).then_some(acc.bytes),
+                held,
+                reasons: std::mem::take(&mut acc.reasons),
             },
         );
         dists.transport_us.insert(hop.clone(), acc.transport_us);

@@ -10,6 +10,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use serde::Deserialize;
 use vbap_wire::msglog::MSG_TARGET;
+
+/// The hop of acoustic frames (agent to agent; `vehicle_agent::run::modem::HOP`).
+pub(super) const ACOUSTIC: &str = "acoustic";
 use vbap_wire::msglog::{self, MsgEvent, MSG_SUFFIX};
 
 /// One log line of the message target, borrowed from the line.
@@ -95,6 +98,8 @@ pub(super) struct HopAcc {
     pub(super) sized: u64,
     pub(super) bytes: u64,
     pub(super) bytes_max: u64,
+    /// Drops of the acoustic hop by verdict (`range`, `collision`, ...).
+    pub(super) reasons: BTreeMap<String, u64>,
 }
 
 impl HopAcc {
@@ -108,6 +113,9 @@ impl HopAcc {
         self.sized += other.sized;
         self.bytes += other.bytes;
         self.bytes_max = self.bytes_max.max(other.bytes_max);
+        for (r, n) in other.reasons {
+            *self.reasons.entry(r).or_default() += n;
+        }
     }
 }
 
@@ -141,6 +149,11 @@ impl Partial {
         };
         match r.event {
             // Dropped: by a full queue, or by the link model (loss, burst, link_down).
+            MsgEvent::Drop if plain == ACOUSTIC => {
+                *acc.reasons
+                    .entry(r.reason.unwrap_or("").to_string())
+                    .or_default() += 1;
+            }
             MsgEvent::Drop => match r.reason {
                 Some("overflow") => acc.dropped_overflow += 1,
                 Some("superseded") => acc.superseded += 1,

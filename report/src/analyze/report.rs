@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use serde::Serialize;
-use vbap_wire::rundir::{Percentiles, Summary};
+use vbap_wire::rundir::{AcousticTotals, Percentiles, Summary};
 
 /// Figures of one hop (docs/ARCHITECTURE.md §10, `vbap analyze --json`).
 #[derive(Clone, Debug, Default, Serialize)]
@@ -34,6 +34,13 @@ pub struct HopReport {
     /// Their bytes, summed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bytes_total: Option<u64>,
+    /// Messages the link model held before delivery (`held` records; on the acoustic hop:
+    /// every frame heard, held for its propagation and air time).
+    pub held: u64,
+    /// The acoustic hop's losses by verdict (`range`, `deaf`, `collision`, `undecoded`,
+    /// `noise`); empty on the other hops.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub reasons: BTreeMap<String, u64>,
 }
 
 /// Loop timing of one process.
@@ -89,10 +96,12 @@ pub struct TickReport {
 }
 
 impl Report {
-    /// Per-hop transport percentiles for `summary.json`'s `latency_us`.
+    /// Per-hop transport percentiles for `summary.json`'s `latency_us` (the hops with
+    /// receptions: not the acoustic one, whose records are verdicts only).
     pub fn latency_summary(&self) -> BTreeMap<String, Percentiles> {
         self.hops
             .iter()
+            .filter(|(_, v)| v.received > 0)
             .map(|(k, v)| (k.clone(), v.transport_us))
             .collect()
     }
@@ -112,6 +121,18 @@ impl Report {
         s.messages.dropped_injected = links.iter().flatten().map(|h| h.dropped_injected).sum();
         s.messages.superseded = links.iter().flatten().map(|h| h.superseded).sum();
         s.messages.dropped_overflow = self.hops.values().map(|h| h.dropped_overflow).sum();
+        if let Some(a) = self.hops.get(super::records::ACOUSTIC) {
+            let by = |r: &str| a.reasons.get(r).copied().unwrap_or(0);
+            s.acoustic = Some(AcousticTotals {
+                frame_b: s.acoustic.map_or(0, |t| t.frame_b),
+                heard: a.held,
+                range: by("range"),
+                deaf: by("deaf"),
+                collision: by("collision"),
+                undecoded: by("undecoded"),
+                noise: by("noise"),
+            });
+        }
     }
 }
 

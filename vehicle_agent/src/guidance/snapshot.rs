@@ -177,6 +177,7 @@ impl Guidance {
         let spacing = self.inter.d0;
         let n = snapshot.len();
         self.neighbours = Vec::with_capacity(n);
+        self.neighbour_ids = Vec::with_capacity(n);
         self.neighbour_velocities = Vec::with_capacity(n);
         self.neighbour_sigmas = Vec::new();
         self.neighbour_slots = Vec::new();
@@ -230,6 +231,7 @@ impl Guidance {
                 self.neighbour_ages.push(e.age);
             }
             self.neighbours.push(position);
+            self.neighbour_ids.push(e.id);
             self.neighbour_velocities.push(to_vec3(&e.velocity));
         }
         self.target = own_alive

@@ -3,6 +3,7 @@
 //! and the reason. Each section's checks are in their own file; [`Check`] holds the helpers
 //! they share.
 
+mod acoustic;
 mod control;
 mod faults;
 mod field;
@@ -10,6 +11,8 @@ mod fleet;
 mod links;
 mod mission;
 mod motion;
+
+pub use acoustic::MAX_ACOUSTIC_VEHICLES;
 
 use std::fmt;
 
@@ -33,6 +36,7 @@ impl Mission {
         fleet::estimator(&c, &self.estimator)?;
         links::links(&c, &self.links)?;
         links::restart(&c, &self.restart)?;
+        acoustic::check(&c, self)?;
         control::check(&c, &self.control)?;
         motion::model(&c, &self.vehicles)?;
         motion::dive(&c, &self.vehicles, dim)?;
