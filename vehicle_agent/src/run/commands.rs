@@ -161,6 +161,12 @@ impl CommandFilter {
         let guidance = told
             .guidance
             .with_plan(schedule, to_vec3(&command.r), command.scale);
-        (tick, guidance, told.own, told.bytes)
+        // Its own entry exactly as the coordinator wrote it: a restarted process resumes
+        // from that state, as the in-process simulator's does (the vehicle itself did not
+        // move with its process; read through a quantised link, a glider's 0.004 m/s
+        // became 0 and the run left the simulator at the first tick after a restart).
+        let exact_own = own.and_then(|i| snapshot.get(i)).copied();
+        debug_assert_eq!(exact_own.map(|e| e.id), told.own.map(|e| e.id));
+        (tick, guidance, exact_own, told.bytes)
     }
 }
