@@ -271,6 +271,16 @@ impl AcousticModel {
             .collect()
     }
 
+    /// Whether `vehicle` is alive at `tick` by the scheduled faults (not in `[kill,
+    /// restart)`): a process that ran ahead of its kill decides nothing past it, as the
+    /// simulator's vehicle, gone at the kill, does not.
+    pub fn alive(&self, vehicle: u32, tick: u64) -> bool {
+        !self
+            .silent
+            .iter()
+            .any(|&(v, from, to)| v == vehicle && tick >= from && tick < to)
+    }
+
     /// The tick `vehicle`'s process that is alive at tick `tick` started from: its last
     /// scheduled restart at or before `tick`, else 0 (the deployment).
     fn first_tick(&self, vehicle: u32, tick: u64) -> u64 {
@@ -489,6 +499,9 @@ impl Ear {
     /// Decides every frame that has ended here by tick `k` (the receiver's track must hold
     /// tick `k − 1`; every frame sent before tick `k` must have been heard).
     pub fn decide(&mut self, k: u64) {
+        if !self.model.alive(self.me, k) {
+            return;
+        }
         let model = self.model.clone();
         let cfg = &model.config;
         let t = k as f64 * model.dt;

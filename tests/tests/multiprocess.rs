@@ -361,6 +361,58 @@ fn lockstep_equals_in_process_over_iridium_sessions() {
     }
 }
 
+/// `glider_acoustic` (Iridium at the surface, acoustic modems under water), 4 hours, as
+/// shipped (TDMA) and with frames sent at random offsets and a glider killed and restarted:
+/// `vbap run` equals `vbap sim` byte for byte, the receptions of every agent (by verdict,
+/// from their message records) those of the simulator; frames collide and modems are deaf
+/// only without TDMA.
+#[test]
+fn lockstep_equals_in_process_over_acoustic_modems() {
+    let shipped = read(&workspace().join("deploy/missions/glider_acoustic.toml"));
+    for (tag, random) in [("TDMA", false), ("random, kill and restart", true)] {
+        let name = unique_name("eqaco");
+        let mut text = shipped
+            .replace("name = \"glider_acoustic\"", &format!("name = \"{name}\""))
+            .replace("duration = 259200.0", "duration = 14400.0");
+        if random {
+            text = text.replace("schedule = \"tdma\"", "schedule = \"random\"")
+                + "\n[restart]\nvehicles = \"on-failure\"\n\n[[faults]]\nkind = \"kill\"\n\
+                   vehicle = 2\nat = 3600.0\nuntil = 7200.0\n";
+        }
+        let tmp = assert_run_equals_sim(&text);
+        let (sim, run) = (summary(&tmp.join("sim")), summary(&tmp.join("run")));
+        assert_eq!(sim["acoustic"], run["acoustic"], "{tag}");
+        let a = &run["acoustic"];
+        assert_eq!(a["frame_b"], 30, "{tag}: {a}");
+        assert!(a["heard"].as_u64().unwrap() > 1000, "{tag}: {a}");
+        let (collided, deaf) = (
+            a["collision"].as_u64().unwrap(),
+            a["deaf"].as_u64().unwrap(),
+        );
+        if random {
+            assert!(collided > 0 && deaf > 0, "{tag}: {a}");
+        } else {
+            assert_eq!(
+                (collided, deaf),
+                (0, 0),
+                "{tag}: TDMA slots never overlap: {a}"
+            );
+        }
+        let mut verdicts = 0;
+        for id in 0..6 {
+            verdicts += msg_records(&tmp.join("run"), &format!("vehicle_agent_{id}"))
+                .iter()
+                .filter(|r| r.hop == "acoustic")
+                .count();
+        }
+        let decided: u64 = ["heard", "range", "deaf", "collision", "undecoded", "noise"]
+            .iter()
+            .map(|k| a[*k].as_u64().unwrap())
+            .sum();
+        assert_eq!(verdicts as u64, decided, "{tag}: one record per verdict");
+    }
+}
+
 #[test]
 fn lockstep_equals_in_process_grid_field() {
     // The 2-D mission's Gaussian sampled onto a NetCDF grid: every process reads the file.
