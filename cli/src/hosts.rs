@@ -29,6 +29,14 @@ pub fn plan(
         }
     };
     let hosts = Hosts::load(file, mission.vehicles.count).map_err(InvalidInput)?;
+    if mission.acoustic.is_some() {
+        return Err(InvalidInput(format!(
+            "{}: [acoustic]: acoustic frames are not carried between hosts (the bridge relays \
+             the vehicle <-> shore services only): run an acoustic mission on one host",
+            mission.origin
+        ))
+        .into());
+    }
     let me = hosts.host(host).map_err(InvalidInput)?;
     if hosts.tls.is_none() {
         eprintln!(

@@ -32,6 +32,7 @@ fn the_commented_fault_examples_of_the_shipped_missions_validate() {
         "glider.toml",
         "glider_surfacing.toml",
         "glider_iridium.toml",
+        "glider_acoustic.toml",
     ] {
         let text = read(&mission_file(name));
         let uncommented = uncomment_example(&text);

@@ -16,6 +16,7 @@ fn shipped_missions_converge_within_the_theorems() {
         ("quadratic3d.toml", true),
         ("glider_surfacing.toml", false),
         ("glider_iridium.toml", false),
+        ("glider_acoustic.toml", false),
     ] {
         let tmp = TempDir::new("ship");
         run_ok(vbap().arg("check").arg(mission_file(file)));

@@ -10,6 +10,7 @@ use crate::plot::chart::{
 };
 use crate::plot::style::{self, TimeUnit, CONTACT_STATES};
 use crate::plot::PlotError;
+use vbap_mission::acoustic::AcousticModel;
 use vbap_mission::config::Mission;
 use vbap_mission::link::{LinkModel, Session};
 use vbap_wire::rundir::Event;
@@ -21,6 +22,8 @@ const DELIVERY: &str = "#08306b";
 /// Colours of the Iridium sessions (`[links.iridium]`): opened, failed.
 const SESSION_OK: &str = "#1a9850";
 const SESSION_FAILED: &str = "#d73027";
+/// Colour of the acoustic frames a vehicle sends (`[acoustic]`).
+const ACOUSTIC_FRAME: &str = "#6a3d9a";
 /// Lines of event labels above the rows.
 const LABEL_LINES: usize = 3;
 /// Height of a legend row of the timeline, px.
@@ -168,6 +171,13 @@ pub fn render_contact_svg(
     } else {
         String::new()
     };
+    let channel = AcousticModel::new(mission);
+    let frames: std::collections::BTreeMap<u32, Vec<f64>> = f
+        .lanes
+        .keys()
+        .map(|&id| (id, frames_sent(channel.as_deref(), id, m.dt, l.t0, l.t1)))
+        .collect();
+    let sent: usize = frames.values().map(Vec::len).sum();
     canvas::render((crate::plot::chart::WIDTH, height), |c| {
         draw_head(
             c,
@@ -184,6 +194,7 @@ pub fn render_contact_svg(
             let y = l.rows_top + row as f64 * l.row_h;
             draw_lane(c, &l, y, *id, lane)?;
             draw_sessions(c, &l, y, &sessions[id])?;
+            draw_frames(c, &l, y, &frames[id])?;
             let own = vehicle_events
                 .iter()
                 .filter(|(v, _)| v == id)
@@ -193,7 +204,11 @@ pub fn render_contact_svg(
         let rows = (PLOT_W, l.rows_bottom - l.rows_top);
         c.frame((MARGIN_LEFT, l.rows_top), rows, "#000000")?;
         draw_fleet_events(c, &l, &fleet_events)?;
-        draw_legend(c, &l, f, &vehicle_events, !fleet_events.is_empty(), iridium)?;
+        let links = Links {
+            iridium,
+            acoustic: channel.as_ref().map(|_| sent),
+        };
+        draw_legend(c, &l, f, &vehicle_events, !fleet_events.is_empty(), links)?;
         draw_panel(c, &age, l.axis_bottom + 20.0, false)
     })
 }
@@ -409,16 +424,59 @@ fn draw_sessions(
     Ok(())
 }
 
-/// The legend: the states met, deliveries, Iridium's sessions, the kinds of vehicle events
-/// drawn, fleet events.
+/// When vehicle `id` starts an acoustic frame between `t0` and `t1` (s; tick length `dt`)
+/// by the mission's schedule and scheduled faults (none without a channel).
+fn frames_sent(channel: Option<&AcousticModel>, id: u32, dt: f64, t0: f64, t1: f64) -> Vec<f64> {
+    let Some(ch) = channel else {
+        return Vec::new();
+    };
+    let (k0, k1) = ((t0 / dt).floor() as u64, (t1 / dt).ceil() as u64);
+    (k0..k1)
+        .flat_map(|k| {
+            ch.expected(id, k)
+                .map(|n| ch.transmission_time(id, n))
+                .collect::<Vec<_>>()
+        })
+        .filter(|&at| at >= t0 && at <= t1)
+        .collect()
+}
+
+/// A vehicle's acoustic frames in its row at `y`: a mark along the bottom at each (one per
+/// pixel column: a frame a minute over days would be thousands).
+fn draw_frames(c: &Canvas<'_>, l: &Layout, y: f64, frames: &[f64]) -> Result<(), PlotError> {
+    let h = (l.row_h - 3.0).max(4.0);
+    let dh = (h * 0.3).max(2.0);
+    let mut last = f64::NEG_INFINITY;
+    for &at in frames {
+        let x = l.x(at).floor();
+        if x > last {
+            c.rect((x, y + h - dh), (1.0, dh), ACOUSTIC_FRAME, 1.0)?;
+            last = x;
+        }
+    }
+    Ok(())
+}
+
+/// Which links a contact picture draws beyond the contact states.
+#[derive(Clone, Copy)]
+struct Links {
+    /// Iridium sessions.
+    iridium: bool,
+    /// Acoustic frames, and how many were sent (None: no acoustic channel).
+    acoustic: Option<usize>,
+}
+
+/// The legend: the states met, deliveries, Iridium's sessions, acoustic frames, the kinds
+/// of vehicle events drawn, fleet events.
 fn draw_legend(
     c: &Canvas<'_>,
     l: &Layout,
     f: &Formation,
     vehicle_events: &[(u32, &Event)],
     fleet_events: bool,
-    iridium: bool,
+    links: Links,
 ) -> Result<(), PlotError> {
+    let iridium = links.iridium;
     let x = MARGIN_LEFT + PLOT_W + 22.0;
     let mut y = l.fleet_top + 6.0;
     // Down to the first legend row of the age panel below.
@@ -449,6 +507,13 @@ fn draw_legend(
             };
             entries.push((Some(sw), None, text.into()));
         }
+    }
+    if let Some(sent) = links.acoustic {
+        let sw = Swatch::Box {
+            colour: ACOUSTIC_FRAME,
+            height: 5.0,
+        };
+        entries.push((Some(sw), None, format!("acoustic frame sent ({sent})")));
     }
     let mut kinds = std::collections::BTreeSet::new();
     for (_, e) in vehicle_events {
