@@ -583,6 +583,9 @@ impl Ear {
                 );
             }
         }
+        // A vehicle a scheduled kill took is not where it was last heard (its hull drifts,
+        // its restarted process starts over): its frames are forgotten.
+        self.heard.retain(|&sender, _| model.alive(sender, k));
         // Kept while a frame not decided yet may overlap them.
         let horizon = t - model.air;
         self.pending.retain(|p| {

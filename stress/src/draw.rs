@@ -15,6 +15,10 @@ use serde::{Deserialize, Serialize};
 use crate::grid::{GRID_AMPLITUDE, GRID_BUMP, GRID_WIDTH};
 use crate::space::{Range, Space};
 
+/// The size of the acoustic frame the space's missions send, bytes (exact positions:
+/// `vbap_wire::compact::acoustic_frame_len`).
+const ACOUSTIC_FRAME_BYTES: f64 = 54.0;
+
 /// Radius of the paper's optimal square (Table I, N = 4), L: the formation radius of N
 /// vehicles is this × (N/4)^(1/dim), so the neighbour spacing stays about the paper's.
 pub const PAPER_RADIUS: f64 = 1.229;
@@ -93,6 +97,9 @@ pub struct Draw {
     /// Iridium sessions on a surfacing link (`session_interval`, `session_failure`,
     /// `latency_short`), s; none: store and forward.
     pub iridium: Option<(f64, f64, f64)>,
+    /// Acoustic modems (`[acoustic]`); none in plans written before they were drawn.
+    #[serde(default)]
+    pub acoustic: Option<AcousticDraw>,
     /// `[[faults]]`: kills and rejoins.
     pub faults: Vec<FaultDraw>,
     /// `formation.adapt`.
@@ -116,6 +123,23 @@ pub struct Draw {
     pub current: Option<Vec<f64>>,
     /// `mission.duration`, s.
     pub duration: f64,
+}
+
+/// The `[acoustic]` of a mission. Units: L, s.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AcousticDraw {
+    /// `interval`, s.
+    pub interval: f64,
+    /// `schedule = "tdma"` (else `"random"`).
+    pub tdma: bool,
+    /// `communication_range`, L (detection 1.3 ×, interference 1.6 × it).
+    pub range: f64,
+    /// `bit_rate`, bit/s (a 54-byte frame, exact positions).
+    pub bit_rate: f64,
+    /// `sound_speed`, L/s.
+    pub sound_speed: f64,
+    /// `decode_probability`.
+    pub decode_probability: f64,
 }
 
 /// SplitMix64 finaliser.
@@ -254,9 +278,36 @@ impl Draw {
                 )
             })
         });
+        // Drawn after Iridium, for the same reason.
+        let acoustic = (surfacing.is_some()
+            && n <= vbap_mission::config::MAX_ACOUSTIC_VEHICLES
+            && rng.random::<f64>() < space.p_acoustic)
+            .then(|| {
+                let interval =
+                    space.dt * draw(rng, &space.acoustic_interval_ticks).round().max(1.0);
+                let tdma = rng.random::<f64>() < space.p_tdma;
+                let share = if tdma {
+                    interval / n as f64
+                } else {
+                    interval / 2.0
+                };
+                let air = share * draw(rng, &space.acoustic_air);
+                let propagation = share * draw(rng, &space.acoustic_air);
+                let radius = radius_factor * PAPER_RADIUS * (n as f64 / 4.0).powf(1.0 / dim as f64);
+                let range = radius * draw(rng, &space.acoustic_range);
+                AcousticDraw {
+                    interval,
+                    tdma,
+                    range,
+                    bit_rate: 8.0 * ACOUSTIC_FRAME_BYTES / air,
+                    sound_speed: 1.6 * range / propagation,
+                    decode_probability: draw(rng, &space.decode_probability),
+                }
+            });
         Draw {
             index,
             seed: seed_of_mission,
+            acoustic,
             n,
             dim,
             start,
@@ -574,6 +625,20 @@ impl Draw {
             let _ = writeln!(
                 s,
                 "surfacing_period = {period:?}\nsurfacing_window = {window:?}"
+            );
+        }
+        if let Some(a) = &self.acoustic {
+            let _ = writeln!(
+                s,
+                "\n[acoustic]\nframe_bytes = 64\ninterval = {:?}\nschedule = \"{}\"\nbit_rate = {:?}\nsound_speed = {:?}\ncommunication_range = {:?}\ndetection_range = {:?}\ninterference_range = {:?}\ndecode_probability = {:?}",
+                a.interval,
+                if a.tdma { "tdma" } else { "random" },
+                a.bit_rate,
+                a.sound_speed,
+                a.range,
+                1.3 * a.range,
+                1.6 * a.range,
+                a.decode_probability
             );
         }
         if let Some((interval, failure, latency)) = self.iridium {

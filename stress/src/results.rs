@@ -39,6 +39,9 @@ pub struct Dims {
     /// drawn).
     #[serde(default)]
     pub iridium: bool,
+    /// Acoustic modems (false in result lines written before they were drawn).
+    #[serde(default)]
+    pub acoustic: bool,
     pub faults: usize,
     pub adapt: bool,
     pub glider: bool,
@@ -82,6 +85,7 @@ impl Dims {
             bursty: d.burst.is_some(),
             surfacing: d.surfacing.is_some(),
             iridium: d.iridium.is_some(),
+            acoustic: d.acoustic.is_some(),
             faults: d.faults.len(),
             adapt: d.adapt,
             glider: d.glider.is_some(),

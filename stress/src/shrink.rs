@@ -73,10 +73,12 @@ pub fn simplifications(d: &Draw) -> Vec<(String, Draw)> {
         s.delay = 0.0;
         s.jitter = 0.0;
     });
+    with("acoustic off", &|s| s.acoustic = None);
     with("Iridium off", &|s| s.iridium = None);
     with("surfacing off", &|s| {
         s.surfacing = None;
         s.iridium = None;
+        s.acoustic = None;
     });
     with("current off", &|s| s.current = None);
     with("glider -> ideal", &|s| {

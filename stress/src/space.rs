@@ -114,6 +114,22 @@ pub struct Space {
     pub session_failure: Range,
     /// Iridium: `latency_short` ÷ the window (`latency_full` is 4 times it).
     pub session_latency_fraction: Range,
+    /// Probability that a surfacing link of at most 64 vehicles also has acoustic modems
+    /// (`[acoustic]`), drawn after Iridium, so the other draws of a mission are those of a
+    /// space without them.
+    pub p_acoustic: f64,
+    /// Acoustic: `interval` in ticks.
+    pub acoustic_interval_ticks: Range,
+    /// Acoustic: `communication_range` ÷ the formation radius (detection 1.3 ×,
+    /// interference 1.6 × it).
+    pub acoustic_range: Range,
+    /// Acoustic: probability of a TDMA schedule (else random offsets).
+    pub p_tdma: f64,
+    /// Acoustic: a frame's air time, and its propagation over the interference range, ÷
+    /// the time they must share (a TDMA slot, or half the interval).
+    pub acoustic_air: Range,
+    /// Acoustic: `decode_probability`.
+    pub decode_probability: Range,
     /// Number of faults 0..=3 and the probability of each count.
     pub fault_counts: [f64; 4],
     /// Probability a fault is a rejoin (a kill with `until`, `[restart] vehicles =
@@ -200,6 +216,12 @@ impl Default for Space {
             sessions_per_window: Range::uniform(1.0, 6.0),
             session_failure: Range::uniform(0.0, 0.3),
             session_latency_fraction: Range::uniform(0.01, 0.05),
+            p_acoustic: 0.5,
+            acoustic_interval_ticks: Range::uniform(1.0, 10.0),
+            acoustic_range: Range::uniform(0.8, 3.0),
+            p_tdma: 0.5,
+            acoustic_air: Range::uniform(0.1, 0.4),
+            decode_probability: Range::uniform(0.6, 1.0),
             fault_counts: [0.5, 0.25, 0.15, 0.1],
             p_rejoin: 0.5,
             fault_at: Range::uniform(0.1, 0.6),
@@ -287,6 +309,13 @@ impl Space {
                 format!(
                     "p = {} of surfacing links: {} sessions a window, session_failure {}, latency_short {} of the window (latency_full 4 times it), SBD byte limits",
                     self.p_iridium, self.sessions_per_window, self.session_failure, self.session_latency_fraction
+                ),
+            ),
+            (
+                "acoustic modems",
+                format!(
+                    "p = {} of surfacing links with N ≤ 64: a frame every {} ticks, TDMA with p = {} (else random offsets), communication range {} × the radius (detection 1.3 ×, interference 1.6 ×), air time and propagation each {} of a slot (or of half the interval), decode_probability {}",
+                    self.p_acoustic, self.acoustic_interval_ticks, self.p_tdma, self.acoustic_range, self.acoustic_air, self.decode_probability
                 ),
             ),
             (

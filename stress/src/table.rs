@@ -149,6 +149,7 @@ pub fn dimensions() -> Vec<(&'static str, Box<dyn Fn(&Dims) -> String>)> {
         ("bursty", Box::new(|d: &Dims| yes_no(d.bursty))),
         ("surfacing", Box::new(|d: &Dims| yes_no(d.surfacing))),
         ("Iridium sessions", Box::new(|d: &Dims| yes_no(d.iridium))),
+        ("acoustic modems", Box::new(|d: &Dims| yes_no(d.acoustic))),
         (
             "links",
             Box::new(|d: &Dims| {

@@ -441,7 +441,9 @@ struct Hearing<'a> {
 impl Hearing<'_> {
     /// [`fly`] with `inputs`' neighbours fused with what was heard: a neighbour of both
     /// sources gets each weighed by its own age (`vbap_math::robust::fuse`); a vehicle only
-    /// heard is added, its position moved with the body for its age. Nothing heard:
+    /// heard, less than the memory τ ago, is added, its position moved with the body for its
+    /// age. Nothing heard, or no leaders yet (a restarted vehicle before its first
+    /// command):
     /// `inputs` as they are (bit for bit the flight without a modem).
     fn fly(
         &self,
@@ -451,7 +453,10 @@ impl Hearing<'_> {
         inputs: &AgentInputs<'_>,
         k: u64,
     ) {
-        if self.heard.is_empty() {
+        // A vehicle restarted and not yet told anything (no leaders) only brakes
+        // (`Guidance::restarted`): neighbours heard without leaders to balance them threw
+        // a rejoining vehicle at 8.7 V_U in a random mission (stress seed 11, m0657).
+        if self.heard.is_empty() || inputs.leaders.is_empty() {
             return fly(agent, moving, law, inputs, k, self.dt);
         }
         let memory = self
@@ -491,6 +496,10 @@ impl Hearing<'_> {
                     let f = fuse(&relay, &heard, memory);
                     (positions[j], velocities[j], ages[j]) = (f.position, f.velocity, f.age);
                 }
+                // Heard only: added while fresher than the memory (older, the robust law
+                // would keep less than 1/e of it, and its prediction along the body
+                // drifts; a vehicle lost to the coordinator is heard from no more).
+                _ if age > memory => {}
                 _ => {
                     positions.push(heard.position);
                     velocities.push(heard.velocity);
