@@ -441,8 +441,8 @@ struct Hearing<'a> {
 impl Hearing<'_> {
     /// [`fly`] with `inputs`' neighbours fused with what was heard: a neighbour of both
     /// sources gets each weighed by its own age (`vbap_math::robust::fuse`); a vehicle only
-    /// heard, less than the memory τ ago, is added, its position moved with the body for its
-    /// age. Nothing heard, or no leaders yet (a restarted vehicle before its first
+    /// heard, less than the memory τ ago, is added, its position carried with the body (its
+    /// velocity and growth) for its age. Nothing heard, or no leaders yet (a restarted vehicle before its first
     /// command):
     /// `inputs` as they are (bit for bit the flight without a modem).
     fn fly(
@@ -481,8 +481,13 @@ impl Hearing<'_> {
         let mut slots = inputs.neighbour_slots.to_vec();
         for h in self.heard {
             let age = (self.now - h.tick as f64 * self.dt).max(0.0);
+            // Carried with the body as a point of it: its centre's velocity and, on a
+            // growing or shrinking formation, k̇/k of its offset from the centre (as the
+            // relay's positions are carried along the committed path).
+            let carried =
+                inputs.body_velocity + inputs.body_growth * (h.position - inputs.body_centre);
             let heard = Source {
-                position: h.position + inputs.body_velocity * age,
+                position: h.position + carried * age,
                 velocity: h.velocity,
                 age,
             };
