@@ -356,6 +356,13 @@ impl Vehicle {
                 g.rejoin_speed,
             )
         });
+        let hearing = Hearing {
+            ids: &g.neighbour_ids,
+            heard: &heard,
+            now: t,
+            dt,
+            memory,
+        };
         if age > 0.0 {
             let leaders: Vec<Vec3> = g.leaders.iter().map(moved).collect();
             let neighbours: Vec<Vec3> = g.neighbours.iter().map(moved).collect();
@@ -379,13 +386,6 @@ impl Vehicle {
                 hulls: &g.hulls,
                 ..AgentInputs::paper(&leaders, &neighbours, inter, leader, g.damping)
             };
-            let hearing = Hearing {
-                ids: &g.neighbour_ids,
-                heard: &heard,
-                now: t,
-                dt,
-                memory,
-            };
             hearing.fly(
                 &mut self.agent,
                 &mut self.moving,
@@ -406,13 +406,6 @@ impl Vehicle {
                 body_centre,
                 hulls: &g.hulls,
                 ..AgentInputs::paper(&g.leaders, &g.neighbours, g.inter, g.leader, g.damping)
-            };
-            let hearing = Hearing {
-                ids: &g.neighbour_ids,
-                heard: &heard,
-                now: t,
-                dt,
-                memory,
             };
             hearing.fly(
                 &mut self.agent,
