@@ -137,7 +137,9 @@ function legend() {
   $("legend").innerHTML = CONTACT_NAMES.slice(0, 6).map((n, i) =>
     `<span><i style="background:${CONTACT_COLOURS[i]}"></i>${n}</span>`).join("") +
     `<span><i style="background:#fff;border:2px solid rgba(120,0,160,.9)"></i>slot</span>` +
-    `<span><i style="background:#fff;border:2px solid #fc0"></i>report delivered</span>`;
+    `<span><i style="background:#fff;border:2px solid #fc0"></i>report delivered</span>` +
+    `<span><i style="background:#1a9850"></i>Iridium session (red: failed)</span>` +
+    `<span><i style="background:#fff;border:2px solid #6a3d9a"></i>acoustic frame sent</span>`;
 }
 
 function status() {

@@ -207,6 +207,23 @@ class RunMap {
         cx.beginPath(); cx.arc(this.px(v[1]), this.py(v[2]), 9 + 5 * age, 0, 2 * Math.PI); cx.stroke();
       }
     }
+    // What the links did (bits of v[7], frames.rs): an acoustic frame sent (a purple ring
+    // fading over the next frames), an Iridium session opened (green) or failed (red) as a
+    // short bar above the vehicle.
+    for (let j = Math.max(0, i - 3); j <= i; j++) {
+      const age = i - j;
+      for (const v of frames[j].v) if ((v[7] || 0) & 4) {
+        cx.strokeStyle = `rgba(106,61,154,${0.8 - 0.2 * age})`; cx.lineWidth = 1.5;
+        cx.beginPath(); cx.arc(this.px(v[1]), this.py(v[2]), 12 + 6 * age, 0, 2 * Math.PI); cx.stroke();
+      }
+    }
+    for (const v of f.v) {
+      const bits = v[7] || 0;
+      if (bits & 3) {
+        cx.fillStyle = bits & 1 ? "#1a9850" : "#d73027";
+        cx.fillRect(this.px(v[1]) - 6, this.py(v[2]) - 14, 12, 3);
+      }
+    }
     // The vehicles.
     for (const v of f.v) {
       const x = this.px(v[1]), y = this.py(v[2]), c = CONTACT_COLOURS[v[3]] || "#000";

@@ -13,9 +13,11 @@ use vbap_math::Vec3;
 
 use crate::model::{Model, Tick};
 
-/// A vehicle in a frame, as a JSON array: `[id, x, y, contact, age_s, slot_error, pulse]`
-/// (`contact`: a code of [`crate::model::CONTACTS`]; `age_s` and `slot_error` null when
-/// unknown; `pulse` 1 when a report of it reached the coordinator since the frame before).
+/// A vehicle in a frame, as a JSON array: `[id, x, y, contact, age_s, slot_error, pulse,
+/// links]` (`contact`: a code of [`crate::model::CONTACTS`]; `age_s` and `slot_error` null
+/// when unknown; `pulse` 1 when a report of it reached the coordinator since the frame
+/// before; `links`: what its links did since the frame before, bits [`LINK_SESSION`],
+/// [`LINK_SESSION_FAILED`], [`LINK_ACOUSTIC`]).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FrameVehicle(
     pub u32,
@@ -25,7 +27,15 @@ pub struct FrameVehicle(
     pub Option<f32>,
     pub Option<f32>,
     pub u8,
+    pub u8,
 );
+
+/// `links` bit: the vehicle opened an Iridium session (`[links.iridium]`).
+pub const LINK_SESSION: u8 = 1;
+/// `links` bit: an Iridium session of the vehicle failed.
+pub const LINK_SESSION_FAILED: u8 = 2;
+/// `links` bit: the vehicle sent an acoustic frame (`[acoustic]`).
+pub const LINK_ACOUSTIC: u8 = 4;
 
 /// One frame of the map.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -64,7 +74,10 @@ impl FrameCursor {
                     (Some((_, None)), Some(_)) => true,
                     _ => false,
                 };
+                // Since the frame before (the first frame: nothing).
+                let since = self.last.get(&q.id).map_or(tick.t, |&(t0, _)| t0);
                 self.last.insert(q.id, (tick.t, q.age));
+                let links = model.links_between(q.id, since, tick.t);
                 FrameVehicle(
                     q.id,
                     q.x as f32,
@@ -73,6 +86,7 @@ impl FrameCursor {
                     q.age.map(|a| a as f32),
                     q.slot_error.map(|e| e as f32),
                     pulse as u8,
+                    links,
                 )
             })
             .collect();

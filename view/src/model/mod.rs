@@ -5,11 +5,14 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
+use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use vbap_math::formation::FormationDesign;
+use vbap_mission::acoustic::AcousticModel;
 use vbap_mission::config::Mission;
 use vbap_mission::field::Field;
+use vbap_mission::link::LinkModel;
 use vbap_wire::rundir::RunDir;
 
 mod read;
@@ -110,6 +113,10 @@ pub struct Model {
     designs: BTreeMap<usize, Option<FormationDesign>>,
     /// Bumped whenever something new was read.
     version: u64,
+    /// The mission's links (Iridium sessions: a function of the mission alone).
+    link_model: LinkModel,
+    /// The mission's acoustic channel (None without `[acoustic]`).
+    channel: Option<Arc<AcousticModel>>,
 }
 
 impl Model {
@@ -121,7 +128,11 @@ impl Model {
         let mission = Mission::load(&run.mission())
             .with_context(|| format!("{}: not a run directory", dir.display()))?;
         let field = mission.field();
+        let link_model = LinkModel::new(&mission);
+        let channel = AcousticModel::new(&mission);
         let mut model = Self {
+            link_model,
+            channel,
             files: Files::new(&run),
             dir: run,
             mission,
@@ -137,6 +148,38 @@ impl Model {
         };
         model.poll()?;
         Ok(model)
+    }
+
+    /// What vehicle `id`'s links did in `[from, to)` (s): the bits of
+    /// `crate::frames::LINK_SESSION`, `LINK_SESSION_FAILED`, `LINK_ACOUSTIC`. Both are
+    /// functions of the mission (`LinkModel::sessions`, `AcousticModel::expected`), as
+    /// `contact.svg` draws them.
+    pub fn links_between(&self, id: u32, from: f64, to: f64) -> u8 {
+        use crate::frames::{LINK_ACOUSTIC, LINK_SESSION, LINK_SESSION_FAILED};
+        let mut bits = 0;
+        if self.link_model.iridium().is_some() {
+            for s in self.link_model.sessions(id, from, to) {
+                bits |= if s.ok {
+                    LINK_SESSION
+                } else {
+                    LINK_SESSION_FAILED
+                };
+            }
+        }
+        if let Some(ch) = &self.channel {
+            let dt = self.mission.mission.dt;
+            let (k0, k1) = ((from / dt).floor().max(0.0) as u64, (to / dt).ceil() as u64);
+            let sent = (k0..=k1).any(|k| {
+                ch.expected(id, k).any(|n| {
+                    let at = ch.transmission_time(id, n);
+                    at >= from && at < to
+                })
+            });
+            if sent {
+                bits |= LINK_ACOUSTIC;
+            }
+        }
+        bits
     }
 
     /// Reads what the files gained since the last poll; true when anything was new. A file
