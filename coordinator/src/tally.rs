@@ -6,7 +6,7 @@
 //! supervised run (it counts, from the records of every process, what the simulator
 //! counts).
 
-use vbap_mission::acoustic::{AcousticCounts, AcousticModel};
+use vbap_mission::acoustic::AcousticModel;
 use vbap_mission::rundir::{AcousticTotals, MessageCounts};
 
 use crate::fleet::Fleet;
@@ -16,7 +16,7 @@ use crate::fleet::Fleet;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LinkTally {
     /// The acoustic receptions of every vehicle that ever ran (`[acoustic]`).
-    pub acoustic: AcousticCounts,
+    pub acoustic: AcousticTotals,
     /// Commands delivered by the link model.
     pub downlink_delivered: u64,
     /// Commands dropped by the link model.
@@ -35,17 +35,9 @@ impl LinkTally {
 
     /// The `acoustic` object of the summary on `channel` (None without one).
     pub fn acoustic_totals(&self, channel: Option<&AcousticModel>) -> Option<AcousticTotals> {
-        channel.map(|m| {
-            let a = &self.acoustic;
-            AcousticTotals {
-                frame_b: m.frame_bytes(),
-                heard: a.heard,
-                range: a.range,
-                deaf: a.deaf,
-                collision: a.collision,
-                undecoded: a.undecoded,
-                noise: a.noise,
-            }
+        channel.map(|m| AcousticTotals {
+            frame_b: m.frame_bytes(),
+            ..self.acoustic
         })
     }
 

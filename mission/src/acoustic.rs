@@ -112,49 +112,21 @@ impl Verdict {
     ];
 }
 
-/// The receptions of one or more receivers, by verdict.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct AcousticCounts {
-    /// Frames decoded.
-    pub heard: u64,
-    /// Frames beyond detection.
-    pub range: u64,
-    /// Frames missed while transmitting.
-    pub deaf: u64,
-    /// Frames lost to an overlap.
-    pub collision: u64,
-    /// Frames detected, not decoded.
-    pub undecoded: u64,
-    /// Frames lost to the decoding draw.
-    pub noise: u64,
-}
+/// The receptions of one or more receivers, by verdict: the summary's `acoustic` object
+/// (`vbap_wire::rundir::AcousticTotals`), counted here.
+pub use vbap_wire::rundir::AcousticTotals as AcousticCounts;
 
-impl AcousticCounts {
-    /// Counts one verdict.
-    pub fn add(&mut self, v: Verdict) {
-        *match v {
-            Verdict::Heard { .. } => &mut self.heard,
-            Verdict::Range => &mut self.range,
-            Verdict::Deaf => &mut self.deaf,
-            Verdict::Collision => &mut self.collision,
-            Verdict::Undecoded => &mut self.undecoded,
-            Verdict::Noise => &mut self.noise,
+impl Verdict {
+    /// Counts this verdict in `counts`.
+    pub fn count(self, counts: &mut AcousticCounts) {
+        *match self {
+            Verdict::Heard { .. } => &mut counts.heard,
+            Verdict::Range => &mut counts.range,
+            Verdict::Deaf => &mut counts.deaf,
+            Verdict::Collision => &mut counts.collision,
+            Verdict::Undecoded => &mut counts.undecoded,
+            Verdict::Noise => &mut counts.noise,
         } += 1;
-    }
-
-    /// Adds another receiver's counts.
-    pub fn merge(&mut self, o: &AcousticCounts) {
-        self.heard += o.heard;
-        self.range += o.range;
-        self.deaf += o.deaf;
-        self.collision += o.collision;
-        self.undecoded += o.undecoded;
-        self.noise += o.noise;
-    }
-
-    /// Every reception decided.
-    pub fn total(&self) -> u64 {
-        self.heard + self.range + self.deaf + self.collision + self.undecoded + self.noise
     }
 }
 
@@ -384,7 +356,7 @@ pub struct Ear {
 impl Ear {
     /// The receiver of vehicle `me`, whose first state is that of tick `first`.
     pub fn new(model: Arc<AcousticModel>, me: u32, first: u64) -> Self {
-        let n = model.vehicles;
+        let (n, frame_b) = (model.vehicles, model.bytes);
         Self {
             from: first as f64 * model.dt,
             complete_from: vec![first; n],
@@ -395,7 +367,10 @@ impl Ear {
             own: Vec::new(),
             track: VecDeque::new(),
             heard: BTreeMap::new(),
-            counts: AcousticCounts::default(),
+            counts: AcousticCounts {
+                frame_b,
+                ..AcousticCounts::default()
+            },
             rejected: 0,
             verdicts: None,
         }
@@ -565,7 +540,7 @@ impl Ear {
                 Verdict::Noise
             };
             self.pending[i].decided = true;
-            self.counts.add(verdict);
+            verdict.count(&mut self.counts);
             if let Some(v) = &mut self.verdicts {
                 v.push((f.sender, f.tick, verdict));
             }

@@ -586,6 +586,25 @@ pub struct AcousticTotals {
     pub noise: u64,
 }
 
+impl AcousticTotals {
+    /// Adds another receiver's receptions (the frame size is the mission's: kept, or taken
+    /// when none yet).
+    pub fn merge(&mut self, o: &AcousticTotals) {
+        self.frame_b = self.frame_b.max(o.frame_b);
+        self.heard += o.heard;
+        self.range += o.range;
+        self.deaf += o.deaf;
+        self.collision += o.collision;
+        self.undecoded += o.undecoded;
+        self.noise += o.noise;
+    }
+
+    /// Every reception decided.
+    pub fn total(&self) -> u64 {
+        self.heard + self.range + self.deaf + self.collision + self.undecoded + self.noise
+    }
+}
+
 /// `summary.json` (docs/ARCHITECTURE.md §10). Fields may be added, never removed.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
