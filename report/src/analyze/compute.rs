@@ -42,7 +42,14 @@ pub fn compute(dir: &RunDir) -> Result<(Report, Distributions)> {
     // of the mission's links.
     let last_tick = mission.as_ref().map_or(u64::MAX, |m| m.ticks());
 
-    let parts = read_logs(&files, last_tick, &remote)?;
+    let silent = mission.as_ref().map_or_else(Vec::new, |m| {
+        vbap_mission::faults::FaultPlan::new(m)
+            .kills
+            .iter()
+            .map(|k| (k.vehicle, k.tick, k.restart.unwrap_or(u64::MAX)))
+            .collect()
+    });
+    let parts = read_logs(&files, last_tick, &remote, silent)?;
 
     let nominal_ms = mission.as_ref().and_then(|m| match m.mission.pace {
         Pace::Lockstep => None,

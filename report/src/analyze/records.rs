@@ -49,6 +49,10 @@ struct Fields<'a> {
 pub(super) struct Partial {
     /// Commands of this tick and later only end the mission (not counted).
     pub(super) last_tick: u64,
+    /// Scheduled kills (vehicle, kill tick, restart tick or `u64::MAX`): a vehicle's
+    /// commands and states of the ticks between are not the mission's (a process that ran
+    /// ahead of its kill read and sent them; the simulator's vehicle, gone, did not).
+    pub(super) silent: std::sync::Arc<Vec<(u32, u64, u64)>>,
     pub(super) hops: BTreeMap<String, HopAcc>,
     /// (tick, recv_ns) of the body commands this process received.
     pub(super) body_recv: Vec<(u64, u64)>,
@@ -133,6 +137,9 @@ struct Rec<'a> {
     reason: Option<&'a str>,
     /// The message's size in the compact link encoding, bytes (records that carry it).
     bytes: Option<u64>,
+    /// The vehicle whose link the message crossed (receiver of a command, sender of a
+    /// state), when the record names it.
+    vehicle: Option<u32>,
 }
 
 impl Partial {
@@ -142,6 +149,15 @@ impl Partial {
         let plain = r.hop.split('@').next().unwrap_or(r.hop);
         if plain == "body" && r.tick.is_some_and(|t| t >= self.last_tick) {
             return; // "the mission is over": not a command of the mission's links
+        }
+        if let (Some(v), Some(t)) = (r.vehicle, r.tick) {
+            if self
+                .silent
+                .iter()
+                .any(|&(id, from, to)| id == v && t >= from && t < to)
+            {
+                return; // between its scheduled kill and restart: not the mission's
+            }
         }
         let acc = match self.hops.get_mut(r.hop) {
             Some(a) => a,
@@ -226,12 +242,14 @@ fn read_log(
     is_agent: bool,
     last_tick: u64,
     remote: &std::sync::Arc<std::collections::BTreeSet<u32>>,
+    silent: &std::sync::Arc<Vec<(u32, u64, u64)>>,
 ) -> Result<Partial> {
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let mut reader = std::io::BufReader::with_capacity(1 << 18, file);
     let mut part = Partial {
         last_tick,
         remote: remote.clone(),
+        silent: silent.clone(),
         ..Partial::default()
     };
     let mut buf = Vec::with_capacity(512);
@@ -277,6 +295,11 @@ fn read_csv_line(text: &str, part: &mut Partial, is_agent: bool) {
             injected_ms: r.injected_ns.map(|ns| ns as f64 / 1e6),
             reason: r.reason,
             bytes: r.bytes,
+            vehicle: match r.hop.split('@').next().unwrap_or(r.hop) {
+                "body" => Some(r.receiver),
+                "state" => Some(r.sender),
+                _ => None,
+            },
         },
         is_agent,
     );
@@ -317,6 +340,7 @@ fn read_json_line(text: &str, part: &mut Partial, is_agent: bool) {
             injected_ms: f.injected_ms,
             reason: f.reason.as_deref(),
             bytes: None,
+            vehicle: None,
         },
         is_agent,
     );
@@ -328,8 +352,10 @@ pub(super) fn read_logs(
     files: &[(PathBuf, Format, String)],
     last_tick: u64,
     remote: &std::collections::BTreeSet<u32>,
+    silent: Vec<(u32, u64, u64)>,
 ) -> Result<Vec<(usize, Partial)>> {
     let remote = std::sync::Arc::new(remote.clone());
+    let silent = std::sync::Arc::new(silent);
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(files.len().max(1));
@@ -345,7 +371,10 @@ pub(super) fn read_logs(
                             break;
                         };
                         let is_agent = process.starts_with("vehicle_agent");
-                        mine.push((i, read_log(path, *format, is_agent, last_tick, &remote)?));
+                        mine.push((
+                            i,
+                            read_log(path, *format, is_agent, last_tick, &remote, &silent)?,
+                        ));
                     }
                     Ok(mine)
                 })
