@@ -273,6 +273,20 @@ impl AcousticModel {
             .map(|(n, _)| n)
     }
 
+    /// When `vehicle`'s frames start in `[from, to)` (s), in order: its transmissions by
+    /// [`AcousticModel::expected`] (the schedule and the scheduled faults).
+    pub fn sent_between(&self, vehicle: u32, from: f64, to: f64) -> Vec<f64> {
+        let (k0, k1) = (
+            (from / self.dt).floor().max(0.0) as u64,
+            (to / self.dt).ceil() as u64,
+        );
+        (k0..=k1)
+            .flat_map(|k| self.expected(vehicle, k).collect::<Vec<_>>())
+            .map(|n| self.transmission_time(vehicle, n))
+            .filter(|&at| at >= from && at < to)
+            .collect()
+    }
+
     /// `v` as a frame carries it (`links.position_quantum`, absolute; kept exact when the
     /// quantum cannot hold it).
     fn carried(&self, v: &Vec3) -> Vec3 {

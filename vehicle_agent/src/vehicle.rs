@@ -446,11 +446,30 @@ impl Hearing<'_> {
         inputs: &AgentInputs<'_>,
         k: u64,
     ) {
+        match self.fused(inputs) {
+            Some(n) => {
+                let fused = AgentInputs {
+                    neighbours: &n.positions,
+                    neighbour_velocities: &n.velocities,
+                    neighbour_ages: &n.ages,
+                    neighbour_sigmas: &n.sigmas,
+                    neighbour_slots: &n.slots,
+                    ..*inputs
+                };
+                fly(agent, moving, law, &fused, k, self.dt)
+            }
+            None => fly(agent, moving, law, inputs, k, self.dt),
+        }
+    }
+
+    /// The neighbours of `inputs` fused with what was heard ([`Hearing::fly`]); None when
+    /// they stay as they are.
+    fn fused(&self, inputs: &AgentInputs<'_>) -> Option<Neighbours> {
         // A vehicle restarted and not yet told anything (no leaders) only brakes
         // (`Guidance::restarted`): neighbours heard without leaders to balance them threw
         // a rejoining vehicle at 8.7 V_U in a random mission (stress seed 11, m0657).
         if self.heard.is_empty() || inputs.leaders.is_empty() {
-            return fly(agent, moving, law, inputs, k, self.dt);
+            return None;
         }
         let memory = self
             .memory
@@ -509,16 +528,25 @@ impl Hearing<'_> {
                 }
             }
         }
-        let fused = AgentInputs {
-            neighbours: &positions,
-            neighbour_velocities: &velocities,
-            neighbour_ages: &ages,
-            neighbour_sigmas: &sigmas,
-            neighbour_slots: &slots,
-            ..*inputs
-        };
-        fly(agent, moving, law, &fused, k, self.dt);
+        Some(Neighbours {
+            positions,
+            velocities,
+            ages,
+            sigmas,
+            slots,
+        })
     }
+}
+
+/// A vehicle's neighbour terms, owned ([`Hearing::fused`]): the per-neighbour slices of
+/// [`AgentInputs`].
+#[derive(Debug, PartialEq)]
+struct Neighbours {
+    positions: Vec<Vec3>,
+    velocities: Vec<Vec3>,
+    ages: Vec<f64>,
+    sigmas: Vec<f64>,
+    slots: Vec<Vec3>,
 }
 
 /// One step of `agent` from tick `k` under `law` with `inputs`: the paper's
@@ -538,5 +566,64 @@ fn fly(
         None => {
             agent.step_with(law, inputs, dt);
         }
+    }
+}
+
+#[cfg(test)]
+mod hearing_tests {
+    use super::*;
+    use vbap_math::potential::PairPotential;
+
+    fn heard(sender: u32, tick: u64, x: f64) -> Heard {
+        Heard {
+            sender,
+            tick,
+            position: Vec3::new(x, 0.0, 0.0),
+            velocity: Vec3::zeros(),
+        }
+    }
+
+    /// The relay knows neighbour 1 at x = 0, 100 s old; the modem heard it at x = 10, 5 s
+    /// ago, and vehicle 2 (not relayed) at x = 20, 5 s ago, and vehicle 3 long ago.
+    #[test]
+    fn heard_neighbours_are_fused_by_age_and_added_while_fresh() {
+        let pot = PairPotential {
+            alpha: 1.0,
+            d0: 1.0,
+            d1: 2.0,
+        };
+        let leaders = [Vec3::zeros()];
+        let relay = [Vec3::zeros()];
+        let inputs = AgentInputs {
+            neighbour_ages: &[100.0],
+            ..AgentInputs::paper(&leaders, &relay, pot, pot, 1.0)
+        };
+        let frames = [heard(1, 95, 10.0), heard(2, 95, 20.0), heard(3, 0, 30.0)];
+        let hearing = Hearing {
+            ids: &[1],
+            heard: &frames,
+            now: 100.0,
+            dt: 1.0,
+            memory: Some(10.0),
+        };
+        let n = hearing.fused(&inputs).expect("something was heard");
+        // Weights e^{-10} (relay) and e^{-0.5} (heard): nearly the heard position, 5 s old.
+        let (wr, wh) = ((-10.0f64).exp(), (-0.5f64).exp());
+        assert!((n.positions[0].x - 10.0 * wh / (wr + wh)).abs() < 1e-12);
+        assert_eq!(n.ages, vec![5.0, 5.0]);
+        // Vehicle 2 added; vehicle 3, heard 100 s ago (> τ), not.
+        assert_eq!(n.positions.len(), 2);
+        assert_eq!(n.positions[1].x, 20.0);
+        // Nothing heard, or no leaders (a restarted vehicle): the inputs as they are.
+        let deaf = Hearing {
+            heard: &[],
+            ..hearing
+        };
+        assert!(deaf.fused(&inputs).is_none());
+        let restarted = AgentInputs {
+            leaders: &[],
+            ..inputs
+        };
+        assert!(hearing.fused(&restarted).is_none());
     }
 }

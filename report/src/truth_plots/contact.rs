@@ -175,7 +175,10 @@ pub fn render_contact_svg(
     let frames: std::collections::BTreeMap<u32, Vec<f64>> = f
         .lanes
         .keys()
-        .map(|&id| (id, frames_sent(channel.as_deref(), id, m.dt, l.t0, l.t1)))
+        .map(|&id| {
+            let sent = channel.as_ref().map(|c| c.sent_between(id, l.t0, l.t1));
+            (id, sent.unwrap_or_default())
+        })
         .collect();
     let sent: usize = frames.values().map(Vec::len).sum();
     canvas::render((crate::plot::chart::WIDTH, height), |c| {
@@ -422,23 +425,6 @@ fn draw_sessions(
         c.rect((l.x(s.at), y), (1.0, dh), colour, 1.0)?;
     }
     Ok(())
-}
-
-/// When vehicle `id` starts an acoustic frame between `t0` and `t1` (s; tick length `dt`)
-/// by the mission's schedule and scheduled faults (none without a channel).
-fn frames_sent(channel: Option<&AcousticModel>, id: u32, dt: f64, t0: f64, t1: f64) -> Vec<f64> {
-    let Some(ch) = channel else {
-        return Vec::new();
-    };
-    let (k0, k1) = ((t0 / dt).floor() as u64, (t1 / dt).ceil() as u64);
-    (k0..k1)
-        .flat_map(|k| {
-            ch.expected(id, k)
-                .map(|n| ch.transmission_time(id, n))
-                .collect::<Vec<_>>()
-        })
-        .filter(|&at| at >= t0 && at <= t1)
-        .collect()
 }
 
 /// A vehicle's acoustic frames in its row at `y`: a mark along the bottom at each (one per

@@ -152,7 +152,7 @@ impl Model {
 
     /// What vehicle `id`'s links did in `[from, to)` (s): the bits of
     /// `crate::frames::LINK_SESSION`, `LINK_SESSION_FAILED`, `LINK_ACOUSTIC`. Both are
-    /// functions of the mission (`LinkModel::sessions`, `AcousticModel::expected`), as
+    /// functions of the mission (`LinkModel::sessions`, `AcousticModel::sent_between`), as
     /// `contact.svg` draws them.
     pub fn links_between(&self, id: u32, from: f64, to: f64) -> u8 {
         use crate::frames::{LINK_ACOUSTIC, LINK_SESSION, LINK_SESSION_FAILED};
@@ -167,15 +167,7 @@ impl Model {
             }
         }
         if let Some(ch) = &self.channel {
-            let dt = self.mission.mission.dt;
-            let (k0, k1) = ((from / dt).floor().max(0.0) as u64, (to / dt).ceil() as u64);
-            let sent = (k0..=k1).any(|k| {
-                ch.expected(id, k).any(|n| {
-                    let at = ch.transmission_time(id, n);
-                    at >= from && at < to
-                })
-            });
-            if sent {
+            if !ch.sent_between(id, from, to).is_empty() {
                 bits |= LINK_ACOUSTIC;
             }
         }
