@@ -70,6 +70,15 @@ enum Cmd {
     /// certificate per host (its endpoint address as subject alternative name); prints
     /// the lines to add to the hosts file.
     Certs(crate::certs::CertsArgs),
+    /// A run directory as one CF-1.8 NetCDF file (trajectories of the vehicles and the
+    /// virtual body, the readings, the truth per tick) for xarray, Panoply, ERDDAP.
+    Export {
+        /// The run directory.
+        run_dir: PathBuf,
+        /// The NetCDF file to write (replaced if it exists).
+        #[arg(long, value_name = "FILE.nc")]
+        netcdf: PathBuf,
+    },
     /// Timing analysis of a run from its tracing logs.
     Analyze {
         /// The run directory.
@@ -177,6 +186,7 @@ fn dispatch(cmd: Cmd, plugins: Option<&vbap_sim::Plugins>) -> Result<i32> {
         Cmd::Echo(args) => crate::introspect::echo(&args),
         Cmd::Ocean(args) => crate::ocean::main(&args),
         Cmd::Certs(args) => crate::certs::main(&args),
+        Cmd::Export { run_dir, netcdf } => export(&run_dir, &netcdf),
         Cmd::Analyze { run_dir, json } => vbap_report::analyze::main(&run_dir, json),
         Cmd::View { run_dir, addr } => view(&run_dir, &addr),
     }
@@ -198,6 +208,19 @@ fn check(mission: &Path, sets: &[KeySet]) -> Result<i32> {
         m.vehicles.count,
         m.ticks(),
         m.mission.dim
+    );
+    Ok(EXIT_OK)
+}
+
+/// `vbap export --netcdf`: the run directory as one CF-1.8 trajectory file.
+fn export(run_dir: &Path, netcdf: &Path) -> Result<i32> {
+    let done = vbap_report::export::export_netcdf(run_dir, netcdf)?;
+    eprintln!(
+        "vbap: wrote {} ({} trajectories: the vehicles and the body, {} ticks, {} variables)",
+        netcdf.display(),
+        done.trajectories,
+        done.ticks,
+        done.variables
     );
     Ok(EXIT_OK)
 }

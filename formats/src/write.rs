@@ -11,8 +11,12 @@ pub enum NcData {
     F32(Vec<f32>),
     /// 64-bit floats.
     F64(Vec<f64>),
-    /// Bytes (masks).
+    /// Bytes (masks, flags).
     I8(Vec<i8>),
+    /// 32-bit integers.
+    I32(Vec<i32>),
+    /// Characters (`NC_CHAR`: names, padded with NUL to the last dimension).
+    Char(Vec<u8>),
 }
 
 /// An attribute value.
@@ -24,6 +28,10 @@ pub enum NcAttr {
     F32(f32),
     /// A 64-bit float.
     F64(f64),
+    /// 32-bit integers (`flag_values` and `_FillValue` of an `I32` variable). Byte
+    /// attributes are not offered: `netcdf3` 0.6 pads them with 0x81, not the zeros the
+    /// format requires, and then refuses its own file.
+    I32(Vec<i32>),
 }
 
 /// A variable to write: name, dimensions (slowest first), values (row-major), attributes.
@@ -67,19 +75,43 @@ pub fn write_netcdf(
     vars: &[NcVar],
     title: &str,
 ) -> std::io::Result<()> {
+    let globals = [
+        ("Conventions".to_string(), NcAttr::Text("CF-1.8".into())),
+        ("title".to_string(), NcAttr::Text(title.into())),
+    ];
+    write_netcdf_with(path, offset64, dims, vars, &globals)
+}
+
+/// [`write_netcdf`] with the global attributes `globals` (in this order; `Conventions`
+/// and `title` are not added).
+pub fn write_netcdf_with(
+    path: &Path,
+    offset64: bool,
+    dims: &[(&str, usize)],
+    vars: &[NcVar],
+    globals: &[(String, NcAttr)],
+) -> std::io::Result<()> {
     let mut ds = DataSet::new();
     for (name, n) in dims {
         ds.add_fixed_dim(*name, *n).map_err(invalid)?;
     }
-    ds.add_global_attr_string("Conventions", "CF-1.8")
+    for (k, a) in globals {
+        match a {
+            NcAttr::Text(t) => ds.add_global_attr_string(k, t),
+            NcAttr::F32(x) => ds.add_global_attr_f32(k, vec![*x]),
+            NcAttr::F64(x) => ds.add_global_attr_f64(k, vec![*x]),
+            NcAttr::I32(x) => ds.add_global_attr_i32(k, x.clone()),
+        }
         .map_err(invalid)?;
-    ds.add_global_attr_string("title", title).map_err(invalid)?;
+    }
     for v in vars {
         let dims: Vec<&str> = v.dims.iter().map(String::as_str).collect();
         match v.data {
             NcData::F32(_) => ds.add_var_f32(&v.name, &dims),
             NcData::F64(_) => ds.add_var_f64(&v.name, &dims),
             NcData::I8(_) => ds.add_var_i8(&v.name, &dims),
+            NcData::I32(_) => ds.add_var_i32(&v.name, &dims),
+            NcData::Char(_) => ds.add_var_u8(&v.name, &dims),
         }
         .map_err(invalid)?;
         for (k, a) in &v.attrs {
@@ -87,6 +119,7 @@ pub fn write_netcdf(
                 NcAttr::Text(t) => ds.add_var_attr_string(&v.name, k, t),
                 NcAttr::F32(x) => ds.add_var_attr_f32(&v.name, k, vec![*x]),
                 NcAttr::F64(x) => ds.add_var_attr_f64(&v.name, k, vec![*x]),
+                NcAttr::I32(x) => ds.add_var_attr_i32(&v.name, k, x.clone()),
             }
             .map_err(invalid)?;
         }
@@ -104,6 +137,8 @@ pub fn write_netcdf(
             NcData::F32(d) => w.write_var_f32(&v.name, d),
             NcData::F64(d) => w.write_var_f64(&v.name, d),
             NcData::I8(d) => w.write_var_i8(&v.name, d),
+            NcData::I32(d) => w.write_var_i32(&v.name, d),
+            NcData::Char(d) => w.write_var_u8(&v.name, d),
         }
         .map_err(invalid)?;
     }
@@ -136,6 +171,8 @@ pub fn write_netcdf4(
             NcData::F32(_) => b.add_variable::<f32>(&v.name, &d),
             NcData::F64(_) => b.add_variable::<f64>(&v.name, &d),
             NcData::I8(_) => b.add_variable::<i8>(&v.name, &d),
+            NcData::I32(_) => b.add_variable::<i32>(&v.name, &d),
+            NcData::Char(_) => b.add_variable::<u8>(&v.name, &d),
         }
         .map_err(invalid)?;
         for (k, a) in &v.attrs {
@@ -151,6 +188,9 @@ pub fn write_netcdf4(
                 (_, NcAttr::F64(x)) => {
                     b.add_variable_attribute(id, k, NcAttrValue::Doubles(vec![*x]))
                 }
+                (_, NcAttr::I32(x)) => {
+                    b.add_variable_attribute(id, k, NcAttrValue::Ints(x.clone()))
+                }
             }
             .map_err(invalid)?;
         }
@@ -158,6 +198,8 @@ pub fn write_netcdf4(
             NcData::F32(x) => b.write_variable(id, x),
             NcData::F64(x) => b.write_variable(id, x),
             NcData::I8(x) => b.write_variable(id, x),
+            NcData::I32(x) => b.write_variable(id, x),
+            NcData::Char(x) => b.write_variable(id, x),
         }
         .map_err(invalid)?;
     }

@@ -9,9 +9,11 @@
 //! - [`report_plots`], [`truth_plots`]: the time series, the contact timeline, the true formation.
 //! - [`analyze`]: timing analysis from the message records (`vbap analyze`) and its plots.
 //! - [`rows`]: the run directory's CSV files read by column name.
+//! - [`export`]: the run as one CF-1.8 trajectory NetCDF file (`vbap export --netcdf`).
 
 pub mod analyze;
 mod draw;
+pub mod export;
 pub mod mission_plot;
 pub mod plot;
 pub mod report_plots;

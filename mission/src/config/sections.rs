@@ -118,6 +118,10 @@ pub struct MissionSection {
     /// damping·dt above 2, see [`Mission::stiffness`](super::Mission::stiffness)); false =
     /// such a mission is refused.
     pub allow_unstable: bool,
+    /// The date and time of mission time 0, RFC 3339 (`"2026-08-01T00:00:00Z"`); absent =
+    /// none (the exported NetCDF file then counts time from 1970-01-01, and says so).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub start: Option<String>,
 }
 
 impl Default for MissionSection {
@@ -134,6 +138,7 @@ impl Default for MissionSection {
             length_unit: String::new(),
             field_label: "T".into(),
             allow_unstable: false,
+            start: None,
         }
     }
 }

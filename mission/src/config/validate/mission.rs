@@ -62,5 +62,15 @@ pub(super) fn check(c: &Check, m: &MissionSection) -> Checked {
             "must be at most 32 characters, without control characters",
         )?;
     }
+    if let Some(start) = &m.start {
+        let parsed =
+            time::OffsetDateTime::parse(start, &time::format_description::well_known::Rfc3339);
+        c.ensure(
+            parsed.is_ok(),
+            "mission.start",
+            format!("{start:?}"),
+            "must be an RFC 3339 date and time, e.g. \"2026-08-01T00:00:00Z\"",
+        )?;
+    }
     Ok(())
 }
