@@ -316,7 +316,8 @@ fn describe(r: &SeedResult, at: &str) -> String {
     )
 }
 
-fn default_batch_dir(name: &str) -> Result<PathBuf> {
+/// Where a batch of mission `name` writes without `--out`: `runs/<name>-batch-<UTC time>/`.
+pub fn default_batch_dir(name: &str) -> Result<PathBuf> {
     Ok(vbap_mission::rundir::default_run_dir(&format!(
         "{name}-batch"
     ))?)

@@ -4,7 +4,7 @@
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 use vbap_ipc::process::{EXIT_FAILURE, EXIT_INVALID, EXIT_OK};
 use vbap_mission::config::{KeySet, Mission, Overrides, Pace};
@@ -411,39 +411,18 @@ fn prepare_mission(args: &RunArgs) -> Result<Mission> {
     Ok(mission)
 }
 
-/// The warnings of a valid mission that `check`, `run` and `sim` print on stderr: a time
-/// step stiff for the formation, a ring that trails its body, a start above `body.v_u`.
+/// The warnings of a valid mission that `check`, `run` and `sim` print on stderr
+/// ([`vbap_sim::mission_warnings`]).
 fn warn_about(mission: &Mission) {
-    let warnings = [
-        mission.stiffness_warning(),
-        mission.trail_warning(),
-        vehicle_agent::initial_lyapunov_warning(mission),
-    ];
-    for w in warnings.into_iter().flatten() {
+    for w in vbap_sim::mission_warnings(mission) {
         eprintln!("vbap: warning: {w}");
     }
 }
 
-/// Creates the run directory of `mission` and writes the resolved `mission.toml` into it.
+/// Creates the run directory of `mission` and writes the resolved `mission.toml` into it
+/// ([`vbap_sim::create_run_dir`]).
 fn prepare_dir(args: &RunArgs, mission: &Mission) -> Result<RunDir> {
-    let root = match &args.out {
-        Some(p) => p.clone(),
-        None => vbap_mission::rundir::default_run_dir(&mission.mission.name)?,
-    };
-    let dir = RunDir::create(&root)
-        .map_err(|e| InvalidInput(format!("--out {}: {e}", root.display())))?;
-    for existing in [dir.vehicles(), dir.body(), dir.summary()] {
-        if existing.exists() {
-            return Err(InvalidInput(format!(
-                "--out {}: already holds a run ({} exists); choose an empty directory",
-                root.display(),
-                existing.display()
-            ))
-            .into());
-        }
-    }
-    std::fs::write(dir.mission(), mission.to_toml_string()).context("writing mission.toml")?;
-    Ok(dir)
+    vbap_sim::create_run_dir(args.out.as_deref(), mission)
 }
 
 fn print_summary(summary: &Summary, dir: &RunDir, json: bool) -> Result<()> {

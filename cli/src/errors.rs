@@ -16,6 +16,9 @@ pub fn report(e: &anyhow::Error) -> i32 {
     } else if let Some(inv) = e.downcast_ref::<vbap_report::InvalidRunDir>() {
         eprintln!("vbap: {inv}");
         EXIT_INVALID
+    } else if let Some(inv) = e.downcast_ref::<vbap_sim::RunDirRefused>() {
+        eprintln!("vbap: {inv}");
+        EXIT_INVALID
     } else if let Some(cfg) = e.downcast_ref::<vbap_mission::config::ConfigError>() {
         eprintln!("vbap: {cfg}");
         EXIT_INVALID

@@ -7,8 +7,10 @@
 
 use std::time::Instant;
 
+pub mod front;
 pub mod plugins;
 
+pub use front::{create_run_dir, mission_warnings, RunDirRefused};
 pub use plugins::Plugins;
 
 use anyhow::{Context, Result};
