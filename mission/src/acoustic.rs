@@ -365,6 +365,9 @@ pub struct Ear {
     /// Per sender, frames of ticks before this one are no longer awaited nor taken
     /// ([`Ear::give_up`]).
     given_up: Vec<u64>,
+    /// Per sender, given up and not heard since: its frames are not awaited until one
+    /// comes (a process that died stays silent; a restarted one speaks again).
+    silent: Vec<bool>,
 }
 
 impl Ear {
@@ -375,6 +378,7 @@ impl Ear {
             from: first as f64 * model.dt,
             complete_from: vec![first; n],
             given_up: vec![0; n],
+            silent: vec![false; n],
             model,
             me,
             pending: Vec::new(),
@@ -428,6 +432,13 @@ impl Ear {
             self.rejected += 1;
             return;
         }
+        let i = frame.sender as usize;
+        if self.silent[i] && frame.tick >= self.given_up[i] {
+            // A given-up sender speaks again (a restarted process): awaited from this
+            // frame on; the frames of its silence will never come.
+            self.silent[i] = false;
+            self.complete_from[i] = self.complete_from[i].max(frame.tick);
+        }
         if !self.model.sends(frame.sender, frame.tick)
             || frame.tick < self.given_up[frame.sender as usize]
             || self
@@ -450,7 +461,7 @@ impl Ear {
     pub fn missing(&mut self, k: u64) -> Option<u32> {
         let model = self.model.clone();
         for sender in 0..model.vehicles as u32 {
-            if sender == self.me {
+            if sender == self.me || self.silent[sender as usize] {
                 continue;
             }
             let from = &mut self.complete_from[sender as usize];
@@ -470,11 +481,14 @@ impl Ear {
     }
 
     /// Stops waiting for `sender`'s frames before tick `k` (its process is gone without a
-    /// scheduled fault saying so); those that come late are ignored.
+    /// scheduled fault saying so); those that come late are ignored, and its later frames
+    /// are not awaited either until one of them comes ([`Ear::hear`]): a dead sender is
+    /// given up once, not at every frame the schedule gives it.
     pub fn give_up(&mut self, sender: u32, k: u64) {
         let i = sender as usize;
         self.complete_from[i] = self.complete_from[i].max(k);
         self.given_up[i] = self.given_up[i].max(k);
+        self.silent[i] = true;
     }
 
     fn position_at(&self, tick: u64) -> Option<Vec3> {

@@ -389,3 +389,60 @@ fn stopped_and_resumed_processes_carry_on() {
     }
     assert_nothing_left(&name, &tmp);
 }
+
+/// An agent killed outside every schedule on an acoustic mission: the others wait for its
+/// next frame (lockstep cannot tell a dead sender from a slow one) for 2 s, then give it
+/// up, once: its later frames are not awaited (before, each of them cost every agent
+/// another 2 s, and a 4-hour mission hours of wall time).
+#[test]
+fn an_acoustic_sender_killed_outside_the_schedule_is_given_up_once() {
+    let tmp = TempDir::new("acokill");
+    let name = unique_name("acokill");
+    let text = read(&workspace().join("deploy/missions/glider_acoustic.toml"))
+        .replace("name = \"glider_acoustic\"", &format!("name = \"{name}\""))
+        .replace("duration = 259200.0", "duration = 14400.0");
+    assert!(text.contains("duration = 14400.0"));
+    let file = write_mission(&tmp, "m.toml", &text);
+    let out = tmp.join("run");
+    let mut run = spawn_run(&file, &out);
+    wait_until(
+        || line_count(&out.join("body.csv")) > 200,
+        Duration::from_secs(120),
+        "the run to get going",
+    );
+    let victim = 3;
+    let needle = format!("{} --id {victim} --", out.join("mission.toml").display());
+    let pid = pid_of(&needle).expect("the agent runs");
+    assert!(std::process::Command::new("kill")
+        .args(["-9", &pid.to_string()])
+        .status()
+        .unwrap()
+        .success());
+    assert!(run.wait().success(), "the mission completes");
+    let s = summary(&out);
+    assert_eq!(s["ticks"], 1440, "every tick ran: {s}");
+    let ev = events(&out);
+    assert!(
+        ev.iter()
+            .any(|e| e["kind"] == "lost" && e["vehicle"] == victim),
+        "the dead vehicle is lost"
+    );
+    let mut warned = 0;
+    for id in (0..6).filter(|id| *id != victim) {
+        let log = read(&out.join(format!("logs/vehicle_agent_{id}.jsonl")));
+        let gave_up = log
+            .lines()
+            .filter(|l| l.contains("acoustic frames never came"))
+            .count();
+        assert!(
+            gave_up <= 1,
+            "agent {id} gave vehicle {victim} up {gave_up} times"
+        );
+        warned += gave_up;
+    }
+    assert!(
+        warned >= 1,
+        "the agents waited for the dead sender's frames and gave it up"
+    );
+    assert_nothing_left(&name, &tmp);
+}

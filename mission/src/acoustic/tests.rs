@@ -266,3 +266,38 @@ fn implausible_frames_are_refused_and_counted() {
     settle(&mut ear, Vec3::zeros(), 600);
     assert_eq!(ear.counts.total(), 1, "duplicates are one frame");
 }
+
+#[test]
+fn a_given_up_sender_is_not_awaited_again_until_it_speaks() {
+    // TDMA, 30-s interval: vehicle s sends its frame n at 30 n + 10 s (dt 1 s).
+    let m = model("interval = 30.0\nschedule = \"tdma\"");
+    let x = Vec3::zeros();
+    let mut ear = ear_of(&m, 0);
+    for sender in [1, 2] {
+        for n in 0..4 {
+            ear.hear(frame(&m, sender, n, x));
+        }
+    }
+    assert_eq!(ear.missing(111), None);
+    // Vehicle 2's process dies: its frame 4 (t = 140 s) never comes.
+    ear.hear(frame(&m, 1, 4, x));
+    assert_eq!(ear.missing(141), Some(2));
+    ear.give_up(2, 141);
+    assert_eq!(ear.missing(141), None);
+    for n in 5..9 {
+        ear.hear(frame(&m, 1, n, x));
+    }
+    assert_eq!(
+        ear.missing(251),
+        None,
+        "a dead sender is given up once, not at each of its frames"
+    );
+    assert_eq!(ear.missing(281), Some(1), "the others stay awaited");
+    // Vehicle 2 restarted: awaited again from the first frame heard of it.
+    ear.hear(frame(&m, 2, 9, x));
+    ear.hear(frame(&m, 1, 9, x));
+    assert_eq!(ear.missing(291), None);
+    assert_eq!(ear.missing(311), Some(1));
+    ear.hear(frame(&m, 1, 10, x));
+    assert_eq!(ear.missing(321), Some(2), "awaited again after it spoke");
+}
