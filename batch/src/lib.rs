@@ -117,6 +117,9 @@ pub struct BatchArgs {
     /// every combination; each value validated as if the file said it).
     #[arg(long = "sweep", value_name = "KEY=V1,V2,...")]
     pub sweep: Vec<SweepArg>,
+    /// Print nothing (not a command-line flag: the Python package reads the files).
+    #[arg(skip)]
+    pub silent: bool,
 }
 
 /// Runs the command; returns the exit code.
@@ -198,13 +201,24 @@ pub fn main(args: &BatchArgs) -> Result<i32> {
     agg.points = points::per_point(&rows, &points, &key_names);
     let json = serde_json::to_string_pretty(&agg)? + "\n";
     std::fs::write(out.join("batch.json"), &json).context("writing batch.json")?;
-    print!("{json}");
-    let _ = std::io::stdout().flush();
+    if !args.silent {
+        print!("{json}");
+        let _ = std::io::stdout().flush();
+    }
     if !keys.is_empty() {
         let table = points::table(&agg.points, &key_names);
         std::fs::write(out.join("points.txt"), &table).context("writing points.txt")?;
-        eprint!("{table}");
+        if !args.silent {
+            eprint!("{table}");
+        }
         plot::write(&out, &agg.mission, &agg.sweep, &agg.points)?;
+    }
+    if args.silent {
+        return Ok(if agg.passed {
+            vbap_ipc::process::EXIT_OK
+        } else {
+            vbap_ipc::process::EXIT_FAILURE
+        });
     }
     if resuming {
         eprintln!(

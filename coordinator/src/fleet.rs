@@ -220,20 +220,30 @@ impl Fleet {
         };
     }
 
-    /// Vehicle `v` is gone (killed, dead): forget what it sent that is still in flight.
-    /// Returns false when it was not alive.
-    pub fn lose(&mut self, v: u32) -> bool {
+    /// Vehicle `v` is gone (killed, dead): forget what it sent that is still in flight
+    /// (a glider that dies under water takes its held reports with it), counted as
+    /// dropped by the link. Returns the ticks of those reports (for the message records);
+    /// None when it was not alive.
+    pub fn lose(&mut self, v: u32) -> Option<Vec<u64>> {
         if !self.alive.remove(&v) {
-            return false;
+            return None;
         }
         self.lost.insert(v);
         if let Some(last) = self.latest.remove(&v) {
             self.hulls.insert(v, self.dead_reckoned(&last));
         }
+        let in_flight: Vec<u64> = self
+            .inbox
+            .held()
+            .iter()
+            .filter(|(_, _, r)| r.id == v)
+            .map(|(_, _, r)| r.tick)
+            .collect();
+        self.counts.dropped_injected += in_flight.len() as u64;
         self.purged.push((v, self.inbox.next_seq()));
         self.inbox.retain(|r| r.id != v);
         self.admitted.retain(|r| r.id != v);
-        true
+        Some(in_flight)
     }
 
     /// Where the vehicle of `last` is now, as a member out of contact is dead-reckoned

@@ -86,18 +86,18 @@ impl Loss {
 }
 
 /// Vehicle `v` is lost at tick `k` (length `dt`, s): the fleet forgets it. Returns the
-/// `lost` event to record; None when it was not alive (nothing changes).
-pub fn lose(fleet: &mut Fleet, k: u64, dt: f64, v: u32, loss: &Loss) -> Option<Event> {
-    if !fleet.lose(v) {
-        return None;
-    }
-    Some(Event {
+/// `lost` event to record and the ticks of its reports the link still held, now dropped
+/// ([`Fleet::lose`]); None when it was not alive (nothing changes).
+pub fn lose(fleet: &mut Fleet, k: u64, dt: f64, v: u32, loss: &Loss) -> Option<(Event, Vec<u64>)> {
+    let dropped = fleet.lose(v)?;
+    let event = Event {
         t: k as f64 * dt,
         k,
         kind: "lost".into(),
         vehicle: Some(v),
         detail: loss.detail(),
-    })
+    };
+    Some((event, dropped))
 }
 
 /// Lost vehicle `v` is admitted back at tick `k` (length `dt`, s): a member from this tick
@@ -248,7 +248,8 @@ mod tests {
         let mut fleet = Fleet::new(&m, &[0, 1, 2, 3]);
         assert_eq!(tick(&mut fleet, 0), (vec![0, 1, 2, 3], vec![0, 1, 2, 3]));
         fleet.end_tick();
-        let lost = lose(&mut fleet, 1, DT, 2, &Loss::scheduled_kill()).unwrap();
+        let (lost, in_flight) = lose(&mut fleet, 1, DT, 2, &Loss::scheduled_kill()).unwrap();
+        assert!(in_flight.is_empty(), "ideal links hold nothing");
         assert_eq!(
             (lost.kind.as_str(), lost.k, lost.vehicle),
             ("lost", 1, Some(2))
@@ -324,8 +325,10 @@ mod tests {
     fn a_lost_vehicle_s_reports_in_flight_are_dropped() {
         let mut fleet = ticked(&mission("[links]\ndelay = 0.5\n"), 3);
         let held = |f: &Fleet, v: u32| f.held_reports().0.iter().filter(|e| e.2.id == v).count();
-        assert!(held(&fleet, 1) > 0, "a 0.5 s delay holds reports");
-        lose(
+        let before = held(&fleet, 1);
+        assert!(before > 0, "a 0.5 s delay holds reports");
+        let dropped_before = fleet.counts.dropped_injected;
+        let (_, in_flight) = lose(
             &mut fleet,
             3,
             DT,
@@ -334,6 +337,12 @@ mod tests {
         )
         .unwrap();
         assert_eq!(held(&fleet, 1), 0);
+        assert_eq!(in_flight.len(), before, "the reports held are returned");
+        assert_eq!(
+            fleet.counts.dropped_injected,
+            dropped_before + before as u64,
+            "and counted as dropped with the vehicle"
+        );
         for k in 3..30 {
             let (members, fresh) = tick(&mut fleet, k);
             assert!(!members.contains(&1) && !fresh.contains(&1));

@@ -160,6 +160,7 @@ fn batch(
         quiet: true,
         sets,
         sweep,
+        silent: true,
     };
     let code = py.detach(|| vbap_batch::main(&args)).map_err(py_err)?;
     Ok((out.display().to_string(), code))

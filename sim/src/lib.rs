@@ -259,7 +259,9 @@ impl FaultWorld<'_> {
         spawn: &dyn Fn(Agent, u64) -> Vehicle,
     ) -> Result<()> {
         for v in plan.kills_at(k).collect::<Vec<_>>() {
-            if let Some(event) = membership::lose(self.fleet, k, dt, v, &Loss::scheduled_kill()) {
+            if let Some((event, _)) =
+                membership::lose(self.fleet, k, dt, v, &Loss::scheduled_kill())
+            {
                 if let Some(gone) = self.vehicles.remove(&v) {
                     self.tally.add_downlink(
                         gone.counts.delivered,

@@ -520,7 +520,9 @@ pub struct MessageCounts {
     pub sent: u64,
     /// Messages the link model delivered.
     pub delivered: u64,
-    /// Messages the link model dropped (loss, bursts, link down).
+    /// Messages the link model dropped (loss, bursts, link down; and the reports a lost
+    /// vehicle's link still held when it was lost: a glider that dies under water takes
+    /// them with it; the coordinator records each, reason `lost`).
     pub dropped_injected: u64,
     /// Messages lost to a full receive queue.
     pub dropped_overflow: u64,

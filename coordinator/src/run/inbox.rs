@@ -396,7 +396,7 @@ mod tests {
     fn a_lost_process_that_only_acknowledges_asks_to_join() {
         let (mut inbox, mut fleet) = setup();
         inbox.take_in(1, state(1, 10, 40, 0.0), &fleet, 10);
-        assert!(fleet.lose(1));
+        assert!(fleet.lose(1).is_some());
         inbox.peers[1].pid = 0;
         let ack = VehicleState {
             header: Header {

@@ -197,9 +197,15 @@ impl<P: Plan + Serialize> Coordinator<'_, P> {
     /// found.
     pub(super) fn lose(&mut self, v: u32, loss: Loss) -> Result<()> {
         let k = self.k;
-        let Some(event) = membership::lose(&mut self.fleet, k, self.dt, v, &loss) else {
+        let Some((event, dropped)) = membership::lose(&mut self.fleet, k, self.dt, v, &loss) else {
             return Ok(());
         };
+        // Its reports the link still held die with it: dropped, as the simulator counts them.
+        for tick in dropped {
+            self.inbox
+                .msgs
+                .drop("state", v, Header::COORDINATOR, tick, "lost");
+        }
         if let Some(f) = loss.found {
             warn!(
                 vehicle = v,
