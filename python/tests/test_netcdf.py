@@ -72,3 +72,24 @@ def test_a_geographic_and_a_diving_mission_pass_the_cf_checker(tmp_path):
             assert 7.6 < np.nanmin(lon) and np.nanmax(lon) < 8.2
         else:
             assert "z" in ds
+
+
+def test_each_table_is_a_dataset_indexed_by_tick_and_vehicle(tmp_path):
+    run = vbap.sim(MISSIONS / "glider_surfacing.toml", duration=3600.0, out=tmp_path / "r")
+    v = run.to_xarray("vehicles")
+    assert dict(v.sizes) == {"k": 360, "id": 6}
+    np.testing.assert_array_equal(v["t"].values, run.body["t"].to_numpy())
+    rows = run.vehicles[run.vehicles["id"] == 4].sort_values("k")
+    np.testing.assert_array_equal(v["x"].sel(id=4).values, rows["x"].to_numpy())
+    body = run.to_xarray("body")
+    assert dict(body.sizes) == {"k": 360}
+    f = run.to_xarray("formation")
+    assert set(np.unique(f["contact"].values)) <= {
+        "contact", "surfaced", "submerged", "link_down", "dead", "rejoining"
+    }
+    try:
+        run.to_xarray("nothing")
+    except vbap.InvalidInput as e:
+        assert "not a table" in str(e)
+    else:
+        raise AssertionError("an unknown table is refused")

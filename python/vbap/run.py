@@ -90,12 +90,38 @@ class Run:
 
         return export_netcdf(self.path, path)
 
-    def to_xarray(self):
-        """The run as an ``xarray.Dataset``: the CF trajectories of :meth:`to_netcdf`
-        (dimensions ``trajectory``: the vehicles then the body, ``obs``: the ticks),
-        loaded into memory."""
+    #: The tables :meth:`to_xarray` turns into Datasets, with their index columns.
+    TABLE_INDEX = {
+        "vehicles": ["k", "id"],
+        "formation": ["k", "id"],
+        "body": ["k"],
+        "truth": ["k"],
+        "planner_inputs": ["k", "role", "id"],
+    }
+
+    def to_xarray(self, table: str | None = None):
+        """The run as an ``xarray.Dataset``.
+
+        Without ``table``: the CF trajectories of :meth:`to_netcdf` (dimensions
+        ``trajectory``: the vehicles then the body, ``obs``: the ticks), loaded into
+        memory. With ``table`` (``"vehicles"``, ``"formation"``, ``"body"``, ``"truth"``,
+        ``"planner_inputs"``): that table indexed by tick ``k`` (and vehicle ``id``), each
+        other column a variable; ``t`` (s) a coordinate along ``k``.
+        """
         import xarray as xr
 
+        if table is not None:
+            if table not in self.TABLE_INDEX:
+                raise InvalidInput(
+                    f"{table!r}: not a table of a run ({', '.join(self.TABLE_INDEX)})"
+                )
+            frame = getattr(self, table)
+            ds = frame.set_index(self.TABLE_INDEX[table]).to_xarray()
+            if "t" in ds:
+                # One time per tick: a coordinate along k.
+                t = frame.groupby("k")["t"].first()
+                ds = ds.drop_vars("t").assign_coords(t=("k", t.reindex(ds["k"].values).values))
+            return ds
         with tempfile.TemporaryDirectory() as tmp:
             file = Path(tmp) / "run.nc"
             self.to_netcdf(file)
