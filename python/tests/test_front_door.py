@@ -117,3 +117,20 @@ def test_run_tables_are_dataframes(tmp_path):
     assert inputs[inputs["k"] == 0]["measurement"].isna().all(), "NaN read as NaN"
     with pytest.raises(vbap.InvalidInput, match="not a run directory"):
         vbap.Run(tmp_path)
+
+
+def test_the_message_records_of_a_multi_process_run_are_one_table(tmp_path):
+    mission = MISSIONS / "paper.toml"
+    name = f"pyrecords{__import__('os').getpid()}"
+    done = cli(
+        "run", mission, "--duration", "5", "--set", f'mission.name="{name}"', "--quiet",
+        "--out", tmp_path / "run",
+    )
+    assert done.returncode == 0, done.stderr
+    run = vbap.Run(tmp_path / "run")
+    m = run.messages
+    assert {"coordinator", "field_server", "vehicle_agent_0"} <= set(m["process"])
+    state = m[(m["hop"] == "state") & (m["event"] == "recv")]
+    assert len(state) > 0
+    assert (state["recv_ns"] >= state["sent_ns"]).all(), "one host clock"
+    assert vbap.sim(mission, duration=1.0, out=tmp_path / "sim").messages.empty

@@ -84,6 +84,23 @@ class Run:
         rows = [json.loads(line) for line in file.read_text().splitlines() if line.strip()]
         return pd.DataFrame(rows)
 
+    @cached_property
+    def messages(self) -> pd.DataFrame:
+        """The message records of a ``vbap run`` (``logs/*.msgs.csv``), every process's in
+        one table: ``process`` (the file's name), then ``event`` (send, recv, held, drop),
+        ``hop``, ``sender``, ``receiver``, ``tick``, ``seq``, ``sent_ns``, ``recv_ns``,
+        ``injected_ns``, ``reason``, ``bytes``; e.g. the state hop's transport latency is
+        ``recv_ns - sent_ns - injected_ns`` of its ``recv`` rows. Empty for a ``vbap sim``
+        run (no processes, no records)."""
+        frames = []
+        for file in sorted((self.path / "logs").glob("*.msgs.csv")):
+            frame = pd.read_csv(file, dtype={"sent_ns": "Int64", "recv_ns": "Int64", "injected_ns": "Int64"})
+            frame.insert(0, "process", file.name.removesuffix(".msgs.csv"))
+            frames.append(frame)
+        if not frames:
+            return pd.DataFrame()
+        return pd.concat(frames, ignore_index=True)
+
     def to_netcdf(self, path: PathLike) -> Path:
         """Writes the run as one CF-1.8 trajectory NetCDF file (``vbap export --netcdf``)."""
         from . import export_netcdf
