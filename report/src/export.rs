@@ -27,6 +27,7 @@ use anyhow::{Context, Result};
 use vbap_formats::write::{write_netcdf_with, NcAttr, NcData, NcVar};
 use vbap_mission::config::Mission;
 use vbap_mission::rundir::RunDir;
+use vbap_wire::rundir::CONTACT_STATES;
 
 use crate::InvalidRunDir;
 
@@ -199,20 +200,79 @@ fn meaning(column: &str, mission: &Mission) -> Meaning {
     }
 }
 
-/// Per tick and trajectory values of one variable, `[trajectory * ticks + k]`.
-struct Grid {
-    values: Vec<f64>,
+/// The double variables, each `[trajectory * ticks + k]` (NaN: missing), in the order
+/// first asked for.
+struct Grids {
+    cells: usize,
+    ticks: usize,
+    vars: Vec<(String, Vec<f64>)>,
 }
 
-/// The contact states of `formation.csv` as a byte flag, in this order.
-const CONTACT_STATES: [&str; 6] = [
-    "contact",
-    "surfaced",
-    "submerged",
-    "link_down",
-    "dead",
-    "rejoining",
-];
+impl Grids {
+    fn new(trajectories: usize, ticks: usize) -> Grids {
+        Grids {
+            cells: trajectories * ticks,
+            ticks,
+            vars: Vec::new(),
+        }
+    }
+
+    /// The variable `name`, added (all missing) if new.
+    fn index(&mut self, name: &str) -> usize {
+        if let Some(i) = self.vars.iter().position(|(n, _)| n == name) {
+            return i;
+        }
+        self.vars
+            .push((name.to_string(), vec![f64::NAN; self.cells]));
+        self.vars.len() - 1
+    }
+
+    fn values(&self, name: &str) -> &[f64] {
+        let i = self.vars.iter().position(|(n, _)| n == name);
+        i.map_or(&[], |i| &self.vars[i].1)
+    }
+
+    /// Every column of `table` but those `skip` names, each into the variable `rename`
+    /// names, at the (trajectory, tick) `place` gives each row (None: the row is skipped).
+    fn fill(
+        &mut self,
+        table: &Table,
+        skip: impl Fn(&str) -> bool,
+        rename: fn(&str) -> &str,
+        place: impl Fn(&csv::StringRecord) -> Option<(usize, usize)>,
+    ) {
+        let columns: Vec<(usize, usize)> = table
+            .header
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| !skip(c))
+            .map(|(i, c)| (i, self.index(rename(c))))
+            .collect();
+        for r in &table.rows {
+            let Some((traj, k)) = place(r).filter(|&(_, k)| k < self.ticks) else {
+                continue;
+            };
+            for &(i, v) in &columns {
+                self.vars[v].1[traj * self.ticks + k] = number(&r[i]).unwrap_or(f64::NAN);
+            }
+        }
+    }
+}
+
+/// A column keeps its name.
+fn same(column: &str) -> &str {
+    column
+}
+
+/// The body's centre r is the body trajectory's position.
+fn body_column(column: &str) -> &str {
+    match column {
+        "rx" => "x",
+        "ry" => "y",
+        "rz" => "z",
+        other => other,
+    }
+}
 
 /// Writes `run_dir` as a CF-1.8 trajectory NetCDF file at `out` (see the module
 /// documentation). A run directory that is not one, or lacks a file, is an
@@ -235,16 +295,10 @@ pub fn export_netcdf(run_dir: &Path, out: &Path) -> Result<Exported> {
         .map_err(|e| InvalidRunDir(format!("{}: {e:#}", dir.mission().display())))?;
     let body = Table::read(&dir.body())?;
     let vehicles = Table::read(&dir.vehicles())?;
-    let formation = dir
-        .formation()
-        .is_file()
-        .then(|| Table::read(&dir.formation()))
-        .transpose()?;
-    let truth = dir
-        .truth()
-        .is_file()
-        .then(|| Table::read(&dir.truth()))
-        .transpose()?;
+    let optional =
+        |path: std::path::PathBuf| path.is_file().then(|| Table::read(&path)).transpose();
+    let formation = optional(dir.formation())?;
+    let truth = optional(dir.truth())?;
 
     // The ticks: every k of body.csv (one row per tick), their times.
     let (bk, bt) = (
@@ -280,86 +334,39 @@ pub fn export_netcdf(run_dir: &Path, out: &Path) -> Result<Exported> {
     } else {
         &["x", "y"]
     };
+    // (id, k) of a vehicle's row; (the body, k) of a tick's.
+    let vehicle_at = |id_col: usize, k_col: usize| {
+        move |r: &csv::StringRecord| {
+            let (k, id) = (number(&r[k_col])? as usize, number(&r[id_col])? as usize);
+            (id < n).then_some((id, k))
+        }
+    };
+    let body_at =
+        |k_col: usize| move |r: &csv::StringRecord| Some((body_row, number(&r[k_col])? as usize));
 
     let mut vars: Vec<NcVar> = Vec::new();
-    let mut doubles: Vec<(String, Grid)> = Vec::new();
-    let grid_of = |name: &str, doubles: &mut Vec<(String, Grid)>| -> usize {
-        if let Some(i) = doubles.iter().position(|(n, _)| n == name) {
-            return i;
-        }
-        doubles.push((
-            name.to_string(),
-            Grid {
-                values: vec![f64::NAN; rows * ticks],
-            },
-        ));
-        doubles.len() - 1
-    };
+    let mut grids = Grids::new(rows, ticks);
     // Positions first: the vehicles' true x, y (z), the body's r.
     for a in axes {
-        grid_of(a, &mut doubles);
+        grids.index(a);
     }
-    // The vehicles' columns.
-    let skip_vehicle = |c: &str| matches!(c, "t" | "k" | "id") || (dim == 2 && c.ends_with('z'));
-    let vcols: Vec<(usize, usize)> = vehicles
-        .header
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| !skip_vehicle(c))
-        .map(|(i, c)| (i, grid_of(c, &mut doubles)))
-        .collect();
-    for r in &vehicles.rows {
-        let (Some(k), Some(id)) = (number(&r[vk]), number(&r[vid])) else {
-            continue;
-        };
-        let (k, id) = (k as usize, id as usize);
-        if k < ticks {
-            for &(i, g) in &vcols {
-                doubles[g].1.values[cell(id, k)] = number(&r[i]).unwrap_or(f64::NAN);
-            }
-        }
-    }
-    // The body's columns; r is the body trajectory's position.
-    let skip_body = |c: &str| matches!(c, "t" | "k") || (dim == 2 && c.ends_with('z'));
-    let bcols: Vec<(usize, usize)> = body
-        .header
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| !skip_body(c))
-        .map(|(i, c)| {
-            let name = match c.as_str() {
-                "rx" => "x",
-                "ry" => "y",
-                "rz" => "z",
-                other => other,
-            };
-            (i, grid_of(name, &mut doubles))
-        })
-        .collect();
-    for r in &body.rows {
-        if let Some(k) = number(&r[bk]) {
-            for &(i, g) in &bcols {
-                doubles[g].1.values[cell(body_row, k as usize)] = number(&r[i]).unwrap_or(f64::NAN);
-            }
-        }
-    }
+    let flat = |c: &str| dim == 2 && c.ends_with('z');
+    grids.fill(
+        &vehicles,
+        |c| matches!(c, "t" | "k" | "id") || flat(c),
+        same,
+        vehicle_at(vid, vk),
+    );
+    grids.fill(
+        &body,
+        |c| matches!(c, "t" | "k") || flat(c),
+        body_column,
+        body_at(bk),
+    );
     // The truth per tick, on the body trajectory.
     if let Some(truth) = &truth {
         let tk = truth.column(&dir.truth(), "k")?;
-        let tcols: Vec<(usize, usize)> = truth
-            .header
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| !matches!(c.as_str(), "t" | "k"))
-            .map(|(i, c)| (i, grid_of(c, &mut doubles)))
-            .collect();
-        for r in &truth.rows {
-            if let Some(k) = number(&r[tk]).map(|k| k as usize).filter(|k| *k < ticks) {
-                for &(i, g) in &tcols {
-                    doubles[g].1.values[cell(body_row, k)] = number(&r[i]).unwrap_or(f64::NAN);
-                }
-            }
-        }
+        grids.fill(truth, |c| matches!(c, "t" | "k"), same, body_at(tk));
     }
     // Each vehicle's true formation: numbers, and two integer flags.
     let mut contact = vec![FILL_I32; rows * ticks];
@@ -372,24 +379,13 @@ pub fn export_netcdf(run_dir: &Path, out: &Path) -> Result<Exported> {
             f.column(&path, "contact")?,
             f.column(&path, "in_formation")?,
         );
-        let fcols: Vec<(usize, usize)> = f
-            .header
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| !matches!(c.as_str(), "t" | "k" | "id" | "contact" | "in_formation"))
-            .map(|(i, c)| (i, grid_of(c, &mut doubles)))
-            .collect();
+        let skip = |c: &str| matches!(c, "t" | "k" | "id" | "contact" | "in_formation");
+        grids.fill(f, skip, same, vehicle_at(fid, fk));
+        let at = vehicle_at(fid, fk);
         for r in &f.rows {
-            let (Some(k), Some(id)) = (number(&r[fk]), number(&r[fid])) else {
+            let Some((id, k)) = at(r).filter(|&(_, k)| k < ticks) else {
                 continue;
             };
-            let (k, id) = (k as usize, id as usize);
-            if k >= ticks || id >= n {
-                continue;
-            }
-            for &(i, g) in &fcols {
-                doubles[g].1.values[cell(id, k)] = number(&r[i]).unwrap_or(f64::NAN);
-            }
             if let Some(s) = CONTACT_STATES.iter().position(|s| *s == &r[fc]) {
                 contact[cell(id, k)] = s as i32;
             }
@@ -460,7 +456,7 @@ pub fn export_netcdf(run_dir: &Path, out: &Path) -> Result<Exported> {
     // Longitude and latitude of a mission on a geographic grid.
     let origin = mission.field.grid.0.as_ref().and_then(|g| g.origin);
     if let Some([lon0, lat0]) = origin {
-        let (x, y) = (&doubles[0].1.values, &doubles[1].1.values);
+        let (x, y) = (grids.values("x"), grids.values("y"));
         let mut lon = vec![FILL_F64; rows * ticks];
         let mut lat = vec![FILL_F64; rows * ticks];
         for i in 0..rows * ticks {
@@ -491,7 +487,7 @@ pub fn export_netcdf(run_dir: &Path, out: &Path) -> Result<Exported> {
     }
     // Depth of diving gliders.
     if dim == 3 && mission.vehicles.dive_depth.is_some() && length == "m" {
-        let z = &doubles[2].1.values;
+        let z = grids.values("z");
         let depth: Vec<f64> = z
             .iter()
             .map(|z| if z.is_finite() { -z } else { FILL_F64 })
@@ -514,9 +510,8 @@ pub fn export_netcdf(run_dir: &Path, out: &Path) -> Result<Exported> {
     }
 
     // The double variables.
-    for (name, grid) in doubles {
-        let data: Vec<f64> = grid
-            .values
+    for (name, values) in grids.vars {
+        let data: Vec<f64> = values
             .iter()
             .map(|v| if v.is_finite() { *v } else { FILL_F64 })
             .collect();

@@ -122,6 +122,24 @@ fn pid_of(needle: &str) -> Option<u32> {
     processes_mentioning(needle).into_iter().next()
 }
 
+/// A real SIGKILL to the one process whose command line holds `needle`.
+fn sigkill(needle: &str) {
+    let pid = pid_of(needle).unwrap_or_else(|| panic!("no process runs {needle:?}"));
+    assert!(std::process::Command::new("kill")
+        .args(["-9", &pid.to_string()])
+        .status()
+        .unwrap()
+        .success());
+}
+
+/// A real SIGKILL to vehicle `id`'s agent of the run in `out`.
+fn sigkill_agent(out: &std::path::Path, id: u32) {
+    sigkill(&format!(
+        "{} --id {id} --",
+        out.join("mission.toml").display()
+    ));
+}
+
 #[test]
 fn a_killed_coordinator_resumes_from_its_checkpoint_and_the_run_equals_the_simulator() {
     let tmp = TempDir::new("coordkill");
@@ -147,12 +165,7 @@ fn a_killed_coordinator_resumes_from_its_checkpoint_and_the_run_equals_the_simul
         "coordinator --mission {}",
         out.join("mission.toml").display()
     );
-    let pid = pid_of(&needle).expect("the coordinator runs");
-    assert!(std::process::Command::new("kill")
-        .args(["-9", &pid.to_string()])
-        .status()
-        .unwrap()
-        .success());
+    sigkill(&needle);
     assert!(
         run.wait().success(),
         "the run completes after the coordinator restart"
@@ -182,13 +195,7 @@ fn random_agent_kills_are_survived_and_the_restarted_agents_rejoin() {
     );
     // Kill three agents one after another; each must be found dead and come back.
     for (round, victim) in [1u32, 3, 1].into_iter().enumerate() {
-        let needle = format!("{} --id {victim} --", out.join("mission.toml").display());
-        let pid = pid_of(&needle).expect("the agent runs");
-        assert!(std::process::Command::new("kill")
-            .args(["-9", &pid.to_string()])
-            .status()
-            .unwrap()
-            .success());
+        sigkill_agent(&out, victim);
         let ev_path = out.join("events.jsonl");
         wait_until(
             || {
@@ -411,13 +418,7 @@ fn an_acoustic_sender_killed_outside_the_schedule_is_given_up_once() {
         "the run to get going",
     );
     let victim = 3;
-    let needle = format!("{} --id {victim} --", out.join("mission.toml").display());
-    let pid = pid_of(&needle).expect("the agent runs");
-    assert!(std::process::Command::new("kill")
-        .args(["-9", &pid.to_string()])
-        .status()
-        .unwrap()
-        .success());
+    sigkill_agent(&out, victim);
     assert!(run.wait().success(), "the mission completes");
     let s = summary(&out);
     assert_eq!(s["ticks"], 1440, "every tick ran: {s}");

@@ -54,6 +54,16 @@ pub const BODY_HEADER: &str =
 /// alive and `slot_error` ≤ `vbap_math::fit::IN_FORMATION`. Empty field = none.
 pub const FORMATION_HEADER: &str =
     "t,k,id,contact,info_age_s,slot_error,nearest_ratio,in_formation";
+/// The values of `formation.csv`'s `contact` column ([`FORMATION_HEADER`]), in the order
+/// the viewer's JSON and the exported NetCDF flags number them (0…5).
+pub const CONTACT_STATES: [&str; 6] = [
+    "contact",
+    "surfaced",
+    "submerged",
+    "link_down",
+    "dead",
+    "rejoining",
+];
 /// Header of `truth.csv`: one row per tick. `V_true_over_VU`: V of (II.2) from the true
 /// states of the formation's members ÷ V_U; `V_seen_over_VU`: the coordinator's own V ÷
 /// V_U; `min_pair_ratio`, `max_slot_error`: over live vehicles, ÷ design spacing;

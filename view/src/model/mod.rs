@@ -21,14 +21,7 @@ use read::Files;
 
 /// Contact states of `formation.csv`, in the order of their codes in the JSON (0…5); 6 is
 /// a state this viewer does not know.
-pub const CONTACTS: [&str; 6] = [
-    "contact",
-    "surfaced",
-    "submerged",
-    "link_down",
-    "dead",
-    "rejoining",
-];
+pub use vbap_wire::rundir::CONTACT_STATES as CONTACTS;
 
 /// Code of the contact state `s` ([`CONTACTS`]).
 pub fn contact_code(s: &str) -> u8 {
