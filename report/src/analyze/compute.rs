@@ -121,7 +121,9 @@ fn periods(times: &[(u64, u64)]) -> Vec<(u64, f64)> {
 /// The per-hop figures and distributions from the merged accumulators.
 fn hop_reports(hops: BTreeMap<String, HopAcc>, report: &mut Report, dists: &mut Distributions) {
     for (hop, mut acc) in hops {
-        let received = acc.transport_us.len() as u64;
+        // Commands whose fate was drawn but never read (a killed process) were sent to
+        // a live vehicle all the same: counted received, as the simulator counts them.
+        let received = acc.transport_us.len() as u64 + acc.unread();
         // Two ways of logging the link model: reception records that carry the injected
         // delay (every record is a delivery), or receptions logged on arrival over IPC, the
         // link model deciding afterwards (separate "held" and "drop" records): then the

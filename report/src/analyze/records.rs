@@ -3,7 +3,7 @@
 //! what it contributes ([`Partial`]), the files in parallel.
 
 use std::borrow::Cow;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
@@ -104,6 +104,12 @@ pub(super) struct HopAcc {
     pub(super) bytes_max: u64,
     /// Drops of the acoustic hop by verdict (`range`, `collision`, ...).
     pub(super) reasons: BTreeMap<String, u64>,
+    /// Commands (vehicle, tick) whose fate the vehicle's link drew (a `held` or `drop`
+    /// record of the body hop), and those its process read (`recv`): a fate drawn for a
+    /// command never read (the process was killed first) is still a command sent to it,
+    /// as the simulator counts it ([`HopAcc::unread`]).
+    pub(super) fated: BTreeSet<(u32, u64)>,
+    pub(super) read: BTreeSet<(u32, u64)>,
 }
 
 impl HopAcc {
@@ -120,6 +126,13 @@ impl HopAcc {
         for (r, n) in other.reasons {
             *self.reasons.entry(r).or_default() += n;
         }
+        self.fated.extend(other.fated);
+        self.read.extend(other.read);
+    }
+
+    /// Commands whose fate was drawn but which no record says were read.
+    pub(super) fn unread(&self) -> u64 {
+        self.fated.difference(&self.read).count() as u64
     }
 }
 
@@ -163,6 +176,18 @@ impl Partial {
             Some(a) => a,
             None => self.hops.entry(r.hop.to_string()).or_default(),
         };
+        if plain == "body" && is_agent {
+            if let (Some(v), Some(t)) = (r.vehicle, r.tick) {
+                match r.event {
+                    MsgEvent::Held | MsgEvent::Drop => {
+                        acc.fated.insert((v, t));
+                    }
+                    MsgEvent::Recv => {
+                        acc.read.insert((v, t));
+                    }
+                }
+            }
+        }
         match r.event {
             // Dropped: by a full queue, or by the link model (loss, burst, link_down).
             MsgEvent::Drop if plain == ACOUSTIC => {

@@ -261,3 +261,39 @@ fn the_text_lists_the_median_and_worst_of_many_agents() {
     assert!(text.contains("(12 lockstep ticks)"), "{text}");
     assert!(text.contains("\nwaiting for states "), "{text}");
 }
+
+/// A command whose fate the agent drew but never read (its process was killed first) was
+/// still sent to it: counted received, and delivered or dropped by its fate.
+#[test]
+fn commands_fated_but_never_read_are_counted_as_sent() {
+    use vbap_wire::msglog::MsgLog;
+    let root = std::env::temp_dir().join(format!("vbap-analyze-unread-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(root.join("logs")).unwrap();
+    let dir = RunDir { root: root.clone() };
+    let t0: u64 = 1_795_437_897_283_832_923;
+    const COORD: u32 = u32::MAX - 1;
+    {
+        let mut agent = MsgLog::open(&dir.msg_log("vehicle_agent_0")).unwrap();
+        // Fates drawn for commands 0..5 (delayed 3 s; 4 superseded), 0..3 read.
+        for k in 0..5u64 {
+            if k == 4 {
+                agent.drop("body", COORD, 0, k, "superseded");
+            } else {
+                agent.held("body", COORD, 0, k, 3.0);
+            }
+        }
+        for k in 0..3u64 {
+            let sent = t0 + k * 1_000_000;
+            agent.recv("body", COORD, 0, k, k + 1, sent, sent + 20_000);
+        }
+    }
+    let (r, _) = compute(&dir).unwrap();
+    let body = &r.hops["body"];
+    assert_eq!(
+        (body.received, body.delivered, body.superseded),
+        (5, 4, 1),
+        "commands 3 and 4 were sent though never read"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
