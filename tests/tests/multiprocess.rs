@@ -310,7 +310,11 @@ fn lockstep_equals_in_process_with_quantised_commands_whose_sizes_agree() {
 #[test]
 fn lockstep_equals_in_process_over_iridium_sessions() {
     let shipped = read(&workspace().join("deploy/missions/glider_iridium.toml"));
-    for (tag, extra) in [("as shipped", ""), ("refusing", "refuse")] {
+    for (tag, extra) in [
+        ("as shipped", ""),
+        ("refusing", "refuse"),
+        ("kill and restart", "kill"),
+    ] {
         let name = unique_name("eqiri");
         let mut text = shipped
             .replace("name = \"glider_iridium\"", &format!("name = \"{name}\""))
@@ -320,9 +324,20 @@ fn lockstep_equals_in_process_over_iridium_sessions() {
                 .replace("down_limit = 1890", "down_limit = 900")
                 .replace("oversize = \"split\"", "oversize = \"refuse\"");
         }
+        if extra == "kill" {
+            // Glider 2 dies with reports queued under water and commands unread, and
+            // comes back an hour later asking to join.
+            text += "\n[restart]\nvehicles = \"on-failure\"\n\n[[faults]]\nkind = \"kill\"\n\
+                     vehicle = 2\nat = 3600.0\nuntil = 7200.0\n";
+        }
         let tmp = assert_run_equals_sim(&text);
         let run = tmp.join("run");
         let s = summary(&run);
+        assert_eq!(
+            s["messages"],
+            summary(&tmp.join("sim"))["messages"],
+            "{tag}: the run's message counts are the simulator's"
+        );
         let bytes = &s["link_bytes"];
         let iridium = &bytes["iridium"];
         assert!(iridium["sessions"].as_u64().unwrap() > 0, "{tag}: {bytes}");

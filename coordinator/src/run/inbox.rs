@@ -144,8 +144,13 @@ impl Inbox {
     /// Takes in state `s` read from vehicle `id`'s subscriber while tick `k` is under way.
     fn take_in(&mut self, id: u32, s: VehicleState, fleet: &Fleet, k: u64) {
         let h = s.header;
+        // Acknowledgements and join requests are the protocol's, not reports the link
+        // model carries (the simulator's rejoin sends none): hops of their own, outside
+        // the summary's `messages`.
         let hop = if h.flags & VehicleState::ACK != 0 {
             "state_ack"
+        } else if h.flags & VehicleState::JOINING != 0 {
+            "join"
         } else {
             "state"
         };

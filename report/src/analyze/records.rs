@@ -76,7 +76,7 @@ fn hop_across<'a>(
     remote: &std::collections::BTreeSet<u32>,
 ) -> Cow<'a, str> {
     let across = match hop {
-        "state" | "state_ack" => remote.contains(&sender),
+        "state" | "state_ack" | "join" => remote.contains(&sender),
         "body" => remote.contains(&receiver),
         _ => false,
     };
