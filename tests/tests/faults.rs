@@ -433,7 +433,10 @@ fn an_acoustic_sender_killed_outside_the_schedule_is_given_up_once() {
         let log = read(&out.join(format!("logs/vehicle_agent_{id}.jsonl")));
         let gave_up = log
             .lines()
-            .filter(|l| l.contains("acoustic frames never came"))
+            .filter(|l| {
+                l.contains("acoustic frames never came")
+                    && l.contains(&format!("\"sender\":{victim}"))
+            })
             .count();
         assert!(
             gave_up <= 1,
