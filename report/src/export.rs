@@ -91,11 +91,10 @@ struct Meaning {
     standard_name: Option<&'static str>,
 }
 
-/// The mission's length unit as UDUNITS text, or `None` when it is not one UDUNITS knows
-/// (non-dimensional missions: "1").
+/// The mission's length unit as UDUNITS text; `"1"` (dimensionless) for a non-dimensional
+/// mission or a unit UDUNITS is not known to read.
 fn length_units(unit: &str) -> String {
     match unit.trim() {
-        "" => "1".into(),
         u @ ("m" | "km" | "cm" | "mm" | "nmi") => u.into(),
         _ => "1".into(),
     }

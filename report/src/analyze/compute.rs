@@ -123,7 +123,7 @@ fn hop_reports(hops: BTreeMap<String, HopAcc>, report: &mut Report, dists: &mut 
     for (hop, mut acc) in hops {
         // Commands whose fate was drawn but never read (a killed process) were sent to
         // a live vehicle all the same: counted received, as the simulator counts them.
-        let received = acc.transport_us.len() as u64 + acc.unread();
+        let received = acc.transport_us.len() as u64 + acc.unread;
         // Two ways of logging the link model: reception records that carry the injected
         // delay (every record is a delivery), or receptions logged on arrival over IPC, the
         // link model deciding afterwards (separate "held" and "drop" records): then the

@@ -104,12 +104,14 @@ pub(super) struct HopAcc {
     pub(super) bytes_max: u64,
     /// Drops of the acoustic hop by verdict (`range`, `collision`, ...).
     pub(super) reasons: BTreeMap<String, u64>,
-    /// Commands (vehicle, tick) whose fate the vehicle's link drew (a `held` or `drop`
-    /// record of the body hop), and those its process read (`recv`): a fate drawn for a
-    /// command never read (the process was killed first) is still a command sent to it,
-    /// as the simulator counts it ([`HopAcc::unread`]).
-    pub(super) fated: BTreeSet<(u32, u64)>,
-    pub(super) read: BTreeSet<(u32, u64)>,
+    /// Commands whose fate the vehicle's link drew (a `held` or `drop` record of the body
+    /// hop) but that its process never read (no `recv`: it was killed first): still
+    /// commands sent to it, as the simulator counts them. Summed per file by
+    /// [`HopAcc::settle`] from the two sets of ticks below, which live for one file only
+    /// (an agent's file holds both kinds of record of its own commands).
+    pub(super) unread: u64,
+    fated: BTreeSet<(u32, u64)>,
+    read: BTreeSet<(u32, u64)>,
 }
 
 impl HopAcc {
@@ -126,13 +128,15 @@ impl HopAcc {
         for (r, n) in other.reasons {
             *self.reasons.entry(r).or_default() += n;
         }
-        self.fated.extend(other.fated);
-        self.read.extend(other.read);
+        self.unread += other.unread;
     }
 
-    /// Commands whose fate was drawn but which no record says were read.
-    pub(super) fn unread(&self) -> u64 {
-        self.fated.difference(&self.read).count() as u64
+    /// At the end of a file: counts the commands fated there and never read, and forgets
+    /// the file's ticks.
+    fn settle(&mut self) {
+        self.unread += self.fated.difference(&self.read).count() as u64;
+        self.fated.clear();
+        self.read.clear();
     }
 }
 
@@ -294,6 +298,9 @@ fn read_log(
             Format::Csv => read_csv_line(text, &mut part, is_agent),
             Format::Json => read_json_line(text, &mut part, is_agent),
         }
+    }
+    for acc in part.hops.values_mut() {
+        acc.settle();
     }
     Ok(part)
 }
